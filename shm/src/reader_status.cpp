@@ -13,7 +13,9 @@
 namespace ioct::shm {
 namespace {
 
-std::string status_prefix(const std::string& ring_name) { return ring_name + ".reader."; }
+std::string status_prefix(const std::string& ring_name) {
+  return ring_name + ".reader.";
+}
 
 std::string next_status_name(const std::string& ring_name) {
   static std::atomic<std::uint64_t> counter{0};
@@ -35,8 +37,8 @@ ShmObject create_status_object(const std::string& ring_name, unsigned mode) {
 
 }  // namespace
 
-ReaderStatusPublisher::ReaderStatusPublisher(const std::string& ring_name,
-                                             const std::string& label, unsigned mode)
+ReaderStatusPublisher::ReaderStatusPublisher(const std::string& ring_name, const std::string& label,
+                                             unsigned mode)
     : object_(create_status_object(ring_name, mode)) {
   ReaderStatusBlock& b = block_of(object_);
   const ProcessIdentity self = ProcessIdentity::self();
@@ -107,8 +109,9 @@ std::vector<ReaderReport> scan_reader_status(const std::string& ring_name,
       if (skipped != nullptr) skipped->push_back(name);
     }
   }
-  std::sort(reports.begin(), reports.end(),
-            [](const ReaderReport& a, const ReaderReport& b) { return a.object_name < b.object_name; });
+  std::sort(reports.begin(), reports.end(), [](const ReaderReport& a, const ReaderReport& b) {
+    return a.object_name < b.object_name;
+  });
   return reports;
 }
 

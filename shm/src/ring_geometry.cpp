@@ -23,9 +23,9 @@ void RingGeometry::validate() const {
   require_range("bscans_per_group", bscans_per_group, 1, kMaxBscansPerGroup);
   require_range("bscans_per_volume", bscans_per_volume, 1, 1u << 16);
   if (bytes_per_sample != 1 && bytes_per_sample != 2 && bytes_per_sample != 4) {
-    throw RingError(RingErrc::bad_config, "ring geometry: bytes_per_sample = " +
-                                              std::to_string(bytes_per_sample) +
-                                              " must be 1, 2 or 4");
+    throw RingError(RingErrc::bad_config,
+                    "ring geometry: bytes_per_sample = " + std::to_string(bytes_per_sample) +
+                        " must be 1, 2 or 4");
   }
 }
 

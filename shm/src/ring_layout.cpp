@@ -15,7 +15,9 @@ namespace {
 constexpr std::uint64_t kMaxRingBytes = std::uint64_t{1} << 40;
 constexpr std::uint64_t kMaxSlots = std::uint64_t{1} << 20;
 
-[[noreturn]] void bad(const std::string& what) { throw RingError(RingErrc::bad_config, what); }
+[[noreturn]] void bad(const std::string& what) {
+  throw RingError(RingErrc::bad_config, what);
+}
 
 bool round_up_to_page(std::uint64_t bytes, std::uint64_t& out) {
   if (bytes > UINT64_MAX - (kPageBytes - 1)) return false;
@@ -41,7 +43,8 @@ RingLayout RingLayout::compute(const RingGeometry& geometry, std::uint64_t slot_
   RingLayout layout;
   layout.slot_count = slot_count;
   layout.group_payload_bytes = geometry.group_payload_bytes();
-  const std::uint64_t wanted = payload_capacity == 0 ? layout.group_payload_bytes : payload_capacity;
+  const std::uint64_t wanted =
+      payload_capacity == 0 ? layout.group_payload_bytes : payload_capacity;
   if (!round_up_to_page(wanted, layout.slot_payload_capacity)) {
     bad("ring: slot_payload_capacity = " + std::to_string(wanted) + " overflows when page-aligned");
   }
@@ -91,19 +94,19 @@ RingLayout validate_header(const RingHeader& h, std::uint64_t object_bytes,
   }
   const auto state = static_cast<RingState>(load_word(h.state, std::memory_order_acquire));
   if (state == RingState::closed || state == RingState::retired) {
-    throw RingError(RingErrc::producer_gone, where + "the producer has " +
-                                                 (state == RingState::closed ? "closed" : "retired") +
-                                                 " it");
+    throw RingError(
+        RingErrc::producer_gone,
+        where + "the producer has " + (state == RingState::closed ? "closed" : "retired") + " it");
   }
   if (state != RingState::live) {
     throw RingError(RingErrc::not_ready, where + "the producer is (re)initialising it");
   }
   if (h.header_bytes != sizeof(RingHeader) || h.slot_header_bytes != sizeof(SlotHeader)) {
-    throw RingError(RingErrc::corrupt, where + "header_bytes = " + std::to_string(h.header_bytes) +
-                                           ", slot_header_bytes = " +
-                                           std::to_string(h.slot_header_bytes) + ", expected " +
-                                           std::to_string(sizeof(RingHeader)) + " and " +
-                                           std::to_string(sizeof(SlotHeader)));
+    throw RingError(RingErrc::corrupt,
+                    where + "header_bytes = " + std::to_string(h.header_bytes) +
+                        ", slot_header_bytes = " + std::to_string(h.slot_header_bytes) +
+                        ", expected " + std::to_string(sizeof(RingHeader)) + " and " +
+                        std::to_string(sizeof(SlotHeader)));
   }
   RingLayout layout;
   try {

@@ -72,7 +72,9 @@ void RingReader::report() noexcept {
   if (status_) status_->update(monotonic_ns(), epoch_, next_group_, counters_);
 }
 
-void RingReader::heartbeat() noexcept { report(); }
+void RingReader::heartbeat() noexcept {
+  report();
+}
 
 PollStatus RingReader::begin_read(ReadTicket& ticket) noexcept {
   const RingHeader& h = header();
@@ -138,10 +140,9 @@ bool RingReader::end_read(const ReadTicket& ticket) noexcept {
   // slot meanwhile, its odd (or newer) sequence is visible now.
   std::atomic_thread_fence(std::memory_order_acquire);
   const RingHeader& h = header();
-  const bool intact =
-      load_word(sequence_of(slot(ticket.slot_index)), std::memory_order_acquire) ==
-          published_sequence(ticket.group) &&
-      load_word(h.producer_epoch, std::memory_order_acquire) == ticket.epoch;
+  const bool intact = load_word(sequence_of(slot(ticket.slot_index)), std::memory_order_acquire) ==
+                          published_sequence(ticket.group) &&
+                      load_word(h.producer_epoch, std::memory_order_acquire) == ticket.epoch;
   if (intact) {
     ++counters_.consumed;
   } else {

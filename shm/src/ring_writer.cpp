@@ -57,7 +57,8 @@ std::optional<ShmObject> take_over_stale(const RingConfig& config, const RingLay
     throw RingError(RingErrc::foreign,
                     "ring '" + config.name +
                         "': a shared-memory object of that name exists and is not an ioct ring; "
-                        "not touching it (remove /dev/shm/" + config.name + " if it is debris)");
+                        "not touching it (remove /dev/shm/" +
+                        config.name + " if it is debris)");
   }
   if (magic == kRingMagic) {
     const ProcessIdentity owner{h.producer_pid, h.producer_start_ticks};
@@ -82,8 +83,8 @@ std::optional<ShmObject> take_over_stale(const RingConfig& config, const RingLay
 
 void RingConfig::validate() const {
   if (name.empty() || name.size() > 200 || name.find('/') != std::string::npos) {
-    throw RingError(RingErrc::bad_config, "ring: name = '" + name +
-                                              "' must be 1 to 200 characters without '/'");
+    throw RingError(RingErrc::bad_config,
+                    "ring: name = '" + name + "' must be 1 to 200 characters without '/'");
   }
   if ((mode & ~0777u) != 0 || (mode & 0600u) != 0600u) {
     throw RingError(RingErrc::bad_config, "ring: mode = 0" + std::to_string(mode) +
@@ -110,8 +111,7 @@ RingWriter RingWriter::create(const RingConfig& config) {
   return writer;
 }
 
-RingWriter::RingWriter(RingConfig config, RingLayout layout, ShmObject object,
-                       StartupAction action)
+RingWriter::RingWriter(RingConfig config, RingLayout layout, ShmObject object, StartupAction action)
     : config_(std::move(config)),
       layout_(layout),
       object_(std::move(object)),
@@ -127,11 +127,14 @@ RingWriter::RingWriter(RingWriter&& other) noexcept
       epoch_(other.epoch_),
       next_group_(other.next_group_) {}
 
-RingWriter::~RingWriter() { close(); }
+RingWriter::~RingWriter() {
+  close();
+}
 
 void RingWriter::initialize(bool in_place) {
   RingHeader& h = header();
-  const std::uint64_t old_epoch = in_place ? load_word(h.producer_epoch, std::memory_order_relaxed) : 0;
+  const std::uint64_t old_epoch =
+      in_place ? load_word(h.producer_epoch, std::memory_order_relaxed) : 0;
   if (in_place) {
     store_word(h.state, static_cast<std::uint64_t>(RingState::initializing),
                std::memory_order_release);
@@ -216,7 +219,9 @@ void RingWriter::close() noexcept {
   ShmObject::remove(config_.name);
 }
 
-std::vector<ReaderReport> RingWriter::readers() const { return scan_reader_status(config_.name); }
+std::vector<ReaderReport> RingWriter::readers() const {
+  return scan_reader_status(config_.name);
+}
 
 std::size_t RingWriter::reap_dead_readers() const {
   std::size_t reaped = 0;

@@ -8,10 +8,11 @@
 #include <boost/interprocess/mapped_region.hpp>
 #include <boost/interprocess/shared_memory_object.hpp>
 #include <cerrno>
-#include <cstring>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <optional>
+#include <utility>
 #include <sstream>
 #include <vector>
 
@@ -28,7 +29,9 @@ struct ShmObject::Impl {
 
 namespace {
 
-std::string errno_text(int err) { return std::strerror(err); }
+std::string errno_text(int err) {
+  return std::strerror(err);
+}
 
 [[noreturn]] void rethrow(const bip::interprocess_exception& e, const std::string& what,
                           const std::string& name) {
@@ -42,8 +45,8 @@ std::string errno_text(int err) { return std::strerror(err); }
     case bip::already_exists_error:
       throw RingError(RingErrc::system, where + "it already exists");
     default:
-      throw RingError(RingErrc::system, where + e.what() + " (errno " +
-                                            std::to_string(e.get_native_error()) + ")");
+      throw RingError(RingErrc::system,
+                      where + e.what() + " (errno " + std::to_string(e.get_native_error()) + ")");
   }
 }
 
@@ -67,8 +70,24 @@ ShmObject::ShmObject(std::unique_ptr<Impl> impl)
       size_(impl_->region.get_size()),
       name_(impl_->object.get_name()) {}
 
-ShmObject::ShmObject(ShmObject&&) noexcept = default;
-ShmObject& ShmObject::operator=(ShmObject&&) noexcept = default;
+// A moved-from object owns nothing and says so: data() is null, size() is 0.
+ShmObject::ShmObject(ShmObject&& other) noexcept
+    : impl_(std::move(other.impl_)),
+      data_(std::exchange(other.data_, nullptr)),
+      size_(std::exchange(other.size_, 0)),
+      name_(std::move(other.name_)),
+      locked_(std::exchange(other.locked_, false)) {}
+
+ShmObject& ShmObject::operator=(ShmObject&& other) noexcept {
+  if (this != &other) {
+    impl_ = std::move(other.impl_);
+    data_ = std::exchange(other.data_, nullptr);
+    size_ = std::exchange(other.size_, 0);
+    name_ = std::move(other.name_);
+    locked_ = std::exchange(other.locked_, false);
+  }
+  return *this;
+}
 ShmObject::~ShmObject() = default;
 
 ShmObject ShmObject::create(const std::string& name, std::uint64_t bytes, unsigned mode,

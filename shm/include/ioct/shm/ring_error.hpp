@@ -8,25 +8,24 @@
 namespace ioct::shm {
 
 enum class RingErrc {
-  bad_config,        // a geometry or config value is out of range; the message names it
-  not_found,         // no object of that name
-  permission,        // the object exists but this process may not open or map it
-  not_ready,         // the producer is still initialising the object: try again shortly
-  producer_gone,     // the producer closed or retired the object: reattach
-  too_small,         // the object is shorter than its header or than the header says
-  foreign,           // the object does not start with the ring's magic
-  wrong_version,     // a ring of another layout version
-  corrupt,           // the header contradicts itself; the message names the field
+  bad_config,              // a geometry or config value is out of range; the message names it
+  not_found,               // no object of that name
+  permission,              // the object exists but this process may not open or map it
+  not_ready,               // the producer is still initialising the object: try again shortly
+  producer_gone,           // the producer closed or retired the object: reattach
+  too_small,               // the object is shorter than its header or than the header says
+  foreign,                 // the object does not start with the ring's magic
+  wrong_version,           // a ring of another layout version
+  corrupt,                 // the header contradicts itself; the message names the field
   owned_by_live_producer,  // another running producer owns the name
-  system,            // an operating-system call failed; the message names it
+  system,                  // an operating-system call failed; the message names it
 };
 
 std::string_view to_string(RingErrc code) noexcept;
 
 class RingError : public std::runtime_error {
  public:
-  RingError(RingErrc code, const std::string& message)
-      : std::runtime_error(message), code_(code) {}
+  RingError(RingErrc code, const std::string& message) : std::runtime_error(message), code_(code) {}
   RingErrc code() const noexcept { return code_; }
 
  private:

@@ -53,7 +53,7 @@ struct RingHeader {
   // Live words (atomic access only), each on its own cache line.
   alignas(kCacheLineBytes) std::uint64_t producer_epoch;  // new value at every producer start
   std::uint64_t state;                                    // RingState
-  alignas(kCacheLineBytes) std::uint64_t published;  // groups published in this epoch
+  alignas(kCacheLineBytes) std::uint64_t published;       // groups published in this epoch
 };
 
 // The seqlock word of a slot, alone on its cache line.
@@ -62,13 +62,17 @@ struct SlotControl {
   alignas(kCacheLineBytes) std::uint64_t sequence;
 };
 
-inline constexpr std::uint64_t writing_sequence(std::uint64_t group) { return 2 * group + 1; }
-inline constexpr std::uint64_t published_sequence(std::uint64_t group) { return 2 * group + 2; }
+inline constexpr std::uint64_t writing_sequence(std::uint64_t group) {
+  return 2 * group + 1;
+}
+inline constexpr std::uint64_t published_sequence(std::uint64_t group) {
+  return 2 * group + 2;
+}
 
 // BscanMarker::flags
-inline constexpr std::uint32_t kBscanReversed = 1u << 0;      // acquired right to left
-inline constexpr std::uint32_t kBscanVolumeStart = 1u << 1;   // first B-scan of a volume
-inline constexpr std::uint32_t kBscanVolumeEnd = 1u << 2;     // last B-scan of a volume
+inline constexpr std::uint32_t kBscanReversed = 1u << 0;     // acquired right to left
+inline constexpr std::uint32_t kBscanVolumeStart = 1u << 1;  // first B-scan of a volume
+inline constexpr std::uint32_t kBscanVolumeEnd = 1u << 2;    // last B-scan of a volume
 
 // Where one B-scan of the group belongs, so the reader rebuilds volumes without guessing.
 struct BscanMarker {

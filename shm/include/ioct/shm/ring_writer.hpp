@@ -29,10 +29,10 @@ struct RingConfig {
 
 // What create() found under the name and what it did about it (the stale-object policy).
 enum class StartupAction {
-  created,               // no object existed
-  reused_stale,          // a dead producer's object of the same layout: reinitialised in place,
-                         // attached readers see the new epoch and resync
-  replaced_stale,        // a dead producer's object of another layout: retired and unlinked
+  created,         // no object existed
+  reused_stale,    // a dead producer's object of the same layout: reinitialised in place,
+                   // attached readers see the new epoch and resync
+  replaced_stale,  // a dead producer's object of another layout: retired and unlinked
 };
 
 class RingWriter {
