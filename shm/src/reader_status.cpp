@@ -27,19 +27,26 @@ ReaderStatusBlock& block_of(const ShmObject& object) {
   return *reinterpret_cast<ReaderStatusBlock*>(object.data());
 }
 
-ShmObject create_status_object(const std::string& ring_name, unsigned mode) {
+ShmObject create_status_object(const std::string& ring_name, unsigned mode, unsigned group_id) {
   const std::string name = next_status_name(ring_name);
   // Our pid and counter make the name ours; an object already there is a dead reader's debris
   // from a process whose pid the kernel has since given to us.
   ShmObject::remove(name);
-  return ShmObject::create(name, kPageBytes, mode, "");
+  ShmObject object = ShmObject::create(name, kPageBytes, mode, "");
+  try {
+    object.set_access(mode, group_id);
+  } catch (...) {
+    ShmObject::remove(name);
+    throw;
+  }
+  return object;
 }
 
 }  // namespace
 
 ReaderStatusPublisher::ReaderStatusPublisher(const std::string& ring_name, const std::string& label,
-                                             unsigned mode)
-    : object_(create_status_object(ring_name, mode)) {
+                                             unsigned mode, unsigned group_id)
+    : object_(create_status_object(ring_name, mode, group_id)) {
   ReaderStatusBlock& b = block_of(object_);
   const ProcessIdentity self = ProcessIdentity::self();
   b.layout_version = kReaderStatusVersion;
@@ -50,6 +57,14 @@ ReaderStatusPublisher::ReaderStatusPublisher(const std::string& ring_name, const
   b.label[n] = '\0';
   store_word(b.heartbeat_ns, monotonic_ns(), std::memory_order_relaxed);
   store_word(b.magic, kReaderStatusMagic, std::memory_order_release);
+}
+
+ReaderStatusPublisher& ReaderStatusPublisher::operator=(ReaderStatusPublisher&& other) noexcept {
+  if (this != &other) {
+    if (object_.data() != nullptr) ShmObject::remove(object_.name());
+    object_ = std::move(other.object_);
+  }
+  return *this;
 }
 
 ReaderStatusPublisher::~ReaderStatusPublisher() {

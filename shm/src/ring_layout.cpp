@@ -98,8 +98,13 @@ RingLayout validate_header(const RingHeader& h, std::uint64_t object_bytes,
         RingErrc::producer_gone,
         where + "the producer has " + (state == RingState::closed ? "closed" : "retired") + " it");
   }
-  if (state != RingState::live) {
+  if (state == RingState::initializing) {
     throw RingError(RingErrc::not_ready, where + "the producer is (re)initialising it");
+  }
+  if (state != RingState::live) {
+    throw RingError(RingErrc::corrupt,
+                    where + "state = " + std::to_string(static_cast<std::uint64_t>(state)) +
+                        " is not a ring state (0 initializing, 1 live, 2 closed, 3 retired)");
   }
   if (h.header_bytes != sizeof(RingHeader) || h.slot_header_bytes != sizeof(SlotHeader)) {
     throw RingError(RingErrc::corrupt,

@@ -12,8 +12,8 @@
 #include <cstring>
 #include <fstream>
 #include <optional>
-#include <utility>
 #include <sstream>
+#include <utility>
 #include <vector>
 
 #include "ioct/shm/ring_error.hpp"
@@ -124,6 +124,23 @@ void ShmObject::set_access(unsigned mode, const std::string& group) {
     throw RingError(RingErrc::system, "ring '" + name_ + "': cannot give it to group '" + group +
                                           "': " + errno_text(errno));
   }
+}
+
+void ShmObject::set_access(unsigned mode, unsigned group_id) {
+  set_access(mode, std::string());
+  const int fd = impl_->object.get_mapping_handle().handle;
+  if (::fchown(fd, static_cast<uid_t>(-1), static_cast<gid_t>(group_id)) != 0) {
+    throw RingError(RingErrc::system, "'" + name_ + "': cannot give it to group id " +
+                                          std::to_string(group_id) + ": " + errno_text(errno));
+  }
+}
+
+unsigned ShmObject::group_id() const {
+  struct stat st {};
+  if (::fstat(impl_->object.get_mapping_handle().handle, &st) != 0) {
+    throw RingError(RingErrc::system, "'" + name_ + "': fstat failed: " + errno_text(errno));
+  }
+  return static_cast<unsigned>(st.st_gid);
 }
 
 ShmObject ShmObject::open(const std::string& name, Access access) {

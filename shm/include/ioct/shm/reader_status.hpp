@@ -50,8 +50,12 @@ struct ReaderStatusBlock {
 // The reader's side: creates and updates its status object; removes it on destruction.
 class ReaderStatusPublisher {
  public:
-  ReaderStatusPublisher(const std::string& ring_name, const std::string& label, unsigned mode);
+  // The object gets `mode` and the ring's own group, so whoever may read the ring (and the
+  // producer, which owns it) may read the status, and nobody else.
+  ReaderStatusPublisher(const std::string& ring_name, const std::string& label, unsigned mode,
+                        unsigned group_id);
   ReaderStatusPublisher(ReaderStatusPublisher&&) noexcept = default;
+  ReaderStatusPublisher& operator=(ReaderStatusPublisher&& other) noexcept;
   ~ReaderStatusPublisher();
 
   void update(std::uint64_t now_ns, std::uint64_t epoch, std::uint64_t position,

@@ -17,14 +17,15 @@ namespace ioct::shm {
 struct ReaderOptions {
   std::string label = "reader";  // shown to the producer
   bool publish_status = true;    // create a heartbeat/counter object for the producer
-  unsigned status_mode = 0644;
+  unsigned status_mode = 0640;   // with the ring's group: readable by the producer
 };
 
 enum class PollStatus {
   ready,          // a group was read (or a ticket issued)
   empty,          // nothing new yet
   lapped,         // the copy was overwritten while it was made: discarded and counted
-  producer_gone,  // the producer closed or replaced the ring: attach again
+  producer_gone,  // the producer closed or replaced the ring (or its state is garbage): attach
+                  // again, which finds the new producer or says what is wrong
 };
 
 // A slot handed out by begin_read(). Copy `payload` (memcpy, DMA, cudaMemcpyAsync), then ask

@@ -38,6 +38,10 @@ class ShmObject {
   // Sets the mode regardless of the umask and, when `group` is not empty, the owning group.
   // Throws RingError(bad_config) for an unknown group, RingError(system) when refused.
   void set_access(unsigned mode, const std::string& group);
+  // The same with a numeric group id (e.g. another object's, see group_id()).
+  void set_access(unsigned mode, unsigned group_id);
+  // The object's owning group id.
+  unsigned group_id() const;
 
  private:
   struct Impl;
