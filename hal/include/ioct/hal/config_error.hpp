@@ -1,0 +1,37 @@
+// The error every component's Config::validate() throws: it names the key, the value given and
+// what would have been accepted, so a person can fix the config without reading the code.
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+namespace ioct::hal {
+
+class ConfigError : public std::invalid_argument {
+ public:
+  // what(): "<key> = <value>: <allowed>", e.g. "digitizer.samples_per_ascan = 0: must be in
+  // [64, 16384]".
+  ConfigError(std::string key, std::string value, std::string_view allowed);
+
+  const std::string& key() const noexcept { return key_; }
+  const std::string& value() const noexcept { return value_; }
+
+ private:
+  std::string key_;
+  std::string value_;
+};
+
+// Text of a number as the messages show it: integers exactly, reals in the shortest form that
+// reads back to the same value.
+std::string format_value(std::uint64_t value);
+std::string format_value(std::int64_t value);
+std::string format_value(double value);
+
+// Throw ConfigError unless lo <= value <= hi (and, for reals, value is finite).
+void require_integer_in_range(std::string_view key, std::uint64_t value, std::uint64_t lo,
+                              std::uint64_t hi);
+void require_real_in_range(std::string_view key, double value, double lo, double hi);
+
+}  // namespace ioct::hal

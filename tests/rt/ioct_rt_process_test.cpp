@@ -1,0 +1,165 @@
+// ioct-rt as a process: it fills the ring until SIGTERM or SIGINT and then removes it, refuses a
+// ring another producer owns, and exits non-zero on bad options.
+#include <signal.h>
+#include <sys/wait.h>
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ioct/shm/ring_error.hpp"
+#include "ioct/shm/ring_reader.hpp"
+#include "ioct/shm/shm_object.hpp"
+#include "ioct/test_support/child_process.hpp"
+#include "ioct/test_support/scoped_shm_name.hpp"
+
+namespace ioct {
+namespace {
+
+using namespace std::chrono_literals;
+using test_support::ChildProcess;
+
+std::vector<std::string> small_run(const std::string& ring, std::vector<std::string> extra = {}) {
+  std::vector<std::string> arguments = {"--ring",
+                                        ring,
+                                        "--samples",
+                                        "256",
+                                        "--ascans",
+                                        "64",
+                                        "--flyback",
+                                        "2",
+                                        "--bscans-per-group",
+                                        "4",
+                                        "--bscans-per-volume",
+                                        "8",
+                                        "--rt-priority",
+                                        "0",
+                                        "--status-interval",
+                                        "0.2"};
+  arguments.insert(arguments.end(), extra.begin(), extra.end());
+  return arguments;
+}
+
+ChildProcess start_rt(const std::vector<std::string>& arguments) {
+  return ChildProcess::spawn(test_support::sibling_executable("ioct-rt"), arguments);
+}
+
+std::optional<shm::RingReader> attach_when_live(const std::string& ring,
+                                                std::chrono::milliseconds timeout) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < end) {
+    try {
+      return shm::RingReader::attach(ring, {.label = "process-test"});
+    } catch (const shm::RingError&) {
+      std::this_thread::sleep_for(10ms);  // not created or not initialised yet
+    }
+  }
+  return std::nullopt;
+}
+
+// Reads `count` groups; returns how many arrived before `timeout`.
+std::uint64_t read_groups(shm::RingReader& reader, std::uint64_t count,
+                          std::chrono::milliseconds timeout, std::uint32_t* flags = nullptr) {
+  std::vector<std::byte> payload(reader.layout().group_payload_bytes);
+  shm::SlotHeader header{};
+  std::uint64_t read = 0;
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (read < count && std::chrono::steady_clock::now() < end) {
+    if (reader.read_next(payload, header) == shm::PollStatus::ready) {
+      ++read;
+      if (flags != nullptr) *flags |= header.status_flags;
+    } else {
+      std::this_thread::sleep_for(1ms);
+    }
+  }
+  return read;
+}
+
+int exit_code(const std::optional<int>& status) {
+  if (!status.has_value()) return -1000;  // still running
+  return WIFEXITED(*status) ? WEXITSTATUS(*status) : -WTERMSIG(*status);
+}
+
+class IoctRtProcess : public testing::TestWithParam<int> {};
+
+TEST_P(IoctRtProcess, FillsTheRingUntilSignalledThenRemovesItAndExitsZero) {
+  const test_support::ScopedShmName ring("rt-process");
+  ChildProcess rt = start_rt(small_run(ring.str()));
+  std::optional<shm::RingReader> reader = attach_when_live(ring.str(), 20s);
+  ASSERT_TRUE(reader.has_value()) << "ioct-rt never created ring " << ring.str();
+  std::uint32_t flags = 0;
+  EXPECT_EQ(read_groups(*reader, 10, 20s, &flags), 10u);
+  EXPECT_EQ(flags & (shm::kStatusSimulated | shm::kStatusLaserOn),
+            shm::kStatusSimulated | shm::kStatusLaserOn);
+
+  rt.send_signal(GetParam());
+  const std::optional<int> status = rt.wait_for(10s);
+  ASSERT_TRUE(status.has_value()) << "ioct-rt did not stop";
+  EXPECT_EQ(exit_code(status), 0) << test_support::describe_wait_status(*status);
+  EXPECT_FALSE(shm::ShmObject::exists(ring.str()));
+  std::vector<std::byte> payload(reader->layout().group_payload_bytes);
+  shm::SlotHeader header{};
+  shm::PollStatus poll = shm::PollStatus::ready;
+  while (poll == shm::PollStatus::ready) poll = reader->read_next(payload, header);
+  EXPECT_EQ(poll, shm::PollStatus::producer_gone);
+}
+
+INSTANTIATE_TEST_SUITE_P(Signals, IoctRtProcess, testing::Values(SIGTERM, SIGINT),
+                         [](const testing::TestParamInfo<int>& signal) {
+                           return signal.param == SIGTERM ? std::string("SIGTERM")
+                                                          : std::string("SIGINT");
+                         });
+
+TEST(IoctRtProcessAlone, StopsByItselfAfterSeconds) {
+  const test_support::ScopedShmName ring("rt-seconds");
+  ChildProcess rt = start_rt(small_run(ring.str(), {"--seconds", "0.5"}));
+  const std::optional<int> status = rt.wait_for(20s);
+  ASSERT_TRUE(status.has_value()) << "ioct-rt did not stop after --seconds";
+  EXPECT_EQ(exit_code(status), 0) << test_support::describe_wait_status(*status);
+  EXPECT_FALSE(shm::ShmObject::exists(ring.str()));
+}
+
+TEST(IoctRtProcessAlone, RefusesARingThatAnotherProducerOwns) {
+  const test_support::ScopedShmName ring("rt-owned");
+  ChildProcess first = start_rt(small_run(ring.str()));
+  std::optional<shm::RingReader> reader = attach_when_live(ring.str(), 20s);
+  ASSERT_TRUE(reader.has_value());
+
+  ChildProcess second = start_rt(small_run(ring.str()));
+  const std::optional<int> refused = second.wait_for(20s);
+  ASSERT_TRUE(refused.has_value()) << "the second producer kept running";
+  EXPECT_EQ(exit_code(refused), 1) << test_support::describe_wait_status(*refused);
+
+  // The owner goes on undisturbed.
+  EXPECT_EQ(read_groups(*reader, 5, 20s), 5u);
+  EXPECT_EQ(reader->counters().epoch_changes, 0u);
+  first.send_signal(SIGTERM);
+  EXPECT_EQ(exit_code(first.wait_for(10s)), 0);
+}
+
+TEST(IoctRtProcessAlone, BadOptionsExitNonZeroWithoutCreatingTheRing) {
+  const test_support::ScopedShmName ring("rt-bad");
+  const std::vector<std::vector<std::string>> bad = {
+      {"--samples", "1377"},          // odd
+      {"--bscans-per-group", "100"},  // more than a slot's markers
+      {"--slots", "1"},
+      {"--ascan-rate", "0"},
+      {"--ascans", "-3"},
+      {"--no-such-option"},
+  };
+  for (const std::vector<std::string>& extra : bad) {
+    SCOPED_TRACE(extra.front());
+    ChildProcess rt = start_rt(small_run(ring.str(), extra));
+    const std::optional<int> status = rt.wait_for(20s);
+    ASSERT_TRUE(status.has_value());
+    EXPECT_GT(exit_code(status), 0) << test_support::describe_wait_status(*status);
+    EXPECT_FALSE(shm::ShmObject::exists(ring.str()));
+  }
+}
+
+}  // namespace
+}  // namespace ioct
