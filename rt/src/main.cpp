@@ -9,6 +9,7 @@
 #include <exception>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "acquisition_loop.hpp"
 #include "ioct/hal/config_error.hpp"
@@ -17,6 +18,7 @@
 #include "ioct/shm/ring_writer.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "rt_options.hpp"
+#include "run_summary.hpp"
 #include "shutdown_signals.hpp"
 #include "status_report.hpp"
 
@@ -106,8 +108,16 @@ int run(const rt::RtOptions& options) {
   }
 
   loop.stop();
+  // The readers' counters just before the ring closes, for the summary.
+  const std::vector<shm::ReaderReport> readers = ring.readers();
   ring.close();
   const rt::StatusSample last = rt::sample_status(loop);
+  if (!options.summary.empty()) {
+    rt::write_run_summary(
+        options.summary,
+        {setup.ring.name, reason, loop.failed() ? loop.failure() : "", first, last, budget_ns},
+        readers);
+  }
   if (loop.failed()) {
     say("error: acquisition failed: " + loop.failure());
     say(rt::format_summary(last, first, budget_ns) + " | ring '" + setup.ring.name + "' closed");

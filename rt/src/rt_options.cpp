@@ -27,6 +27,8 @@ void add_rt_options(CLI::App& app, RtOptions& options) {
       ->capture_default_str();
   app.add_option("--group", options.group,
                  "group that owns the ring (readers need it); default: this process's");
+  app.add_option("--summary", options.summary,
+                 "write a JSON summary of the run to this file at exit");
   app.add_option("--seed", options.seed, "seed of the simulation: same seed, same bytes")
       ->capture_default_str();
   app.add_option("--status-interval", options.status_interval,

@@ -27,6 +27,7 @@ struct RtOptions {
   double status_interval = 1.0;
   int rt_priority = 80;
   int cpu = -1;
+  std::string summary;  // JSON file written at exit; empty: none
 };
 
 void add_rt_options(CLI::App& app, RtOptions& options);

@@ -92,9 +92,11 @@ PollStatus RingReader::begin_read(ReadTicket& ticket) noexcept {
   // whole ring's worth of groups is reported as a lap rather than chased forever.
   for (std::uint64_t pass = 0; pass < 2 * slots + 2; ++pass) {
     const auto state = static_cast<RingState>(load_word(h.state, std::memory_order_acquire));
-    // closed, retired, or a value no producer writes: stop trusting this mapping. Attaching
-    // again either finds the new producer or reports what is wrong with the object.
-    if (state != RingState::live && state != RingState::initializing) {
+    // A closed or retired ring is written no more: what it published is still read, to the
+    // last group, so an orderly stop loses nothing. A value no producer writes: stop trusting
+    // this mapping; attaching again finds the new producer or says what is wrong.
+    const bool finished = state == RingState::closed || state == RingState::retired;
+    if (!finished && state != RingState::live && state != RingState::initializing) {
       report();
       return PollStatus::producer_gone;
     }
@@ -108,9 +110,9 @@ PollStatus RingReader::begin_read(ReadTicket& ticket) noexcept {
       ++counters_.epoch_changes;
       continue;
     }
-    if (state != RingState::live || next_group_ >= published) {
+    if (state == RingState::initializing || next_group_ >= published) {
       report();
-      return PollStatus::empty;
+      return finished ? PollStatus::producer_gone : PollStatus::empty;
     }
     // Group `published` is being written into the slot of group published - slots, so only the
     // newest slots - 1 groups are safe to start on.

@@ -24,8 +24,9 @@ enum class PollStatus {
   ready,          // a group was read (or a ticket issued)
   empty,          // nothing new yet
   lapped,         // the copy was overwritten while it was made: discarded and counted
-  producer_gone,  // the producer closed or replaced the ring (or its state is garbage): attach
-                  // again, which finds the new producer or says what is wrong
+  producer_gone,  // the producer closed or replaced the ring and every group it published has
+                  // been read (or the state is garbage): attach again, which finds the new
+                  // producer or says what is wrong
 };
 
 // A slot handed out by begin_read(). Copy `payload` (memcpy, DMA, cudaMemcpyAsync), then ask

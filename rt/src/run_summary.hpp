@@ -1,0 +1,27 @@
+// The machine-readable end of a run (--summary FILE): what ioct-rt published and how its timing
+// held, for the launcher and the end-to-end tests to check against what the readers got.
+#pragma once
+
+#include <span>
+#include <string>
+
+#include "ioct/shm/reader_status.hpp"
+#include "status_report.hpp"
+
+namespace ioct::rt {
+
+struct RunSummary {
+  std::string ring;
+  std::string stop_reason;
+  std::string failure;  // empty when the acquisition did not fail
+  StatusSample start;
+  StatusSample end;
+  std::uint64_t group_budget_ns = 0;
+};
+
+// Writes the summary as JSON to `path` through a temporary file and a rename, so a reader never
+// sees half a summary. Throws std::runtime_error naming the path when it cannot.
+void write_run_summary(const std::string& path, const RunSummary& summary,
+                       std::span<const shm::ReaderReport> readers);
+
+}  // namespace ioct::rt
