@@ -1,0 +1,79 @@
+// Log magnitude and the u8 display mapping.
+//
+// The FFT of a windowed fringe is scaled by 2 / sum(window), so the value at a depth is the
+// fringe's amplitude in ADC counts: a layer whose fringe swings +-A counts around the background
+// reads 20 log10(A) dB whatever the window and the number of samples. A pixel is then
+//   u8 = 255 * clamp((dB - db_min) / (db_max - db_min), 0, 1)
+// so db_min is the darkest level shown (set it just above the noise floor) and db_max the level
+// that saturates.
+//
+// The defaults suit 12-bit k-clock spectra of 1376 samples. White noise of sigma counts per
+// sample lands at 10 log10(6 sigma^2 / N) dB after the Hann window: -11.6 dB for sigma = 4 (read
+// plus shot noise of a balanced detector at mid-scale), and its speckle-like tail stays below
+// 0 dB in all but about 1 pixel in 10^6, so db_min = 0 dB keeps the noise floor black. 0 dB is
+// also a fringe of one ADC count, the faintest layer worth showing; 40 dB is 100 counts, so a
+// strong layer (the RPE, some tens of counts) is bright and only its speckle peaks saturate.
+#pragma once
+
+#include <bit>
+#include <complex>
+#include <cstdint>
+
+namespace ioct::gpu {
+
+struct DbScaleConfig {
+  double db_min = 0.0;   // dB shown black: a fringe of 1 ADC count
+  double db_max = 40.0;  // dB shown white: a fringe of 100 ADC counts
+  // Throws ConfigError: each in [-200, 300] dB, db_max - db_min >= 1 dB.
+  void validate() const;
+};
+
+// Maps FFT bins to u8 pixels. Cheap to copy; one per processor.
+class DbToU8 {
+ public:
+  // window_sum: sum of the window's coefficients (N for no window, about N/2 for Hann).
+  DbToU8(const DbScaleConfig& config, double window_sum);
+
+  // dB of one unnormalised FFT bin of power |X|^2 (20 log10 of the fringe amplitude).
+  double db_of_power(double power) const;
+
+  std::uint8_t pixel(float power) const noexcept {
+    return clamp_level(gain_ * log2_of(power) + offset_);
+  }
+
+  // Pixels of `count` bins.
+  void map_row(const std::complex<float>* bins, std::uint8_t* out,
+               std::uint32_t count) const noexcept;
+
+  // log2 to within 2e-5 (a u8 step is 0.18 dB = 0.06 in log2 at the defaults), written so the
+  // compiler vectorises it; the library log2f is not. x = 2^e * m with m in [1, 2):
+  // log2(x) = e + log2(m), log2(m) by a polynomial in t = m - 1. Zero and denormals come out very
+  // negative, which maps to 0.
+  static float log2_of(float x) noexcept {
+    const std::uint32_t bits = std::bit_cast<std::uint32_t>(x);
+    const float exponent = static_cast<float>(static_cast<std::int32_t>(bits >> 23) - 127);
+    const float t = std::bit_cast<float>((bits & 0x007FFFFFu) | 0x3F800000u) - 1.0f;
+    // Least-squares fit of log2(1 + t) on [0, 1] by t * (c1 + c2 t + ... + c5 t^4): max error
+    // 1.7e-5, i.e. 5e-5 dB.
+    const float p =
+        t * (1.44187984f +
+             t * (-0.708864548f + t * (0.415243263f + t * (-0.193513461f + t * 0.0452668996f))));
+    return exponent + p;
+  }
+
+ private:
+  // Rounds a level to the nearest u8, clamped. The level is always finite (log2_of is), so the
+  // conversion is defined; clamping as integers keeps the loop free of FP compares, which GCC
+  // will not turn into vector selects while FP traps are possible.
+  static std::uint8_t clamp_level(float level) noexcept {
+    const auto rounded = static_cast<std::int32_t>(level + 0.5f);  // toward zero: < 0.5 -> 0
+    return static_cast<std::uint8_t>(rounded < 0 ? 0 : (rounded > 255 ? 255 : rounded));
+  }
+
+  float gain_ = 0.0f;    // u8 units per unit of log2(power)
+  float offset_ = 0.0f;  // u8 value at power 1
+  double norm_db_ = 0.0;
+  double db_min_ = 0.0;
+};
+
+}  // namespace ioct::gpu

@@ -1,0 +1,26 @@
+// 8-bit grey PNG files through libpng.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <span>
+
+#include "ioct/gpu/gray_image.hpp"
+
+namespace ioct::gpu {
+
+// Writes `pixels` (height rows of width) as an 8-bit grey PNG. The file appears complete or not
+// at all (AtomicFile). Throws std::runtime_error naming the path and the reason, and
+// std::invalid_argument when the pixel count does not match.
+void write_png_gray8(const std::filesystem::path& path, std::uint32_t width, std::uint32_t height,
+                     std::span<const std::uint8_t> pixels);
+
+inline void write_png_gray8(const std::filesystem::path& path, const GrayImage& image) {
+  write_png_gray8(path, image.width, image.height, image.pixels);
+}
+
+// Reads an 8-bit grey PNG. Throws std::runtime_error naming the path and the reason, also for a
+// PNG of another colour type or bit depth.
+GrayImage read_png_gray8(const std::filesystem::path& path);
+
+}  // namespace ioct::gpu

@@ -1,0 +1,62 @@
+// A fixed pool of threads, made once at start-up, that runs the iterations of one loop at a time
+// (e.g. the B-scans of a group). The calling thread works too, so a pool of 2 threads starts 1.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <exception>
+#include <mutex>
+#include <thread>
+#include <type_traits>
+#include <vector>
+
+namespace ioct::gpu {
+
+class WorkerPool {
+ public:
+  // threads >= 1, the caller included. Throws std::invalid_argument for 0.
+  explicit WorkerPool(unsigned threads);
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
+  ~WorkerPool();
+
+  unsigned threads() const noexcept { return static_cast<unsigned>(workers_.size()) + 1; }
+
+  // Calls task(index, worker) for every index in [0, count), spread over the threads; `worker`
+  // (0 for the caller, then 1, 2, ...) lets a task use per-thread scratch memory. Returns when
+  // every call has returned, then rethrows the first exception a call threw. Not reentrant.
+  template <class Task>
+  void run(std::uint32_t count, Task&& task) {
+    using T = std::remove_reference_t<Task>;
+    run_erased(count, const_cast<void*>(static_cast<const void*>(&task)),
+               [](void* context, std::uint32_t index, unsigned worker) {
+                 (*static_cast<T*>(context))(index, worker);
+               });
+  }
+
+ private:
+  using Call = void (*)(void*, std::uint32_t, unsigned);
+  struct Job {
+    void* context = nullptr;
+    Call call = nullptr;
+    std::uint32_t count = 0;
+  };
+
+  void run_erased(std::uint32_t count, void* context, Call call);
+  void work_on(const Job& job, unsigned worker) noexcept;
+  void worker_loop(unsigned worker) noexcept;
+
+  std::mutex mutex_;
+  std::condition_variable job_posted_;
+  std::condition_variable job_done_;
+  std::uint64_t generation_ = 0;  // bumped for every job
+  Job job_;
+  unsigned busy_workers_ = 0;  // workers not yet finished with the current job
+  bool stopping_ = false;
+  std::exception_ptr first_error_;
+  std::atomic<std::uint32_t> next_index_{0};
+  std::vector<std::thread> workers_;
+};
+
+}  // namespace ioct::gpu

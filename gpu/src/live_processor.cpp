@@ -1,0 +1,334 @@
+#include "ioct/gpu/live_processor.hpp"
+
+#include <algorithm>
+#include <cinttypes>
+#include <cstdio>
+#include <ostream>
+#include <thread>
+#include <vector>
+
+#include "ioct/gpu/atomic_file.hpp"
+#include "ioct/gpu/config_error.hpp"
+#include "ioct/gpu/group_check.hpp"
+#include "ioct/gpu/png_file.hpp"
+#include "ioct/gpu/run_summary_json.hpp"
+#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/shm/ring_error.hpp"
+#include "ioct/shm/ring_reader.hpp"
+
+namespace ioct::gpu {
+namespace {
+
+constexpr std::uint64_t kNsPerS = 1'000'000'000;
+constexpr int kProblemsPrinted = 10;  // then only counted, so a bad stream cannot flood the log
+
+std::uint64_t seconds_to_ns(double seconds) {
+  return static_cast<std::uint64_t>(seconds * 1e9);
+}
+
+void sleep_ns(std::uint64_t ns) {
+  std::this_thread::sleep_for(std::chrono::nanoseconds(ns));
+}
+
+bool worth_retrying(shm::RingErrc code) {
+  return code == shm::RingErrc::not_found || code == shm::RingErrc::not_ready ||
+         code == shm::RingErrc::producer_gone;
+}
+
+// A latency quantile in milliseconds, "-" when no group arrived.
+std::string format_ms(const LatencyHistogram& histogram, double q) {
+  if (histogram.count() == 0) return "-";
+  char text[32];
+  std::snprintf(text, sizeof text, "%.2f ms", static_cast<double>(histogram.quantile(q)) * 1e-6);
+  return text;
+}
+
+}  // namespace
+
+std::string_view to_string(StopReason reason) noexcept {
+  switch (reason) {
+    case StopReason::producer_gone:
+      return "producer_gone";
+    case StopReason::time_limit:
+      return "time_limit";
+    case StopReason::stop_requested:
+      return "stop_requested";
+  }
+  return "?";
+}
+
+void LiveConfig::validate() const {
+  if (ring_name.empty() || ring_name.find('/') != std::string::npos) {
+    throw ConfigError("ring", "'" + ring_name + "'", "must be a shared-memory name without '/'");
+  }
+  if (out_dir.empty()) throw ConfigError("out", "''", "must name a directory");
+  processing.validate();
+  require_in_range("wait", wait_s, 0.0, 1e6);
+  require_in_range("seconds", run_s, 0.0, 1e9);
+  require_in_range("status_interval", status_interval_s, 0.0, 1e6);
+  require_in_range("poll_interval", poll_interval_s, 1e-6, 1.0);
+  if (label.empty() || label.size() >= shm::kReaderLabelBytes) {
+    throw ConfigError("label", "'" + label + "'",
+                      "must be 1 to " + std::to_string(shm::kReaderLabelBytes - 1) + " characters");
+  }
+}
+
+// One attachment to the ring, from the first group to the summary.
+class LiveProcessor::Session {
+ public:
+  Session(LiveProcessor& owner, shm::RingReader reader)
+      : owner_(owner),
+        config_(owner.config_),
+        reader_(std::move(reader)),
+        geometry_(reader_.geometry()),
+        processor_(make_oct_processor(config_.backend, config_.processing)),
+        assembler_(geometry_.bscans_per_volume, depth_of(geometry_)),
+        spectra_((reader_.layout().group_payload_bytes + 1) / 2) {
+    processor_->prepare(geometry_);
+    processed_.pixels.reserve(std::size_t{geometry_.bscans_per_group} * geometry_.ascans_per_bscan *
+                              depth_of(geometry_));
+  }
+
+  StopReason loop() {
+    started_ns_ = shm::monotonic_ns();
+    last_status_ns_ = started_ns_;
+    const std::uint64_t limit_ns = seconds_to_ns(config_.run_s);
+    const std::uint64_t status_ns = seconds_to_ns(config_.status_interval_s);
+    const std::uint64_t poll_ns = seconds_to_ns(config_.poll_interval_s);
+    const std::span<std::byte> buffer(reinterpret_cast<std::byte*>(spectra_.data()),
+                                      reader_.layout().group_payload_bytes);
+    for (;;) {
+      if (owner_.stop_.load(std::memory_order_relaxed)) return StopReason::stop_requested;
+      const std::uint64_t now = shm::monotonic_ns();
+      if (limit_ns > 0 && now - started_ns_ >= limit_ns) return StopReason::time_limit;
+      if (status_ns > 0 && now - last_status_ns_ >= status_ns) print_status(now);
+
+      shm::SlotHeader header;
+      switch (reader_.read_next(buffer, header)) {
+        case shm::PollStatus::ready:
+          handle_group(header);
+          break;
+        case shm::PollStatus::empty:
+          sleep_ns(poll_ns);
+          break;
+        case shm::PollStatus::lapped:
+          break;  // counted by the reader
+        case shm::PollStatus::producer_gone:
+          return StopReason::producer_gone;
+      }
+    }
+  }
+
+  RunSummary finish(StopReason reason) {
+    const std::uint64_t now = shm::monotonic_ns();
+    if (!images_) {
+      // No volume completed (a short run, or the stream ended mid-volume): show what arrived,
+      // gaps zeroed, rather than nothing.
+      if (const std::optional<VolumeInfo> partial = assembler_.seal_partial()) {
+        prepare_images(assembler_.volume(), *partial);
+        write_pending_images();
+      }
+    }
+    if (config_.status_interval_s > 0) print_status(now);
+    RunSummary summary;
+    summary.stop_reason = reason;
+    summary.geometry = geometry_;
+    summary.seconds = static_cast<double>(now - started_ns_) / kNsPerS;
+    summary.counters = counters();
+    summary.latency = latency_total_;
+    summary.images = images_;
+    summary.status_flags_seen = status_flags_seen_;
+    summary.last_problem = last_problem_;
+    return summary;
+  }
+
+ private:
+  struct PendingImages {
+    GrayImage bscan;
+    GrayImage enface;
+    ImageSet set;
+  };
+
+  LiveCounters counters() const {
+    LiveCounters c = counters_;
+    const shm::ReaderCounters& r = reader_.counters();
+    c.groups_consumed = r.consumed;
+    c.dropped_lapped = r.dropped_lapped;
+    c.dropped_behind = r.dropped_behind;
+    c.resyncs = r.resyncs;
+    c.epoch_changes = r.epoch_changes;
+    return c;
+  }
+
+  void note_problem(const std::string& text) {
+    last_problem_ = text;
+    if (owner_.status_out_ != nullptr && problems_printed_ < kProblemsPrinted) {
+      *owner_.status_out_ << "ioct-gpu: " << text
+                          << (++problems_printed_ == kProblemsPrinted
+                                  ? " (further problems are counted, not printed)"
+                                  : "")
+                          << std::endl;
+    }
+  }
+
+  void handle_group(const shm::SlotHeader& header) {
+    status_flags_seen_ |= header.status_flags;
+    if (last_epoch_ && *last_epoch_ != header.producer_epoch && assembler_.reset()) {
+      ++counters_.volumes_abandoned;  // the producer restarted mid-volume
+    }
+    last_epoch_ = header.producer_epoch;
+
+    if (auto problem =
+            find_group_problem(header, geometry_, reader_.layout().group_payload_bytes)) {
+      ++counters_.groups_rejected;
+      note_problem("group " + std::to_string(header.group_index) + " rejected: " + *problem);
+    } else {
+      processor_->process(RawGroup{header, std::span<const std::uint16_t>(spectra_)}, processed_);
+      completion_ns_ = 0;
+      const PlacementResult placed = assembler_.place(
+          processed_, [this](const Volume& v, const VolumeInfo& info) { on_complete(v, info); });
+      // Publish -> in the volume; the time spent on completed volumes' images is not processing.
+      // (Clamped: the timestamp comes from another process and is not trusted to be sane.)
+      const std::uint64_t now = shm::monotonic_ns();
+      const std::uint64_t elapsed = now > header.t_publish_ns ? now - header.t_publish_ns : 0;
+      const std::uint64_t latency = elapsed > completion_ns_ ? elapsed - completion_ns_ : 0;
+      latency_total_.record(latency);
+      latency_interval_.record(latency);
+      ++counters_.groups_processed;
+      counters_.bscans_rejected += placed.bscans_rejected;
+      counters_.volumes_abandoned += placed.volumes_abandoned;
+      write_pending_images();
+    }
+    owner_.groups_consumed_.store(reader_.counters().consumed, std::memory_order_release);
+  }
+
+  void on_complete(const Volume& volume, const VolumeInfo& info) {
+    const std::uint64_t begin = shm::monotonic_ns();
+    ++counters_.volumes_completed;
+    if (!info.complete()) ++counters_.volumes_with_gaps;
+    if (owner_.observer_) owner_.observer_(volume, info);
+    prepare_images(volume, info);
+    completion_ns_ += shm::monotonic_ns() - begin;
+  }
+
+  void prepare_images(const Volume& volume, const VolumeInfo& info) {
+    PendingImages pending;
+    pending.set.volume = info;
+    pending.set.bscan_shown = volume.bscans() / 2;
+    pending.set.bscan_png = std::filesystem::absolute(config_.out_dir / "bscan.png");
+    pending.set.enface_png = std::filesystem::absolute(config_.out_dir / "enface.png");
+    pending.bscan = bscan_image(volume, pending.set.bscan_shown);
+    pending.enface = enface_image(volume, config_.enface);
+    const ClippedFractions clipped = clipped_fractions(volume);
+    pending.set.zero_fraction = clipped.zero;
+    pending.set.saturated_fraction = clipped.saturated;
+    pending_ = std::move(pending);
+  }
+
+  void write_pending_images() {
+    if (!pending_) return;
+    PendingImages pending = std::move(*pending_);
+    pending_.reset();
+    try {
+      write_png_gray8(pending.set.bscan_png, pending.bscan);
+      ++counters_.images_written;
+      write_png_gray8(pending.set.enface_png, pending.enface);
+      ++counters_.images_written;
+      images_ = pending.set;
+    } catch (const std::exception& e) {
+      ++counters_.image_errors;
+      note_problem(e.what());
+    }
+    owner_.volumes_completed_.store(counters_.volumes_completed, std::memory_order_release);
+  }
+
+  void print_status(std::uint64_t now) {
+    const LiveCounters c = counters();
+    const double interval = static_cast<double>(now - last_status_ns_) / kNsPerS;
+    const double groups_per_s =
+        interval > 0 ? static_cast<double>(c.groups_processed - last_processed_) / interval : 0.0;
+    last_status_ns_ = now;
+    last_processed_ = c.groups_processed;
+    if (owner_.status_out_ != nullptr) {
+      char rate[64];
+      std::snprintf(rate, sizeof rate, "%.1f groups/s (%.0f A-scans/s)", groups_per_s,
+                    groups_per_s * static_cast<double>(geometry_.ascans_per_group()));
+      *owner_.status_out_ << "ioct-gpu: " << rate << ", consumed " << c.groups_consumed
+                          << ", dropped " << c.dropped() << " (lapped " << c.dropped_lapped
+                          << ", behind " << c.dropped_behind << "), rejected " << c.groups_rejected
+                          << ", volumes " << c.volumes_completed << ", latency p50 "
+                          << format_ms(latency_interval_, 0.5) << " p99 "
+                          << format_ms(latency_interval_, 0.99) << std::endl;
+    }
+    latency_interval_.reset();
+  }
+
+  LiveProcessor& owner_;
+  const LiveConfig& config_;
+  shm::RingReader reader_;
+  shm::RingGeometry geometry_;
+  std::unique_ptr<OctProcessor> processor_;
+  VolumeAssembler assembler_;
+  std::vector<std::uint16_t> spectra_;  // one group, read into by read_next()
+  ProcessedGroup processed_;
+
+  LiveCounters counters_;
+  LatencyHistogram latency_total_;
+  LatencyHistogram latency_interval_;
+  std::uint64_t completion_ns_ = 0;
+  std::optional<std::uint64_t> last_epoch_;
+  std::optional<PendingImages> pending_;
+  std::optional<ImageSet> images_;
+  std::uint32_t status_flags_seen_ = 0;
+  std::string last_problem_;
+  int problems_printed_ = 0;
+  std::uint64_t started_ns_ = 0;
+  std::uint64_t last_status_ns_ = 0;
+  std::uint64_t last_processed_ = 0;
+};
+
+LiveProcessor::LiveProcessor(LiveConfig config) : config_(std::move(config)) {
+  config_.validate();
+}
+
+RunSummary LiveProcessor::run() {
+  std::error_code ec;
+  std::filesystem::create_directories(config_.out_dir, ec);
+  if (ec || !std::filesystem::is_directory(config_.out_dir, ec)) {
+    throw std::runtime_error("cannot create output directory '" + config_.out_dir.string() +
+                             "': " + (ec ? ec.message() : "a file of that name exists"));
+  }
+
+  RunSummary summary;
+  const std::uint64_t deadline = shm::monotonic_ns() + seconds_to_ns(config_.wait_s);
+  std::optional<shm::RingReader> reader;
+  while (!reader) {
+    try {
+      reader.emplace(shm::RingReader::attach(config_.ring_name, shm::ReaderOptions{config_.label}));
+    } catch (const shm::RingError& e) {
+      if (!worth_retrying(e.code())) throw;
+      if (stop_.load(std::memory_order_relaxed)) break;
+      if (shm::monotonic_ns() >= deadline) {
+        throw shm::RingError(e.code(), "ring '" + config_.ring_name + "' not readable after " +
+                                           format_number(config_.wait_s) +
+                                           " s of waiting: " + e.what());
+      }
+      sleep_ns(50'000'000);
+    }
+  }
+  if (reader) {
+    Session session(*this, std::move(*reader));
+    attached_.store(true, std::memory_order_release);
+    const StopReason reason = session.loop();
+    summary = session.finish(reason);
+  }
+  summary.ring_name = config_.ring_name;
+  summary.backend = std::string(to_string(config_.backend));
+  summary.threads = config_.processing.threads;
+  summary.scale = config_.processing.scale;
+  summary.summary_json = std::filesystem::absolute(config_.out_dir / "summary.json");
+  write_text_file_atomically(summary.summary_json, to_json(summary).dump(2) + "\n");
+  return summary;
+}
+
+}  // namespace ioct::gpu

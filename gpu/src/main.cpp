@@ -1,0 +1,107 @@
+// ioct-gpu: reads raw B-scan groups from the ring, processes them into volumes and writes the
+// latest centre B-scan and en face projection as PNG files.
+#include <CLI/CLI.hpp>
+
+#include <csignal>
+#include <cstdlib>
+#include <iostream>
+#include <string>
+
+#include "ioct/gpu/config_error.hpp"
+#include "ioct/gpu/live_processor.hpp"
+#include "ioct/shm/ring_error.hpp"
+
+namespace {
+
+ioct::gpu::LiveProcessor* g_processor = nullptr;
+
+extern "C" void on_stop_signal(int) {
+  if (g_processor != nullptr) g_processor->request_stop();
+}
+
+void install_stop_handlers() {
+  struct sigaction action {};
+  action.sa_handler = on_stop_signal;
+  action.sa_flags = SA_RESETHAND;  // a second Ctrl-C ends the process at once
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace ioct::gpu;
+  LiveConfig config;
+  std::string backend = "cpu";
+  std::string out_dir = config.out_dir.string();
+  std::string background = std::string(to_string(config.processing.background.mode));
+  std::string window = std::string(to_string(config.processing.window.kind));
+  std::string rigor = std::string(to_string(config.processing.fft.rigor));
+  std::string enface = std::string(to_string(config.enface));
+
+  CLI::App app{"ioct-gpu: OCT processing of the ring's raw spectra into volumes and PNG previews"};
+  app.option_defaults()->always_capture_default();
+  app.add_option("--ring", config.ring_name, "shared-memory ring to read");
+  app.add_option("--out", out_dir, "directory for bscan.png, enface.png and summary.json");
+  app.add_option("--backend", backend, "processing backend: cpu or cuda");
+  app.add_option("--db-min", config.processing.scale.db_min,
+                 "dB shown as black (20 log10 of the fringe amplitude in ADC counts)");
+  app.add_option("--db-max", config.processing.scale.db_max, "dB shown as white");
+  app.add_option("--threads", config.processing.threads,
+                 "threads processing a group's B-scans (1 to 16)");
+  app.add_option("--wait", config.wait_s, "seconds to wait for the ring to appear");
+  app.add_option("--seconds", config.run_s,
+                 "seconds to run; 0: until SIGINT/SIGTERM or the producer closes the ring");
+  app.add_option("--status-interval", config.status_interval_s,
+                 "seconds between status lines on stderr; 0: none");
+  app.add_option("--background", background, "background removal: group-mean or none");
+  app.add_option("--window", window, "spectral window: hann or rectangular");
+  app.add_option("--fft-rigor", rigor, "FFTW planning: estimate, measure or patient");
+  app.add_option("--fft-wisdom", config.processing.fft.wisdom_path,
+                 "FFTW wisdom file, read before planning and updated after");
+  app.add_option("--enface", enface, "en face projection: mean or max");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    config.out_dir = out_dir;
+    config.backend = parse_backend(backend);
+    config.processing.background.mode = parse_background_mode(background);
+    config.processing.window.kind = parse_window_kind(window);
+    config.processing.fft.rigor = parse_fft_rigor(rigor);
+    config.enface = parse_enface_projection(enface);
+    LiveProcessor processor(config);
+    if (config.backend == Backend::cuda) {
+      (void)make_oct_processor(config.backend, config.processing);  // fail before waiting
+    }
+    processor.set_status_stream(&std::cerr);
+    g_processor = &processor;
+    install_stop_handlers();
+    const RunSummary summary = processor.run();
+    g_processor = nullptr;
+
+    std::cerr << "ioct-gpu: stopped (" << to_string(summary.stop_reason) << ") after "
+              << summary.counters.groups_processed << " groups, "
+              << summary.counters.volumes_completed << " volumes" << std::endl;
+    if (summary.images) {
+      std::cout << "bscan:   " << summary.images->bscan_png.string() << "\n"
+                << "enface:  " << summary.images->enface_png.string() << "\n";
+    } else {
+      std::cout << "no images: no B-scan was processed\n";
+    }
+    std::cout << "summary: " << summary.summary_json.string() << std::endl;
+    return EXIT_SUCCESS;
+  } catch (const ConfigError& e) {
+    std::cerr << "ioct-gpu: invalid option: " << e.what() << "\n";
+    return 2;
+  } catch (const BackendUnavailable& e) {
+    std::cerr << "ioct-gpu: " << e.what() << "\n";
+    return 2;
+  } catch (const ioct::shm::RingError& e) {
+    std::cerr << "ioct-gpu: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "ioct-gpu: error: " << e.what() << "\n";
+    return 1;
+  }
+}

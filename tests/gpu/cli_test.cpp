@@ -1,0 +1,178 @@
+// ioct-gpu as a process: its options, its exit codes, and a whole run against a ring this test
+// publishes into, ended by the producer closing the ring or by SIGTERM.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "live_ring_fixture.hpp"
+
+extern char** environ;
+
+namespace ioct::gpu {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::LiveRing;
+using testing::wait_until;
+
+std::string read_file(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// ioct-gpu in a child process, stdout and stderr into files.
+class Child {
+ public:
+  Child(const fs::path& dir, std::vector<std::string> args) : dir_(dir) {
+    args.insert(args.begin(), IOCT_GPU_EXE);
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, (dir / "stdout.txt").c_str(),
+                                     O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&actions, 2, (dir / "stderr.txt").c_str(),
+                                     O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int rc = posix_spawn(&pid_, argv[0], &actions, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
+    if (rc != 0) pid_ = -1;
+  }
+  ~Child() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+  }
+
+  bool started() const { return pid_ > 0; }
+  void signal(int number) const { ::kill(pid_, number); }
+
+  // The exit status, or -1 when it did not exit within the timeout (it is then killed).
+  int wait_exit(std::chrono::seconds timeout = std::chrono::seconds(30)) {
+    int status = 0;
+    const bool exited = wait_until([&] { return ::waitpid(pid_, &status, WNOHANG) == pid_; },
+                                   std::chrono::duration_cast<std::chrono::milliseconds>(timeout));
+    if (!exited) return -1;
+    pid_ = -1;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  }
+  std::string out() const { return read_file(dir_ / "stdout.txt"); }
+  std::string err() const { return read_file(dir_ / "stderr.txt"); }
+
+ private:
+  fs::path dir_;
+  pid_t pid_ = -1;
+};
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("ioct-gpu-cli-test-" + std::to_string(::getpid()) + "-" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  // Runs ioct-gpu to completion; returns its exit status.
+  int run(const std::vector<std::string>& args, std::string* err = nullptr) {
+    Child child(dir_, args);
+    EXPECT_TRUE(child.started());
+    const int status = child.wait_exit();
+    if (err != nullptr) *err = child.err();
+    return status;
+  }
+
+  // The consumed count the running ioct-gpu reports to the producer, or -1 before it attached.
+  static long consumed_by_ioct_gpu(LiveRing& ring) {
+    for (const shm::ReaderReport& r : ring.writer().readers()) {
+      if (r.label == "ioct-gpu" && r.alive) return static_cast<long>(r.counters.consumed);
+    }
+    return -1;
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(Cli, BadOptionsExitNonZeroWithAClearMessage) {
+  std::string err;
+  EXPECT_EQ(run({"--backend", "cuda"}, &err), 2);
+  EXPECT_NE(err.find("built without CUDA"), std::string::npos) << err;
+  EXPECT_EQ(run({"--backend", "opencl"}, &err), 2);
+  EXPECT_NE(err.find("backend = 'opencl'"), std::string::npos) << err;
+  EXPECT_EQ(run({"--db-min", "50", "--db-max", "40"}, &err), 2);
+  EXPECT_NE(err.find("db_max = 40"), std::string::npos) << err;
+  EXPECT_EQ(run({"--threads", "0"}, &err), 2);
+  EXPECT_NE(err.find("threads = 0"), std::string::npos) << err;
+  EXPECT_NE(run({"--threads", "many"}, &err), 0);
+  EXPECT_NE(err.find("--threads"), std::string::npos) << err;
+  EXPECT_NE(run({"--no-such-option"}, &err), 0);
+  const std::string absent = "ioct-gtest-gpu-absent-" + std::to_string(::getpid());
+  EXPECT_EQ(run({"--ring", absent, "--out", (dir_ / "o").string(), "--wait", "0.1"}, &err), 1);
+  EXPECT_NE(err.find(absent), std::string::npos) << err;
+}
+
+TEST_F(Cli, ProcessesARingUntilTheProducerClosesIt) {
+  LiveRing ring;
+  ring.create();
+  const fs::path out = dir_ / "out";
+  Child child(dir_, {"--ring", ring.name(), "--out", out.string(), "--wait", "10", "--threads", "2",
+                     "--fft-rigor", "estimate", "--status-interval", "0.05"});
+  ASSERT_TRUE(child.started());
+  ASSERT_TRUE(wait_until([&] { return consumed_by_ioct_gpu(ring) == 0; })) << child.err();
+  long published = 0;
+  for (std::uint64_t volume = 0; volume < 2; ++volume) {
+    for (std::uint32_t first = 0; first < 8; first += 4) {
+      ring.publish(volume, first);
+      ++published;
+      ASSERT_TRUE(wait_until([&] { return consumed_by_ioct_gpu(ring) == published; }));
+    }
+  }
+  // The copy is counted before the group is processed, but ioct-gpu finishes processing it
+  // before it polls again and sees the ring closed.
+  ring.close();
+  ASSERT_EQ(child.wait_exit(), 0) << child.err();
+
+  EXPECT_NE(child.err().find("groups/s"), std::string::npos) << child.err();
+  EXPECT_NE(child.out().find((fs::absolute(out) / "bscan.png").string()), std::string::npos)
+      << child.out();
+  const nlohmann::json j = nlohmann::json::parse(read_file(out / "summary.json"));
+  EXPECT_EQ(j["stop_reason"], "producer_gone");
+  EXPECT_EQ(j["groups"]["processed"], 4);
+  EXPECT_EQ(j["volumes"]["completed"], 2);
+  EXPECT_EQ(j["images"]["volume_index"], 1);
+  EXPECT_TRUE(fs::exists(out / "bscan.png"));
+  EXPECT_TRUE(fs::exists(out / "enface.png"));
+}
+
+TEST_F(Cli, SigtermEndsTheRunWithASummary) {
+  LiveRing ring;
+  ring.create();
+  const fs::path out = dir_ / "out";
+  Child child(dir_, {"--ring", ring.name(), "--out", out.string(), "--wait", "10", "--fft-rigor",
+                     "estimate", "--status-interval", "0"});
+  ASSERT_TRUE(child.started());
+  ASSERT_TRUE(wait_until([&] { return consumed_by_ioct_gpu(ring) == 0; })) << child.err();
+  child.signal(SIGTERM);
+  ASSERT_EQ(child.wait_exit(), 0) << child.err();
+  const nlohmann::json j = nlohmann::json::parse(read_file(out / "summary.json"));
+  EXPECT_EQ(j["stop_reason"], "stop_requested");
+  EXPECT_EQ(j["groups"]["consumed"], 0);
+}
+
+}  // namespace
+}  // namespace ioct::gpu

@@ -1,0 +1,62 @@
+#include "synthetic_spectra.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace ioct::gpu::testing {
+
+SpectrumSynthesizer::SpectrumSynthesizer(SpectrumModel model, std::uint32_t seed)
+    : model_(model), envelope_(model.samples), rng_(seed) {
+  // A Gaussian source spectrum centred on the sweep, 1/e half width a third of the sweep.
+  const double centre = 0.5 * (model.samples - 1);
+  const double width = model.samples / 3.0;
+  for (std::uint32_t s = 0; s < model.samples; ++s) {
+    const double x = (s - centre) / width;
+    envelope_[s] = std::exp(-x * x);
+  }
+}
+
+void SpectrumSynthesizer::fill(std::span<std::uint16_t> spectrum,
+                               std::span<const Reflector> reflectors) {
+  std::normal_distribution<double> noise(0.0, model_.noise_sigma);
+  std::uniform_real_distribution<double> phase(0.0, 2.0 * std::numbers::pi);
+  std::vector<double> phases;
+  for (std::size_t r = 0; r < reflectors.size(); ++r) phases.push_back(phase(rng_));
+  const double step = 2.0 * std::numbers::pi / model_.samples;
+  for (std::uint32_t s = 0; s < model_.samples; ++s) {
+    double fringe = 0.0;
+    for (std::size_t r = 0; r < reflectors.size(); ++r) {
+      fringe += reflectors[r].amplitude * std::cos(step * reflectors[r].depth_bin * s + phases[r]);
+    }
+    const double value =
+        model_.dc + model_.pattern * envelope_[s] + envelope_[s] * fringe + noise(rng_);
+    spectrum[s] = static_cast<std::uint16_t>(std::clamp(std::lround(value), 0L, 4095L));
+  }
+}
+
+void fill_group(const shm::RingGeometry& geometry, SpectrumSynthesizer& synthesizer,
+                const ReflectorsOf& reflectors, std::span<std::uint16_t> payload) {
+  const std::size_t samples = geometry.samples_per_ascan;
+  for (std::uint32_t b = 0; b < geometry.bscans_per_group; ++b) {
+    for (std::uint32_t r = 0; r < geometry.ascans_per_bscan; ++r) {
+      const std::vector<Reflector> here = reflectors(b, r);
+      synthesizer.fill(
+          payload.subspan((std::size_t{b} * geometry.ascans_per_bscan + r) * samples, samples),
+          here);
+    }
+  }
+}
+
+shm::BscanMarker marker_for(std::uint64_t volume, std::uint32_t bscan_in_volume,
+                            std::uint32_t bscans_per_volume, bool bidirectional) {
+  shm::BscanMarker marker{};
+  marker.volume_index = volume;
+  marker.bscan_in_volume = bscan_in_volume;
+  if (bscan_in_volume == 0) marker.flags |= shm::kBscanVolumeStart;
+  if (bscan_in_volume + 1 == bscans_per_volume) marker.flags |= shm::kBscanVolumeEnd;
+  if (bidirectional && bscan_in_volume % 2 == 1) marker.flags |= shm::kBscanReversed;
+  return marker;
+}
+
+}  // namespace ioct::gpu::testing
