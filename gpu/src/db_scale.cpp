@@ -4,16 +4,16 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "ioct/gpu/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 
 namespace ioct::gpu {
 
 void DbScaleConfig::validate() const {
-  require_in_range("db_min", db_min, -200.0, 300.0);
-  require_in_range("db_max", db_max, -200.0, 300.0);
+  require_real_in_range("db_min", db_min, -200.0, 300.0);
+  require_real_in_range("db_max", db_max, -200.0, 300.0);
   if (!(db_max - db_min >= 1.0)) {
-    throw ConfigError("db_max", format_number(db_max),
-                      "must be at least 1 dB above db_min (" + format_number(db_min) + ")");
+    throw ConfigError("db_max", format_value(db_max),
+                      "must be at least 1 dB above db_min (" + format_value(db_min) + ")");
   }
 }
 

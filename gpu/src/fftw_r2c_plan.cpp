@@ -9,7 +9,7 @@
 #include <stdexcept>
 #include <utility>
 
-#include "ioct/gpu/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 
 namespace ioct::gpu {
 namespace {

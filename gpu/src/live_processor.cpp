@@ -7,8 +7,8 @@
 #include <thread>
 #include <vector>
 
-#include "ioct/gpu/atomic_file.hpp"
-#include "ioct/gpu/config_error.hpp"
+#include "ioct/common/atomic_file.hpp"
+#include "ioct/common/config_error.hpp"
 #include "ioct/gpu/group_check.hpp"
 #include "ioct/gpu/png_file.hpp"
 #include "ioct/gpu/run_summary_json.hpp"
@@ -63,10 +63,10 @@ void LiveConfig::validate() const {
   }
   if (out_dir.empty()) throw ConfigError("out", "''", "must name a directory");
   processing.validate();
-  require_in_range("wait", wait_s, 0.0, 1e6);
-  require_in_range("seconds", run_s, 0.0, 1e9);
-  require_in_range("status_interval", status_interval_s, 0.0, 1e6);
-  require_in_range("poll_interval", poll_interval_s, 1e-6, 1.0);
+  require_real_in_range("wait", wait_s, 0.0, 1e6);
+  require_real_in_range("seconds", run_s, 0.0, 1e9);
+  require_real_in_range("status_interval", status_interval_s, 0.0, 1e6);
+  require_real_in_range("poll_interval", poll_interval_s, 1e-6, 1.0);
   if (label.empty() || label.size() >= shm::kReaderLabelBytes) {
     throw ConfigError("label", "'" + label + "'",
                       "must be 1 to " + std::to_string(shm::kReaderLabelBytes - 1) + " characters");
@@ -310,7 +310,7 @@ RunSummary LiveProcessor::run() {
       if (stop_.load(std::memory_order_relaxed)) break;
       if (shm::monotonic_ns() >= deadline) {
         throw shm::RingError(e.code(), "ring '" + config_.ring_name + "' not readable after " +
-                                           format_number(config_.wait_s) +
+                                           format_value(config_.wait_s) +
                                            " s of waiting: " + e.what());
       }
       sleep_ns(50'000'000);

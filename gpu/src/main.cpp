@@ -7,7 +7,7 @@
 #include <iostream>
 #include <string>
 
-#include "ioct/gpu/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 #include "ioct/gpu/live_processor.hpp"
 #include "ioct/shm/ring_error.hpp"
 
@@ -91,7 +91,7 @@ int main(int argc, char** argv) {
     }
     std::cout << "summary: " << summary.summary_json.string() << std::endl;
     return EXIT_SUCCESS;
-  } catch (const ConfigError& e) {
+  } catch (const ioct::ConfigError& e) {
     std::cerr << "ioct-gpu: invalid option: " << e.what() << "\n";
     return 2;
   } catch (const BackendUnavailable& e) {

@@ -2,7 +2,7 @@
 
 #include <string>
 
-#include "ioct/gpu/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 #include "ioct/gpu/cpu_oct_processor.hpp"
 
 namespace ioct::gpu {
@@ -12,7 +12,7 @@ void OctProcessorConfig::validate() const {
   window.validate();
   fft.validate();
   scale.validate();
-  require_in_range("threads", threads, 1, 16);
+  require_real_in_range("threads", threads, 1, 16);
 }
 
 std::string_view to_string(Backend backend) noexcept {

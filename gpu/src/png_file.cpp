@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "ioct/gpu/atomic_file.hpp"
+#include "ioct/common/atomic_file.hpp"
 
 namespace ioct::gpu {
 namespace {

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <string>
 
-#include "ioct/gpu/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 
 namespace ioct::gpu {
 

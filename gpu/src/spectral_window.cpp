@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "ioct/gpu/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 
 namespace ioct::gpu {
 

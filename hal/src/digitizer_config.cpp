@@ -2,7 +2,7 @@
 
 #include <string>
 
-#include "ioct/hal/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 
 namespace ioct::hal {
 

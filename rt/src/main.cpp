@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "acquisition_loop.hpp"
-#include "ioct/hal/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 #include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_writer.hpp"
@@ -140,7 +140,7 @@ int main(int argc, char** argv) {
 
   try {
     return run(options);
-  } catch (const hal::ConfigError& e) {
+  } catch (const ioct::ConfigError& e) {
     const std::string option = rt::option_for_error(e.what());
     say(std::string("error: invalid configuration: ") + e.what() +
         (option.empty() ? "" : " (option " + option + ")"));

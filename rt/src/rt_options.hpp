@@ -39,7 +39,7 @@ struct RtSetup {
   RealtimeRequest realtime;
 };
 
-// Builds and validates every config. Throws hal::ConfigError or shm::RingError(bad_config)
+// Builds and validates every config. Throws ioct::ConfigError or shm::RingError(bad_config)
 // naming the config key; option_for_error() tells which option sets it.
 RtSetup make_setup(const RtOptions& options);
 

@@ -1,11 +1,8 @@
 #include "run_summary.hpp"
 
-#include <cerrno>
-#include <cstdio>
-#include <cstring>
-#include <fstream>
+#include "ioct/common/atomic_file.hpp"
+
 #include <nlohmann/json.hpp>
-#include <stdexcept>
 
 namespace ioct::rt {
 
@@ -39,23 +36,7 @@ void write_run_summary(const std::string& path, const RunSummary& s,
       {"missed_sweeps", c.missed_sweeps},
       {"readers_at_close", readers_json}};
 
-  const std::string temporary = path + ".partial";
-  {
-    std::ofstream out(temporary, std::ios::trunc);
-    out << json.dump(2) << '\n';
-    out.close();
-    if (!out) {
-      std::remove(temporary.c_str());
-      throw std::runtime_error("cannot write the run summary to '" + temporary +
-                               "': " + std::strerror(errno));
-    }
-  }
-  if (std::rename(temporary.c_str(), path.c_str()) != 0) {
-    const int err = errno;
-    std::remove(temporary.c_str());
-    throw std::runtime_error("cannot move the run summary to '" + path +
-                             "': " + std::strerror(err));
-  }
+  write_text_file_atomically(path, json.dump(2) + "\n");
 }
 
 }  // namespace ioct::rt

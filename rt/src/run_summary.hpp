@@ -19,8 +19,8 @@ struct RunSummary {
   std::uint64_t group_budget_ns = 0;
 };
 
-// Writes the summary as JSON to `path` through a temporary file and a rename, so a reader never
-// sees half a summary. Throws std::runtime_error naming the path when it cannot.
+// Writes the summary as JSON to `path` atomically (AtomicFile): a reader never sees half of it.
+// Throws std::runtime_error naming the path when it cannot.
 void write_run_summary(const std::string& path, const RunSummary& summary,
                        std::span<const shm::ReaderReport> readers);
 

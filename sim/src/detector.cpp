@@ -3,17 +3,17 @@
 #include <cmath>
 #include <numbers>
 
-#include "ioct/hal/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 
 namespace ioct::sim {
 
 void DetectorConfig::validate() const {
-  hal::require_real_in_range("detector.adc_offset_counts", adc_offset_counts, 0.0, 4095.0);
-  hal::require_real_in_range("detector.reference_dc_counts", reference_dc_counts, 0.0, 4095.0);
-  hal::require_real_in_range("detector.fringe_counts", fringe_counts, 0.0, 2048.0);
-  hal::require_real_in_range("detector.fixed_pattern_counts", fixed_pattern_counts, 0.0, 512.0);
-  hal::require_real_in_range("detector.read_noise_counts", read_noise_counts, 0.0, 512.0);
-  hal::require_real_in_range("detector.shot_noise_counts", shot_noise_counts, 0.0, 512.0);
+  ioct::require_real_in_range("detector.adc_offset_counts", adc_offset_counts, 0.0, 4095.0);
+  ioct::require_real_in_range("detector.reference_dc_counts", reference_dc_counts, 0.0, 4095.0);
+  ioct::require_real_in_range("detector.fringe_counts", fringe_counts, 0.0, 2048.0);
+  ioct::require_real_in_range("detector.fixed_pattern_counts", fixed_pattern_counts, 0.0, 512.0);
+  ioct::require_real_in_range("detector.read_noise_counts", read_noise_counts, 0.0, 512.0);
+  ioct::require_real_in_range("detector.shot_noise_counts", shot_noise_counts, 0.0, 512.0);
 }
 
 double DetectorConfig::count_scale(std::uint32_t sample_bits) noexcept {

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "ioct/hal/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 
 namespace ioct::sim {
 namespace {
@@ -49,17 +49,17 @@ std::string_view to_string(RetinalInterface interface) noexcept {
 }
 
 void RetinaConfig::validate() const {
-  hal::require_real_in_range("retina.field_half_width_mm", field_half_width_mm, 0.1, 20.0);
-  hal::require_real_in_range("retina.rpe_depth_fraction", rpe_depth_fraction, 0.0, 1.0);
-  hal::require_real_in_range("retina.curvature_fraction", curvature_fraction, -0.5, 0.5);
-  hal::require_real_in_range("retina.tilt_x_fraction", tilt_x_fraction, -0.5, 0.5);
-  hal::require_real_in_range("retina.tilt_y_fraction", tilt_y_fraction, -0.5, 0.5);
-  hal::require_real_in_range("retina.fovea_x", fovea_x, -2.0, 2.0);
-  hal::require_real_in_range("retina.fovea_y", fovea_y, -2.0, 2.0);
-  hal::require_real_in_range("retina.fovea_radius_mm", fovea_radius_mm, 0.05, 5.0);
-  hal::require_real_in_range("retina.foveal_pit_depth", foveal_pit_depth, 0.0, 1.0);
-  hal::require_real_in_range("retina.tissue_index", tissue_index, 1.0, 2.0);
-  hal::require_real_in_range("retina.speckle_contrast", speckle_contrast, 0.0, 1.0);
+  ioct::require_real_in_range("retina.field_half_width_mm", field_half_width_mm, 0.1, 20.0);
+  ioct::require_real_in_range("retina.rpe_depth_fraction", rpe_depth_fraction, 0.0, 1.0);
+  ioct::require_real_in_range("retina.curvature_fraction", curvature_fraction, -0.5, 0.5);
+  ioct::require_real_in_range("retina.tilt_x_fraction", tilt_x_fraction, -0.5, 0.5);
+  ioct::require_real_in_range("retina.tilt_y_fraction", tilt_y_fraction, -0.5, 0.5);
+  ioct::require_real_in_range("retina.fovea_x", fovea_x, -2.0, 2.0);
+  ioct::require_real_in_range("retina.fovea_y", fovea_y, -2.0, 2.0);
+  ioct::require_real_in_range("retina.fovea_radius_mm", fovea_radius_mm, 0.05, 5.0);
+  ioct::require_real_in_range("retina.foveal_pit_depth", foveal_pit_depth, 0.0, 1.0);
+  ioct::require_real_in_range("retina.tissue_index", tissue_index, 1.0, 2.0);
+  ioct::require_real_in_range("retina.speckle_contrast", speckle_contrast, 0.0, 1.0);
 }
 
 RetinaModel::RetinaModel(const RetinaConfig& config, double axial_pixel_um,

@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "ioct/hal/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 
 namespace ioct::sim {
 namespace {
@@ -25,20 +25,20 @@ SimulatedDigitizer::SimulatedDigitizer(const SimulationConfig& simulation)
 
 void SimulatedDigitizer::do_prepare(const hal::DigitizerConfig& config) {
   if (config.clock_source != hal::ClockSource::external_k_clock) {
-    throw hal::ConfigError("digitizer.clock_source", std::string(to_string(config.clock_source)),
-                           "the simulator models a k-clocked source only: use external_k_clock");
+    throw ioct::ConfigError("digitizer.clock_source", std::string(to_string(config.clock_source)),
+                            "the simulator models a k-clocked source only: use external_k_clock");
   }
   if (config.samples_per_ascan > FringeTables::kMaxSamples) {
-    throw hal::ConfigError("digitizer.samples_per_ascan",
-                           hal::format_value(std::uint64_t{config.samples_per_ascan}),
-                           "the simulator supports up to " +
-                               hal::format_value(std::uint64_t{FringeTables::kMaxSamples}));
+    throw ioct::ConfigError("digitizer.samples_per_ascan",
+                            ioct::format_value(std::uint64_t{config.samples_per_ascan}),
+                            "the simulator supports up to " +
+                                ioct::format_value(std::uint64_t{FringeTables::kMaxSamples}));
   }
   if (simulation_.scan.ascans_per_bscan != config.ascans_per_bscan) {
-    throw hal::ConfigError("scan.ascans_per_bscan",
-                           hal::format_value(std::uint64_t{simulation_.scan.ascans_per_bscan}),
-                           "must equal digitizer.ascans_per_bscan = " +
-                               hal::format_value(std::uint64_t{config.ascans_per_bscan}));
+    throw ioct::ConfigError("scan.ascans_per_bscan",
+                            ioct::format_value(std::uint64_t{simulation_.scan.ascans_per_bscan}),
+                            "must equal digitizer.ascans_per_bscan = " +
+                                ioct::format_value(std::uint64_t{config.ascans_per_bscan}));
   }
   synthesizer_.emplace(simulation_.source, simulation_.detector, config.samples_per_ascan,
                        config.sample_bits, splitmix64(simulation_.seed ^ kNoiseTableStream));

@@ -4,7 +4,7 @@
 #include <numbers>
 #include <string>
 
-#include "ioct/hal/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 
 namespace ioct::sim {
 namespace {
@@ -16,11 +16,11 @@ double wavenumber_per_um(double wavelength_nm) {
 }  // namespace
 
 void SweptSourceConfig::validate() const {
-  hal::require_real_in_range("source.center_wavelength_nm", center_wavelength_nm, 400.0, 2000.0);
-  hal::require_real_in_range("source.sweep_bandwidth_nm", sweep_bandwidth_nm, 1.0,
-                             0.5 * center_wavelength_nm);
-  hal::require_real_in_range("source.envelope_fwhm_nm", envelope_fwhm_nm, 0.1 * sweep_bandwidth_nm,
-                             4.0 * sweep_bandwidth_nm);
+  ioct::require_real_in_range("source.center_wavelength_nm", center_wavelength_nm, 400.0, 2000.0);
+  ioct::require_real_in_range("source.sweep_bandwidth_nm", sweep_bandwidth_nm, 1.0,
+                              0.5 * center_wavelength_nm);
+  ioct::require_real_in_range("source.envelope_fwhm_nm", envelope_fwhm_nm, 0.1 * sweep_bandwidth_nm,
+                              4.0 * sweep_bandwidth_nm);
 }
 
 double SweptSourceConfig::axial_pixel_um() const noexcept {

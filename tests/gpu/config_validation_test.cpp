@@ -5,7 +5,7 @@
 #include <functional>
 #include <string>
 
-#include "ioct/gpu/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 #include "ioct/gpu/live_processor.hpp"
 #include "ioct/gpu/oct_processor.hpp"
 #include "ioct/gpu/projections.hpp"

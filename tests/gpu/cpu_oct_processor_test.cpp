@@ -9,7 +9,7 @@
 #include <fstream>
 #include <vector>
 
-#include "ioct/gpu/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 #include "ioct/gpu/cpu_oct_processor.hpp"
 #include "ioct/gpu/group_check.hpp"
 #include "synthetic_spectra.hpp"

@@ -6,7 +6,7 @@
 #include <limits>
 #include <string>
 
-#include "ioct/hal/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 #include "ioct/hal/digitizer_config.hpp"
 #include "ioct/hal/raster_scan.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
@@ -26,7 +26,7 @@ void expect_refused(const BadValue& bad) {
   try {
     bad.validate();
     ADD_FAILURE() << "accepted";
-  } catch (const hal::ConfigError& e) {
+  } catch (const ioct::ConfigError& e) {
     const std::string message = e.what();
     EXPECT_EQ(e.key(), bad.key);
     EXPECT_EQ(e.value(), bad.value);
@@ -132,7 +132,7 @@ TEST(ConfigValidation, AFailedPrepareLeavesTheDigitizerUnprepared) {
   hal::DigitizerConfig config;
   digitizer.prepare(config);
   config.clock_source = hal::ClockSource::internal;
-  EXPECT_THROW(digitizer.prepare(config), hal::ConfigError);
+  EXPECT_THROW(digitizer.prepare(config), ioct::ConfigError);
   EXPECT_EQ(digitizer.state(), hal::Digitizer::State::idle);
   EXPECT_THROW(digitizer.start(), std::logic_error);
 }

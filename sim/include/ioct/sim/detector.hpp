@@ -17,7 +17,7 @@ struct DetectorConfig {
   double read_noise_counts = 2.5;      // electronic noise, standard deviation
   double shot_noise_counts = 3.5;      // shot and intensity noise at the envelope peak (std dev)
 
-  // Throws hal::ConfigError ("detector.<key>").
+  // Throws ioct::ConfigError ("detector.<key>").
   void validate() const;
 
   // Counts per 12-bit count for an ADC of `sample_bits`.

@@ -42,7 +42,7 @@ struct RetinaConfig {
   double tissue_index = 1.38;     // group index that turns thickness into optical path
   double speckle_contrast = 0.5;  // 0: every A-scan sees an interface alike; 1: full Rayleigh
 
-  // Throws hal::ConfigError ("retina.<key>").
+  // Throws ioct::ConfigError ("retina.<key>").
   void validate() const;
 };
 

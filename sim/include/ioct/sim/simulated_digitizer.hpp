@@ -29,7 +29,7 @@ struct LayerTruth {
 
 class SimulatedDigitizer final : public hal::Digitizer {
  public:
-  // Throws hal::ConfigError when `simulation` is invalid.
+  // Throws ioct::ConfigError when `simulation` is invalid.
   explicit SimulatedDigitizer(const SimulationConfig& simulation);
 
   std::string_view backend() const noexcept override { return "simulated"; }

@@ -18,7 +18,7 @@ struct SimulationConfig {
   hal::RasterScan scan;    // the galvo pattern the beam follows, sweep by sweep
   std::uint64_t seed = 1;  // same seed, config and build: same bytes
 
-  // Throws hal::ConfigError naming the key ("source.", "detector.", "retina.", "scan.").
+  // Throws ioct::ConfigError naming the key ("source.", "detector.", "retina.", "scan.").
   void validate() const;
 };
 

@@ -12,7 +12,7 @@ struct SweptSourceConfig {
   double sweep_bandwidth_nm = 100.0;  // wavelength span the k-clocked samples cover
   double envelope_fwhm_nm = 70.0;     // full width at half maximum of the Gaussian envelope
 
-  // Throws hal::ConfigError ("source.<key>").
+  // Throws ioct::ConfigError ("source.<key>").
   void validate() const;
 
   // Optical path length (in air, single pass) that one depth bin of an N-sample FFT spans:

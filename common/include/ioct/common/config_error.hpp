@@ -7,7 +7,7 @@
 #include <string>
 #include <string_view>
 
-namespace ioct::hal {
+namespace ioct {
 
 class ConfigError : public std::invalid_argument {
  public:
@@ -34,4 +34,4 @@ void require_integer_in_range(std::string_view key, std::uint64_t value, std::ui
                               std::uint64_t hi);
 void require_real_in_range(std::string_view key, double value, double lo, double hi);
 
-}  // namespace ioct::hal
+}  // namespace ioct

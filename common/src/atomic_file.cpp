@@ -1,4 +1,4 @@
-#include "ioct/gpu/atomic_file.hpp"
+#include "ioct/common/atomic_file.hpp"
 
 #include <unistd.h>
 
@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace ioct::gpu {
+namespace ioct {
 namespace {
 
 std::runtime_error file_error(const std::filesystem::path& path, const char* what, int error) {
@@ -53,4 +53,4 @@ void write_text_file_atomically(const std::filesystem::path& target, std::string
   file.commit();
 }
 
-}  // namespace ioct::gpu
+}  // namespace ioct

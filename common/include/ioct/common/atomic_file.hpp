@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <string_view>
 
-namespace ioct::gpu {
+namespace ioct {
 
 class AtomicFile {
  public:
@@ -38,4 +38,4 @@ class AtomicFile {
 // Writes `text` to `target` through an AtomicFile.
 void write_text_file_atomically(const std::filesystem::path& target, std::string_view text);
 
-}  // namespace ioct::gpu
+}  // namespace ioct

@@ -1,10 +1,10 @@
-#include "ioct/hal/config_error.hpp"
+#include "ioct/common/config_error.hpp"
 
 #include <charconv>
 #include <cmath>
 #include <utility>
 
-namespace ioct::hal {
+namespace ioct {
 
 ConfigError::ConfigError(std::string key, std::string value, std::string_view allowed)
     : std::invalid_argument(key + " = " + value + ": " + std::string(allowed)),
@@ -40,4 +40,4 @@ void require_real_in_range(std::string_view key, double value, double lo, double
   }
 }
 
-}  // namespace ioct::hal
+}  // namespace ioct
