@@ -16,6 +16,16 @@ std::string_view to_string(ClockSource source) noexcept {
   return "unknown";
 }
 
+std::string_view to_string(TriggerSource source) noexcept {
+  switch (source) {
+    case TriggerSource::sweep_input:
+      return "sweep_input";
+    case TriggerSource::software:
+      return "software";
+  }
+  return "unknown";
+}
+
 void DigitizerConfig::validate() const {
   require_integer_in_range("digitizer.samples_per_ascan", samples_per_ascan, 16, 16384);
   if (samples_per_ascan % 2 != 0) {
@@ -32,6 +42,14 @@ void DigitizerConfig::validate() const {
   }
   require_real_in_range("digitizer.ascan_rate_hz", ascan_rate_hz, 1.0, 10e6);
   require_integer_in_range("digitizer.sample_bits", sample_bits, 8, 16);
+  if (trigger.source != TriggerSource::sweep_input && trigger.source != TriggerSource::software) {
+    throw ConfigError("digitizer.trigger.source",
+                      format_value(std::int64_t{static_cast<int>(trigger.source)}),
+                      "must be sweep_input or software");
+  }
+  require_real_in_range("digitizer.trigger.level_volts", trigger.level_volts, -5.0, 5.0);
+  require_integer_in_range("digitizer.trigger.delay_samples", trigger.delay_samples, 0, 65536);
+  require_integer_in_range("digitizer.timeout_ms", timeout_ms, 1, 60'000);
   // Bounds one group so that sizes in words and bytes stay far from any overflow.
   constexpr std::uint64_t kMaxGroupSamples = std::uint64_t{1} << 31;
   if (samples_per_group() > kMaxGroupSamples) {

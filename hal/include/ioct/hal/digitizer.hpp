@@ -17,6 +17,8 @@ namespace ioct::hal {
 inline constexpr std::uint32_t kGroupOverrun = 1u << 0;         // the on-board buffer overflowed
 inline constexpr std::uint32_t kGroupClockFault = 1u << 1;      // the k-clock was lost or off
 inline constexpr std::uint32_t kGroupMissedTriggers = 1u << 2;  // sweep triggers went missing
+inline constexpr std::uint32_t kGroupTimeout = 1u << 3;         // no record for timeout_ms: a stall
+inline constexpr std::uint32_t kGroupDeviceLost = 1u << 4;      // the device went away (unplugged)
 
 struct GroupInfo {
   std::uint64_t first_sweep_counter = 0;  // hardware sweep counter of the group's first record

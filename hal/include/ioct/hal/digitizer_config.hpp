@@ -13,6 +13,20 @@ enum class ClockSource {
 
 std::string_view to_string(ClockSource source) noexcept;
 
+enum class TriggerSource {
+  sweep_input,  // the swept source's sweep trigger on the digitizer's trigger input
+  software,     // free running on the digitizer's own timing (bench and self-test)
+};
+
+std::string_view to_string(TriggerSource source) noexcept;
+
+struct TriggerConfig {
+  TriggerSource source = TriggerSource::sweep_input;
+  double level_volts = 0.5;         // threshold of the trigger input
+  std::uint32_t delay_samples = 0;  // samples skipped after the trigger before recording
+  friend bool operator==(const TriggerConfig&, const TriggerConfig&) = default;
+};
+
 // One group is bscans_per_group B-scans; each B-scan is ascans_per_bscan recorded sweeps followed
 // by flyback_sweeps sweeps that the laser makes while the galvo returns and that are not
 // recorded. The sweep counter counts every sweep, recorded or not.
@@ -24,6 +38,9 @@ struct DigitizerConfig {
   ClockSource clock_source = ClockSource::external_k_clock;
   double ascan_rate_hz = 100'000.0;  // sweep rate of the source
   std::uint32_t sample_bits = 12;    // ADC resolution; samples are right-aligned in 16-bit words
+  TriggerConfig trigger;
+  // No record for this long while running is a stall: acquire_group() returns with kGroupTimeout.
+  std::uint32_t timeout_ms = 500;
 
   // Throws ConfigError naming the first key out of range ("digitizer.<key>").
   void validate() const;
