@@ -25,15 +25,17 @@ namespace {
 using namespace std::chrono_literals;
 using test_support::ChildProcess;
 
-// A small raster so that one 2-core machine runs both processes with room to spare:
-// 128 A-scans x 8 B-scans per group (12.3 ms), 32 B-scans per volume (4 groups).
+// A small raster at a quarter of the real sweep rate, so that a loaded 2-core CI machine runs
+// both processes with room to spare (timing is the rt and ring tests' business, not this one's):
+// 128 A-scans x 8 B-scans per group (49 ms at 25 kHz), 32 B-scans per volume (4 groups).
 rt::RtOptions small_raster(const std::string& ring) {
   rt::RtOptions o;
   o.ring = ring;
   o.ascans = 128;
   o.bscans_per_group = 8;
   o.bscans_per_volume = 32;
-  o.seconds = 3.0;
+  o.ascan_rate = 25'000.0;
+  o.seconds = 4.0;
   o.seed = 7;
   o.rt_priority = 0;  // CI runs unprivileged as often as not; timing is not what this test checks
   return o;
@@ -48,6 +50,8 @@ std::vector<std::string> rt_arguments(const rt::RtOptions& o, const std::string&
           std::to_string(o.bscans_per_group),
           "--bscans-per-volume",
           std::to_string(o.bscans_per_volume),
+          "--ascan-rate",
+          std::to_string(o.ascan_rate),
           "--seconds",
           std::to_string(o.seconds),
           "--seed",
@@ -115,7 +119,7 @@ TEST_F(SimulatedAppliance, BooksBalanceAndTheImageShowsTheRetinaWhereTheTruthIs)
       static_cast<unsigned long long>(published), static_cast<unsigned long long>(got),
       static_cast<unsigned long long>(dropped),
       static_cast<unsigned long long>(consumed.at("volumes").at("completed").get<std::uint64_t>()));
-  EXPECT_GT(published, 100u) << "3 s at 81 groups/s";
+  EXPECT_GT(published, 40u) << "4 s at 20 groups/s";
   EXPECT_EQ(got + dropped, published) << "every published group is consumed or counted dropped";
   EXPECT_EQ(groups.at("processed").get<std::uint64_t>(), got);
   EXPECT_GE(consumed.at("volumes").at("completed").get<std::uint64_t>(), 1u);
