@@ -14,14 +14,17 @@ void DetectorConfig::validate() const {
   ioct::require_real_in_range("detector.fixed_pattern_counts", fixed_pattern_counts, 0.0, 512.0);
   ioct::require_real_in_range("detector.read_noise_counts", read_noise_counts, 0.0, 512.0);
   ioct::require_real_in_range("detector.shot_noise_counts", shot_noise_counts, 0.0, 512.0);
+  ioct::require_real_in_range("detector.rin_counts", rin_counts, 0.0, 512.0);
+  ioct::require_real_in_range("detector.sweep_power_jitter", sweep_power_jitter, 0.0, 0.2);
 }
 
 double DetectorConfig::count_scale(std::uint32_t sample_bits) noexcept {
   return std::ldexp(1.0, static_cast<int>(sample_bits) - 12);
 }
 
-std::vector<float> DetectorConfig::background(std::span<const float> envelope,
-                                              std::uint32_t sample_bits) const {
+std::vector<float> DetectorConfig::light_background(std::span<const float> envelope,
+                                                    std::span<const double> k_index,
+                                                    std::uint32_t sample_bits) const {
   const double scale = count_scale(sample_bits);
   const double samples = static_cast<double>(envelope.size());
   const double depth_bins = 0.5 * samples;
@@ -32,13 +35,11 @@ std::vector<float> DetectorConfig::background(std::span<const float> envelope,
   for (std::size_t i = 0; i < envelope.size(); ++i) {
     double fringe = 0.0;
     for (int line = 0; line < 2; ++line) {
-      fringe += line_weight[line] * std::cos(2.0 * std::numbers::pi * static_cast<double>(i) *
-                                             line_depth[line] / samples);
+      fringe += line_weight[line] *
+                std::cos(2.0 * std::numbers::pi * k_index[i] * line_depth[line] / samples);
     }
-    const double light = envelope[i];
-    row[i] =
-        static_cast<float>(scale * (adc_offset_counts +
-                                    light * (reference_dc_counts + fixed_pattern_counts * fringe)));
+    row[i] = static_cast<float>(scale * envelope[i] *
+                                (reference_dc_counts + fixed_pattern_counts * fringe));
   }
   return row;
 }
@@ -48,9 +49,11 @@ std::vector<float> DetectorConfig::noise_sigma(std::span<const float> envelope,
   const double scale = count_scale(sample_bits);
   std::vector<float> row(envelope.size());
   for (std::size_t i = 0; i < envelope.size(); ++i) {
-    const double shot_variance = shot_noise_counts * shot_noise_counts * envelope[i];
-    row[i] = static_cast<float>(scale *
-                                std::sqrt(read_noise_counts * read_noise_counts + shot_variance));
+    const double light = envelope[i];
+    const double variance = read_noise_counts * read_noise_counts +
+                            shot_noise_counts * shot_noise_counts * light +
+                            rin_counts * rin_counts * light * light;
+    row[i] = static_cast<float>(scale * std::sqrt(variance));
   }
   return row;
 }

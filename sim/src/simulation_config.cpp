@@ -1,12 +1,64 @@
 #include "ioct/sim/simulation_config.hpp"
 
+#include <string>
+
+#include "ioct/common/config_error.hpp"
+
 namespace ioct::sim {
+
+std::string_view to_string(SamplePreset preset) noexcept {
+  switch (preset) {
+    case SamplePreset::retina:
+      return "retina";
+    case SamplePreset::anterior_segment:
+      return "anterior_segment";
+    case SamplePreset::mirror:
+      return "mirror";
+  }
+  return "unknown";
+}
 
 void SimulationConfig::validate() const {
   source.validate();
+  interferometer.validate();
   detector.validate();
-  retina.validate();
+  switch (preset) {
+    case SamplePreset::retina:
+      retina.validate();
+      break;
+    case SamplePreset::anterior_segment:
+      anterior.validate();
+      break;
+    case SamplePreset::mirror:
+      mirror.validate();
+      break;
+    default:
+      throw ioct::ConfigError("simulation.preset", ioct::format_value(std::uint64_t(preset)),
+                              "must be retina, anterior_segment or mirror");
+  }
+  if (instruments.size() > kMaxInstruments) {
+    throw ioct::ConfigError("simulation.instruments",
+                            ioct::format_value(std::uint64_t{instruments.size()}) + " instruments",
+                            "at most " + std::to_string(kMaxInstruments) + " are simulated");
+  }
+  for (std::size_t i = 0; i < instruments.size(); ++i) {
+    instruments[i].validate("instruments[" + std::to_string(i) + "]");
+  }
+  ioct::require_real_in_range("simulation.speckle_grain_um", speckle_grain_um, 0.5, 1000.0);
+  bench.validate();
   scan.validate();
+}
+
+double SimulationConfig::field_half_width_mm() const noexcept {
+  switch (preset) {
+    case SamplePreset::anterior_segment:
+      return anterior.field_half_width_mm;
+    case SamplePreset::mirror:
+      return mirror.field_half_width_mm;
+    case SamplePreset::retina:
+    default:
+      return retina.field_half_width_mm;
+  }
 }
 
 }  // namespace ioct::sim

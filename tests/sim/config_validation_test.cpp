@@ -102,6 +102,47 @@ TEST(ConfigValidation, SimulationRefusesValuesOutOfRange) {
          c.scan.center_y = 0.75f;
          c.scan.extent_y = 0.5f;
        })},
+      {"interferometer.dispersion_c2", "nan", simulation_with([](auto& c) {
+         c.interferometer.dispersion_c2 = std::numeric_limits<double>::quiet_NaN();
+       })},
+      {"source.rolloff_6db_depth_mm", "-1",
+       simulation_with([](auto& c) { c.source.rolloff_6db_depth_mm = -1.0; })},
+      {"source.super_gaussian_order", "0.5", simulation_with([](auto& c) {
+         c.source.shape = sim::SpectralShape::super_gaussian;
+         c.source.super_gaussian_order = 0.5;
+       })},
+      {"source.tabulated[1].wavelength_nm", "1000", simulation_with([](auto& c) {
+         c.source.shape = sim::SpectralShape::tabulated;
+         c.source.tabulated = {{1050.0, 1.0}, {1000.0, 0.5}};
+       })},
+      {"detector.sweep_power_jitter", "0.5",
+       simulation_with([](auto& c) { c.detector.sweep_power_jitter = 0.5; })},
+      {"retina.macular_hole.radius_mm", "0", simulation_with([](auto& c) {
+         c.retina.macular_hole.enabled = true;
+         c.retina.macular_hole.radius_mm = 0.0;
+       })},
+      {"retina.membrane.thickness_um", "0", simulation_with([](auto& c) {
+         c.retina.membrane.enabled = true;
+         c.retina.membrane.thickness_um = 0.0;
+       })},
+      {"anterior.chamber_depth_mm", "0.2", simulation_with([](auto& c) {
+         c.preset = sim::SamplePreset::anterior_segment;
+         c.anterior.chamber_depth_mm = 0.2;
+       })},
+      {"mirror.depth_fraction", "1.5", simulation_with([](auto& c) {
+         c.preset = sim::SamplePreset::mirror;
+         c.mirror.depth_fraction = 1.5;
+       })},
+      {"instruments[1].pose.pitch_deg", "95", simulation_with([](auto& c) {
+         c.instruments.resize(2);
+         c.instruments[1].pose.pitch_deg = 95.0f;
+       })},
+      {"simulation.instruments", "5 instruments",
+       simulation_with([](auto& c) { c.instruments.resize(5); })},
+      {"simulation.speckle_grain_um", "0",
+       simulation_with([](auto& c) { c.speckle_grain_um = 0.0; })},
+      {"bench.mirrors.damping", "0",
+       simulation_with([](auto& c) { c.bench.mirrors.damping = 0.0; })},
   };
   for (const BadValue& bad : cases) expect_refused(bad);
 }
@@ -115,10 +156,8 @@ TEST(ConfigValidation, SimulatedDigitizerRefusesWhatItCannotSimulate) {
       digitizer.prepare(config);
     };
   };
-  expect_refused({"digitizer.clock_source", "internal",
-                  prepare_with([](auto& c) { c.clock_source = hal::ClockSource::internal; })});
-  expect_refused({"digitizer.samples_per_ascan", "8192",
-                  prepare_with([](auto& c) { c.samples_per_ascan = 8192; })});
+  expect_refused({"digitizer.samples_per_ascan", "8194",
+                  prepare_with([](auto& c) { c.samples_per_ascan = 8194; })});
   expect_refused(
       {"scan.ascans_per_bscan", "512", prepare_with([](auto& c) { c.ascans_per_bscan = 256; })});
   // The simulation config is checked when the digitizer is made.
@@ -127,11 +166,19 @@ TEST(ConfigValidation, SimulatedDigitizerRefusesWhatItCannotSimulate) {
   expect_refused({"retina.foveal_pit_depth", "-0.5", [bad] { sim::SimulatedDigitizer{bad}; }});
 }
 
+TEST(ConfigValidation, OnlyTheChosenPresetsConfigIsChecked) {
+  sim::SimulationConfig config;
+  config.anterior.chamber_depth_mm = -1.0;  // not used by the retina preset
+  EXPECT_NO_THROW(config.validate());
+  config.preset = sim::SamplePreset::anterior_segment;
+  EXPECT_THROW(config.validate(), ioct::ConfigError);
+}
+
 TEST(ConfigValidation, AFailedPrepareLeavesTheDigitizerUnprepared) {
   sim::SimulatedDigitizer digitizer{sim::SimulationConfig{}};
   hal::DigitizerConfig config;
   digitizer.prepare(config);
-  config.clock_source = hal::ClockSource::internal;
+  config.samples_per_ascan = 8194;
   EXPECT_THROW(digitizer.prepare(config), ioct::ConfigError);
   EXPECT_EQ(digitizer.state(), hal::Digitizer::State::idle);
   EXPECT_THROW(digitizer.start(), std::logic_error);

@@ -1,5 +1,5 @@
 // The simulated digitizer: its spectra put the layers where its ground truth says, the same seed
-// gives the same bytes, and acquisition allocates nothing.
+// gives the same bytes, the truth it reports per group, and acquisition allocates nothing.
 #include "ioct/sim/simulated_digitizer.hpp"
 
 #include <gtest/gtest.h>
@@ -43,47 +43,91 @@ std::vector<std::uint16_t> acquire(SimulatedDigitizer& digitizer, hal::GroupInfo
   return group;
 }
 
-TEST(SimulatedDigitizer, FftOfEachAscanPeaksAtTheGroundTruthIlmAndRpe) {
+// ILM: the first bin from the top that stands well out of the noise, moved to the local maximum
+// just below it; RPE: the brightest bin of the outer retina (from 100 um below the ILM down).
+// What a segmentation does first, with no knowledge of the truth.
+struct Found {
+  std::uint32_t ilm;
+  std::uint32_t rpe;
+};
+Found find_layers(std::span<const float> magnitude, float threshold) {
+  std::uint32_t ilm = 64;  // past the DC and fixed-pattern bins
+  while (ilm < magnitude.size() && magnitude[ilm] < threshold) ++ilm;
+  for (std::uint32_t k = 0; k < 2 && ilm + 1 < magnitude.size(); ++k) {
+    if (magnitude[ilm + 1] > magnitude[ilm]) ++ilm;
+  }
+  std::uint32_t rpe = ilm + 25;
+  for (std::uint32_t bin = rpe; bin < magnitude.size(); ++bin) {
+    if (magnitude[bin] > magnitude[rpe]) rpe = bin;
+  }
+  return {ilm, rpe};
+}
+
+TEST(SimulatedDigitizer, PlainFftPutsIlmAndRpeAtTheGroundTruth) {
   const hal::DigitizerConfig geometry = test_geometry();
   SimulatedDigitizer digitizer(test_simulation(geometry));
   digitizer.prepare(geometry);
   digitizer.start();
   const std::vector<std::uint16_t> group = acquire(digitizer);
+  const GroupTruth& truth = digitizer.last_group_truth();
+  const std::vector<double> background = test::mean_spectrum(group, geometry.samples_per_ascan);
 
   test::SpectrumFft fft(geometry.samples_per_ascan);
-  const std::uint32_t depth_bins = geometry.samples_per_ascan / 2;
+  const std::uint32_t n = geometry.samples_per_ascan;
+  std::size_t ascans = 0;
+  std::size_t ilm_hits = 0;
+  std::size_t rpe_hits = 0;
+  double ilm_error = 0.0;
+  double rpe_error = 0.0;
   float thinnest = 1e9f;
   float thickest = 0.0f;
   for (std::uint32_t line = 0; line < geometry.bscans_per_group; ++line) {
     for (std::uint32_t ascan = 0; ascan < geometry.ascans_per_bscan; ++ascan) {
-      SCOPED_TRACE(testing::Message() << "line " << line << " A-scan " << ascan);
-      const std::size_t offset =
-          (std::size_t{line} * geometry.ascans_per_bscan + ascan) * geometry.samples_per_ascan;
-      const auto magnitude = fft.magnitude(
-          std::span<const std::uint16_t>(group).subspan(offset, geometry.samples_per_ascan));
-      const LayerTruth truth = digitizer.truth_at(line, ascan);
-      ASSERT_FALSE(std::isnan(truth.ilm_px));
-      ASSERT_FALSE(std::isnan(truth.rpe_px));
-      // Past the DC and fixed-pattern bins, most bins hold only noise.
-      const float noise_floor = test::median_magnitude(magnitude, depth_bins / 8, depth_bins);
-      for (const float depth : {truth.ilm_px, truth.rpe_px}) {
-        const std::uint32_t peak = test::peak_near(magnitude, depth, 3);
-        EXPECT_NEAR(static_cast<float>(peak), depth, 1.0f);
-        EXPECT_GT(magnitude[peak], 10.0f * noise_floor);
-      }
-      thinnest = std::min(thinnest, truth.rpe_px - truth.ilm_px);
-      thickest = std::max(thickest, truth.rpe_px - truth.ilm_px);
+      const std::size_t record = std::size_t{line} * geometry.ascans_per_bscan + ascan;
+      const auto magnitude =
+          fft.magnitude(std::span<const std::uint16_t>(group).subspan(record * n, n), background);
+      const float ilm = truth.ilm_px[record];
+      const float rpe = truth.rpe_px[record];
+      ASSERT_TRUE(std::isfinite(ilm) && std::isfinite(rpe)) << record;
+      // The truth per group is the raster's truth (no galvo: the beam is where commanded).
+      const LayerTruth at = digitizer.truth_at(line, ascan);
+      EXPECT_EQ(at.ilm_px, ilm);
+      EXPECT_EQ(at.rpe_px, rpe);
+      const float noise = test::median_magnitude(magnitude, n / 2 - 120, n / 2);
+      const Found found = find_layers(magnitude, 12.0f * noise);
+      ++ascans;
+      ilm_hits += std::abs(static_cast<float>(found.ilm) - ilm) <= 1.0f;
+      rpe_hits += std::abs(static_cast<float>(found.rpe) - rpe) <= 1.0f;
+      ilm_error += std::abs(static_cast<float>(found.ilm) - ilm);
+      rpe_error += std::abs(static_cast<float>(found.rpe) - rpe);
+      thinnest = std::min(thinnest, rpe - ilm);
+      thickest = std::max(thickest, rpe - ilm);
     }
   }
+  std::printf(
+      "[ layers   ] ILM within 1 px in %zu of %zu A-scans (mean error %.2f px), RPE in %zu "
+      "(%.2f px)\n",
+      ilm_hits, ascans, ilm_error / static_cast<double>(ascans), rpe_hits,
+      rpe_error / static_cast<double>(ascans));
+  // Speckle makes a few A-scans' lines dim; nearly all must be found where the truth says.
+  EXPECT_GE(ilm_hits, ascans * 97 / 100);
+  EXPECT_GE(rpe_hits, ascans * 97 / 100);
+  EXPECT_LT(ilm_error / static_cast<double>(ascans), 0.6);
+  EXPECT_LT(rpe_error / static_cast<double>(ascans), 0.6);
   // The raster crosses the foveal pit: there the retina is about half as thick.
-  EXPECT_LT(thinnest, 0.6f * thickest);
+  EXPECT_LT(thinnest, 0.65f * thickest);
 }
 
 TEST(SimulatedDigitizer, SameSeedGivesIdenticalBytesAndAnotherSeedDiffers) {
   const hal::DigitizerConfig geometry = test_geometry();
-  SimulatedDigitizer first(test_simulation(geometry, 11));
-  SimulatedDigitizer second(test_simulation(geometry, 11));
-  SimulatedDigitizer other(test_simulation(geometry, 12));
+  SimulationConfig with_tool = test_simulation(geometry, 11);
+  with_tool.instruments.push_back(
+      {InstrumentKind::forceps, {0.1f, 0.0f, 0.4f, 180.0f, 25.0f, 15.0f}, {}});
+  SimulatedDigitizer first(with_tool);
+  SimulatedDigitizer second(with_tool);
+  SimulationConfig other_seed = with_tool;
+  other_seed.seed = 12;
+  SimulatedDigitizer other(other_seed);
   for (SimulatedDigitizer* digitizer : {&first, &second, &other}) {
     digitizer->prepare(geometry);
     digitizer->start();
@@ -93,6 +137,7 @@ TEST(SimulatedDigitizer, SameSeedGivesIdenticalBytesAndAnotherSeedDiffers) {
     const std::vector<std::uint16_t> b = acquire(second);
     const std::vector<std::uint16_t> c = acquire(other);
     EXPECT_EQ(a, b) << "group " << g;
+    EXPECT_TRUE(recording::same_bytes(first.last_group_truth(), second.last_group_truth()));
     const auto differing = std::inner_product(a.begin(), a.end(), c.begin(), std::size_t{0},
                                               std::plus<>(), std::not_equal_to<>());
     EXPECT_GT(differing, a.size() / 2) << "group " << g;
@@ -127,13 +172,15 @@ TEST(SimulatedDigitizer, SweepCounterAdvancesByEverySweepOfTheGroupFlybackInclud
     EXPECT_EQ(info.first_sweep_counter, g * geometry.bscans_per_group * (96 + 4));
     EXPECT_EQ(info.missed_sweeps, 0u);
     EXPECT_EQ(info.status, 0u);
+    EXPECT_EQ(digitizer.last_group_truth().first_sweep_counter, info.first_sweep_counter);
+    EXPECT_EQ(digitizer.last_group_truth().group_index, g);
   }
 }
 
-TEST(SimulatedDigitizer, SamplesStayWithinTheAdcRange) {
+TEST(SimulatedDigitizer, SamplesStayWithinTheAdcRangeAndSwingAboutTheBackground) {
   hal::DigitizerConfig geometry = test_geometry();
   geometry.bscans_per_group = 2;
-  for (const std::uint32_t bits : {12u, 10u}) {
+  for (const std::uint32_t bits : {12u, 10u, 14u}) {
     geometry.sample_bits = bits;
     SimulatedDigitizer digitizer(test_simulation(geometry));
     digitizer.prepare(geometry);
@@ -141,23 +188,43 @@ TEST(SimulatedDigitizer, SamplesStayWithinTheAdcRange) {
     const std::vector<std::uint16_t> group = acquire(digitizer);
     const auto [low, high] = std::minmax_element(group.begin(), group.end());
     EXPECT_LE(*high, (1u << bits) - 1) << bits << " bits";
-    // Balanced detection sits about mid-scale, the signal swings around it.
-    EXPECT_LT(*low, 1u << (bits - 1)) << bits << " bits";
-    EXPECT_GT(*high, 1u << (bits - 1)) << bits << " bits";
+    // Balanced detection sits about mid-scale (the offset plus a little reference light)...
+    EXPECT_GT(*low, 1u << (bits - 2)) << bits << " bits";
+    EXPECT_LT(*high, 3u << (bits - 2)) << bits << " bits";
+    // ... and the fringes swing both ways about the background, by counts that scale with bits.
+    const std::vector<double> background = test::mean_spectrum(group, geometry.samples_per_ascan);
+    double below = 0.0;
+    double above = 0.0;
+    for (std::size_t i = 0; i < group.size(); ++i) {
+      const double d = group[i] - background[i % geometry.samples_per_ascan];
+      below = std::min(below, d);
+      above = std::max(above, d);
+    }
+    const double scale = std::ldexp(1.0, static_cast<int>(bits) - 12);
+    EXPECT_LT(below, -30.0 * scale) << bits << " bits";
+    EXPECT_GT(above, 30.0 * scale) << bits << " bits";
   }
 }
 
 TEST(SimulatedDigitizer, AcquiringAGroupAllocatesNothing) {
   const hal::DigitizerConfig geometry = test_geometry();
-  SimulatedDigitizer digitizer(test_simulation(geometry));
-  digitizer.prepare(geometry);
-  std::vector<std::uint16_t> group(geometry.samples_per_group());
-  hal::GroupInfo info;
-  const test_support::AllocationCounter counter;
-  digitizer.start();
-  for (int g = 0; g < 3; ++g) digitizer.acquire_group(group, info);
-  digitizer.stop();
-  EXPECT_EQ(counter.allocations(), 0u) << test_support::allocation_counting_method();
+  SimulationConfig simulation = test_simulation(geometry);
+  simulation.instruments.push_back(
+      {InstrumentKind::scraper, {0.0f, 0.0f, 0.35f, 30.0f, 20.0f, 0.0f}, {}});
+  for (const hal::ClockSource clock :
+       {hal::ClockSource::external_k_clock, hal::ClockSource::internal}) {
+    hal::DigitizerConfig config = geometry;
+    config.clock_source = clock;
+    SimulatedDigitizer digitizer(simulation);
+    digitizer.prepare(config);
+    std::vector<std::uint16_t> group(config.samples_per_group());
+    hal::GroupInfo info;
+    const test_support::AllocationCounter counter;
+    digitizer.start();
+    for (int g = 0; g < 2; ++g) digitizer.acquire_group(group, info);
+    digitizer.stop();
+    EXPECT_EQ(counter.allocations(), 0u) << test_support::allocation_counting_method();
+  }
 }
 
 TEST(SimulatedDigitizer, WritesOnlyTheGroupIntoALargerSlot) {
@@ -179,6 +246,7 @@ TEST(SimulatedDigitizer, RefusesMisuse) {
   hal::GroupInfo info;
   EXPECT_THROW(digitizer.start(), std::logic_error);
   EXPECT_THROW(digitizer.truth_at(0, 0), std::logic_error);
+  EXPECT_THROW(digitizer.last_group_truth(), std::logic_error);
   digitizer.prepare(geometry);
   EXPECT_THROW(digitizer.acquire_group(group, info), std::logic_error);  // not started
   digitizer.start();
@@ -186,6 +254,41 @@ TEST(SimulatedDigitizer, RefusesMisuse) {
   std::vector<std::uint16_t> short_slot(geometry.samples_per_group() - 1);
   EXPECT_THROW(digitizer.acquire_group(short_slot, info), std::logic_error);
   EXPECT_NO_THROW(digitizer.acquire_group(group, info));
+}
+
+TEST(SimulatedDigitizer, TruthFollowsAMovingInstrument) {
+  hal::DigitizerConfig geometry = test_geometry();
+  geometry.ascan_rate_hz = 10'000.0;  // 90 ms per group: the tool moves visibly
+  SimulationConfig simulation = test_simulation(geometry);
+  InstrumentConfig needle;
+  needle.kind = InstrumentKind::needle;
+  needle.pose = {-0.5f, 0.0f, 0.45f, 180.0f, 20.0f, 0.0f};
+  needle.motion.velocity_x = 2.0f;  // scan units per second
+  simulation.instruments.push_back(needle);
+  SimulatedDigitizer digitizer(simulation);
+  digitizer.prepare(geometry);
+  digitizer.start();
+  acquire(digitizer);
+  const GroupTruth& truth = digitizer.last_group_truth();
+  ASSERT_EQ(truth.tools, 1u);
+  ASSERT_EQ(truth.tool_states.size(), geometry.bscans_per_group);
+  const double line_seconds =
+      static_cast<double>(geometry.sweeps_per_bscan()) / geometry.ascan_rate_hz;
+  for (std::uint32_t b = 0; b < geometry.bscans_per_group; ++b) {
+    EXPECT_NEAR(truth.tool_states[b].tip_x, -0.5 + 2.0 * b * line_seconds, 1e-5) << b;
+    EXPECT_NEAR(truth.tool_states[b].tip_depth_px, 0.45 * 688, 1e-3);
+  }
+  // Under the needle the beam sees it (its surface above the ILM), beside it the retina.
+  std::size_t hits = 0;
+  for (std::size_t r = 0; r < truth.ascans(); ++r) {
+    if (std::isfinite(truth.tool_px[r])) {
+      ++hits;
+      EXPECT_LT(truth.tool_px[r], truth.ilm_px[r]);
+      EXPECT_LT(truth.beam_x[r], truth.tool_states[r / geometry.ascans_per_bscan].tip_x + 0.3f)
+          << "the shaft goes towards -x from the tip";
+    }
+  }
+  EXPECT_GT(hits, 10u);
 }
 
 }  // namespace

@@ -1,10 +1,13 @@
-// A layered, curved retina seen through the scanner: for a beam position, the depth and
-// reflectivity of each reflecting interface.
+// A layered, curved retina seen through the scanner.
 //
-// Depths are in bins of the processed depth axis (px; one bin is the source's axial pixel of
-// optical path). The RPE follows a gentle bowl (the eye's curvature) with a tilt; the layers above
-// it have physical thicknesses (times the tissue's group index), and the inner layers (NFL to OPL)
-// thin out into the foveal pit.
+// Eleven layers from the vitreous down: NFL, GCL, IPL, INL, OPL, ONL, inner segments, outer
+// segments, RPE, choroid, sclera, with thin bright lines at the ILM, ELM, IS/OS (ellipsoid zone),
+// the interdigitation zone and the RPE. Every layer scatters (speckle of its own brightness and
+// attenuation), so the layers look textured, not only their boundaries. The RPE follows a gentle
+// bowl (the eye's curvature) with a tilt; the layers above it have physical thicknesses (times the
+// tissue's group index); the inner layers thin out into the foveal pit while the outer nuclear
+// layer and the outer segments thicken there. Optional: a full-thickness macular hole with a
+// thickened, cystic cuff, and an epiretinal membrane, partly adherent, partly lifted.
 #pragma once
 
 #include <array>
@@ -12,21 +15,45 @@
 #include <string_view>
 
 #include "ioct/hal/raster_scan.hpp"
+#include "ioct/sim/sample_model.hpp"
 
 namespace ioct::sim {
 
-enum class RetinalInterface : std::uint32_t {
-  ilm,      // inner limiting membrane: vitreous / nerve fibre layer
-  nfl_gcl,  // nerve fibre layer / ganglion cell layer
-  ipl_inl,  // inner plexiform / inner nuclear layer
-  opl_onl,  // outer plexiform / outer nuclear layer
-  is_os,    // photoreceptor inner / outer segment junction
+enum class RetinalLayer : std::uint32_t {
+  nfl,      // nerve fibre layer (below the ILM)
+  gcl,      // ganglion cell layer
+  ipl,      // inner plexiform layer
+  inl,      // inner nuclear layer
+  opl,      // outer plexiform layer
+  onl,      // outer nuclear layer (and Henle fibres)
+  is,       // photoreceptor inner segments (below the ELM)
+  os,       // outer segments (below the IS/OS line)
   rpe,      // retinal pigment epithelium
-  choroid,  // choroid / sclera
+  choroid,  // choroid, with dark vessel lumens
+  sclera,
 };
-inline constexpr std::size_t kRetinalInterfaces = 7;
+inline constexpr std::size_t kRetinalLayers = 11;
 
-std::string_view to_string(RetinalInterface interface) noexcept;
+std::string_view to_string(RetinalLayer layer) noexcept;
+
+struct MacularHoleConfig {
+  bool enabled = false;
+  double radius_mm = 0.2;        // the hole's radius at the RPE (centred on the fovea)
+  double cuff_width_mm = 0.35;   // thickened, cystic rim around it
+  double cuff_height_um = 90.0;  // extra thickness at the hole's edge
+  double cyst_fraction = 0.45;   // share of the cuff's INL/ONL cells that are fluid-filled
+};
+
+struct EpiretinalMembraneConfig {
+  bool enabled = false;
+  double center_x = -0.35;  // scan units
+  double center_y = 0.2;
+  double radius_mm = 1.2;
+  double thickness_um = 8.0;
+  double lift_um = 45.0;     // how far the wrinkles rise above the ILM
+  double wrinkle_mm = 0.35;  // wrinkle period
+  double reflectivity = 0.55;
+};
 
 struct RetinaConfig {
   double field_half_width_mm = 3.0;  // retina under scan units +-1
@@ -40,33 +67,51 @@ struct RetinaConfig {
   double fovea_radius_mm = 0.55;  // width (sigma) of the pit
   double foveal_pit_depth = 0.9;  // share of the inner retina missing at the pit's centre
   double tissue_index = 1.38;     // group index that turns thickness into optical path
-  double speckle_contrast = 0.5;  // 0: every A-scan sees an interface alike; 1: full Rayleigh
+  // Brightness fluctuation of the thin lines from A-scan to A-scan: 0 none, 1 full Rayleigh
+  // speckle. (The layers' scatter is always fully developed speckle.)
+  double speckle_contrast = 0.25;
+  double scattering_gain = 1.0;  // scales the scatter of every layer against the lines
+  // The NFL thickens away from the fovea: towards the optic disc (x > 0) and away from it.
+  double nfl_growth_nasal_um_per_mm = 6.0;
+  double nfl_growth_temporal_um_per_mm = 2.0;
+  MacularHoleConfig macular_hole;
+  EpiretinalMembraneConfig membrane;
 
   // Throws ioct::ConfigError ("retina.<key>").
   void validate() const;
 };
 
-struct InterfaceSample {
-  float depth_px = 0.0f;
-  float reflectivity = 0.0f;  // fringe amplitude relative to the brightest interface (RPE = 1)
+// The boundaries under one beam position: the top of each layer and the bottom of the last, px.
+struct RetinaColumn {
+  std::array<float, kRetinalLayers + 1> top{};   // top[i]: top of layer i; top[11]: sclera bottom
+  std::array<float, kRetinalLayers> presence{};  // 0 where a layer is absent (pit, hole)
+  float ilm_px = 0.0f;                           // NaN inside a macular hole
+  float rpe_px = 0.0f;                           // the RPE's bright line, mid-band
+  float membrane_top_px = 0.0f;                  // NaN without a membrane here
+  float membrane_bottom_px = 0.0f;
+  float cuff = 0.0f;  // 0..1: how deep into a macular hole's cuff (cysts)
 };
 
-using RetinaColumn = std::array<InterfaceSample, kRetinalInterfaces>;
-
-class RetinaModel {
+class RetinaModel final : public SampleModel {
  public:
-  // axial_pixel_um: optical path per depth bin (SweptSourceConfig::axial_pixel_um());
-  // depth_bins: length of the processed depth axis (samples_per_ascan / 2).
+  // axial_pixel_um: optical path per depth px; depth_bins: length of the depth axis.
   RetinaModel(const RetinaConfig& config, double axial_pixel_um, std::uint32_t depth_bins);
 
-  // The interfaces under the beam, top (ILM) to bottom (choroid), without speckle.
-  RetinaColumn column(hal::BeamPosition beam) const noexcept;
+  SamplePreset preset() const noexcept override { return SamplePreset::retina; }
+  double field_half_width_mm() const noexcept override { return config_.field_half_width_mm; }
+  ColumnTruth draw(hal::BeamPosition beam, std::uint64_t lateral_key,
+                   DepthProfile& profile) const noexcept override;
+  ColumnTruth layers(hal::BeamPosition beam) const noexcept override;
 
+  // The layer boundaries under the beam, without speckle.
+  RetinaColumn column(hal::BeamPosition beam) const noexcept;
   const RetinaConfig& config() const noexcept { return config_; }
+  // Physical micrometres of tissue per depth px.
+  double tissue_um_per_px() const noexcept { return 1.0 / um_to_px_; }
 
  private:
   RetinaConfig config_;
-  double um_to_px_ = 0.0;  // physical micrometres of tissue to depth bins
+  double um_to_px_ = 0.0;  // physical micrometres of tissue to depth px
   double depth_bins_ = 0.0;
 };
 

@@ -1,67 +1,107 @@
-// The simulator's digitizer: k-clocked spectra of a layered, curved retina, scanned by a raster,
+// The simulator's digitizer: spectral interferograms of a sample (a layered retina, an anterior
+// segment or a calibration mirror, with instruments) as a swept-source OCT records them,
 // written straight into the caller's slot memory.
 //
 // It does not pace itself: acquire_group() returns as soon as the group is computed, and the
 // caller keeps the sweep rate (ioct-rt sleeps to each group's deadline). The sweep counter
-// advances by every sweep of the group, flyback included, as the hardware's does.
+// advances by every sweep of the group, flyback included, as the hardware's does. It is the
+// bench's clock: each group advances the shared SimulatedBench by its sweeps, clocking the galvo
+// output's samples out and recording each A-scan where the mirrors actually were.
+//
+// Injected faults (SimulatedBench::faults()) show in GroupInfo as the real digitizer reports
+// them; see sim/README.md ("Fault injection"). Stalls and a lost trigger block for the config's
+// timeout_ms, as the hardware would.
 #pragma once
 
-#include <array>
 #include <cstdint>
-#include <optional>
+#include <memory>
 #include <span>
 #include <string_view>
+#include <vector>
 
 #include "ioct/hal/digitizer.hpp"
+#include "ioct/recording/recording_format.hpp"
+#include "ioct/sim/instrument_model.hpp"
 #include "ioct/sim/random.hpp"
-#include "ioct/sim/retina_model.hpp"
+#include "ioct/sim/sample_model.hpp"
+#include "ioct/sim/simulated_bench.hpp"
 #include "ioct/sim/simulation_config.hpp"
 #include "ioct/sim/spectrum_synthesizer.hpp"
 
 namespace ioct::sim {
 
 // Where the ILM and the RPE were drawn in one A-scan, in px of the processed depth axis
-// (samples_per_ascan / 2 bins); NaN when the layer lies outside it.
+// (samples_per_ascan / 2 px); NaN when the layer is absent or outside it.
 struct LayerTruth {
   float ilm_px = 0.0f;
   float rpe_px = 0.0f;
 };
 
+using GroupTruth = recording::GroupTruth;
+
 class SimulatedDigitizer final : public hal::Digitizer {
  public:
-  // Throws ioct::ConfigError when `simulation` is invalid.
-  explicit SimulatedDigitizer(const SimulationConfig& simulation);
+  // Throws ioct::ConfigError when `simulation` is invalid. Without a bench, the digitizer makes
+  // its own (simulation.bench): no galvo output, so the beam follows simulation.scan exactly.
+  explicit SimulatedDigitizer(const SimulationConfig& simulation,
+                              std::shared_ptr<SimulatedBench> bench = nullptr);
+  ~SimulatedDigitizer() override;
 
   std::string_view backend() const noexcept override { return "simulated"; }
   const SimulationConfig& simulation() const noexcept { return simulation_; }
+  SimulatedBench& bench() const noexcept { return *bench_; }
+  const std::shared_ptr<SimulatedBench>& shared_bench() const noexcept { return bench_; }
 
-  // Ground truth of A-scan `ascan` of line `bscan_in_volume` of the raster: the depths at which
-  // the layers are drawn in every volume. Requires prepare(); throws std::logic_error before.
+  // Ground truth of A-scan `ascan` of line `bscan_in_volume` of simulation.scan, at its
+  // commanded position (no galvo lag, no instruments): the depths at which the layers are drawn
+  // in every volume. Requires prepare(); throws std::logic_error before.
   LayerTruth truth_at(std::uint32_t bscan_in_volume, std::uint32_t ascan) const;
-  // The model itself, for other interfaces or positions. Requires prepare().
-  const RetinaModel& retina() const;
+  // The truth of the group last acquired: per A-scan where the ILM, RPE and an instrument were
+  // drawn and where the beam actually was; per B-scan the instruments' poses. Requires prepare().
+  const GroupTruth& last_group_truth() const;
+
+  // Requires prepare():
+  const SampleModel& sample_model() const;
+  // The configured clock's sampling and the calibration that maps it to k (identity for the
+  // k-clock); for gpu/'s resampling.
+  const SpectralSampling& sampling() const;
+  const std::vector<InstrumentModel>& instruments() const;
+  // Optical path per px of the processed depth axis (um, in air).
+  double axial_pixel_um() const noexcept { return simulation_.source.axial_pixel_um(); }
 
  protected:
   void do_prepare(const hal::DigitizerConfig& config) override;
+  // Throws std::runtime_error while the USB device is unplugged (usb_disconnect).
   void do_start() override;
   void do_stop() noexcept override {}
   void do_acquire_group(std::span<std::uint16_t> group, hal::GroupInfo& info) override;
 
  private:
-  // Speckle is frozen to the position, as it is for still tissue: the same A-scan of every
-  // volume sees the same interface brightness; only the noise differs.
-  float speckle(std::size_t interface, std::uint32_t bscan_in_volume,
-                std::uint32_t ascan) const noexcept;
-  std::size_t gather_reflectors(std::uint32_t bscan_in_volume, std::uint32_t ascan) noexcept;
+  void require_prepared() const;
+  // Where the beam is at each sweep of the group (galvo or ideal raster).
+  void place_beam(std::uint64_t sweeps) noexcept;
+  hal::BeamPosition raster_position(std::uint64_t sweep) const noexcept;
+  // Lost sweeps: the bench runs on, nothing is recorded.
+  void lose_sweeps(std::uint64_t sweeps, bool triggers, std::uint32_t status) noexcept;
+  // Blocks while a stall or lost trigger lasts, at most timeout_ms; true if it still lasts.
+  bool wait_out(std::uint32_t fault_bits) noexcept;
+  void draw_instruments(hal::BeamPosition beam, std::uint64_t key, float& tool_px) noexcept;
 
   SimulationConfig simulation_;
-  std::optional<SpectrumSynthesizer> synthesizer_;
-  std::optional<RetinaModel> retina_;
-  float amplitude_counts_ = 0.0f;  // fringe counts of a reflectivity-1 interface at this ADC
+  std::shared_ptr<SimulatedBench> bench_;
+  std::unique_ptr<SpectrumSynthesizer> synthesizer_;
+  std::unique_ptr<SampleModel> model_;
+  std::vector<InstrumentModel> instruments_;
+  std::vector<hal::BeamPosition> positions_;  // one per sweep of a group
+  GroupTruth truth_;
   std::uint64_t speckle_key_ = 0;
-  Xoshiro256 noise_offsets_;
+  Xoshiro256 noise_stream_;
   std::uint64_t sweep_counter_ = 0;
-  std::array<Reflector, kRetinalInterfaces> reflectors_{};
+  std::uint64_t groups_ = 0;
+  std::uint64_t pending_missed_ = 0;  // lost since the last group delivered
+  std::uint32_t pending_status_ = 0;
+  std::uint64_t backlog_sweeps_ = 0;  // how far the host is behind (slow_consumer)
+  bool device_lost_ = false;
 };
 
 }  // namespace ioct::sim

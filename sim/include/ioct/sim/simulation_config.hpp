@@ -1,25 +1,46 @@
 // Everything the simulated acquisition needs besides the digitizer geometry: the source, the
-// detector, the eye and where the scanner points the beam.
+// interferometer, the detector, the sample (one of the presets) and its instruments, the bench,
+// and where the scanner points the beam.
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 #include "ioct/hal/raster_scan.hpp"
+#include "ioct/sim/anterior_segment_model.hpp"
 #include "ioct/sim/detector.hpp"
+#include "ioct/sim/instrument_model.hpp"
+#include "ioct/sim/interferometer.hpp"
+#include "ioct/sim/mirror_model.hpp"
 #include "ioct/sim/retina_model.hpp"
+#include "ioct/sim/sample_model.hpp"
+#include "ioct/sim/simulated_bench.hpp"
 #include "ioct/sim/swept_source.hpp"
 
 namespace ioct::sim {
 
 struct SimulationConfig {
+  static constexpr std::size_t kMaxInstruments = 4;
+
   SweptSourceConfig source;
+  InterferometerConfig interferometer;
   DetectorConfig detector;
-  RetinaConfig retina;
-  hal::RasterScan scan;    // the galvo pattern the beam follows, sweep by sweep
+  SamplePreset preset = SamplePreset::retina;
+  RetinaConfig retina;             // preset retina
+  AnteriorSegmentConfig anterior;  // preset anterior_segment
+  MirrorConfig mirror;             // preset mirror
+  std::vector<InstrumentConfig> instruments;
+  // Size of the tissue cells that carry independent speckle, um on the sample.
+  double speckle_grain_um = 8.0;
+  BenchConfig bench;       // used when the digitizer makes its own bench
+  hal::RasterScan scan;    // the galvo pattern the beam follows when no galvo output drives it
   std::uint64_t seed = 1;  // same seed, config and build: same bytes
 
-  // Throws ioct::ConfigError naming the key ("source.", "detector.", "retina.", "scan.").
+  // Throws ioct::ConfigError naming the key ("source.", "interferometer.", "detector.",
+  // "retina.", "anterior.", "mirror.", "instruments[i].", "bench.", "scan.", "simulation.").
   void validate() const;
+  // The preset's lateral field: scan units +-1 span +-field_half_width_mm() on the sample.
+  double field_half_width_mm() const noexcept;
 };
 
 }  // namespace ioct::sim

@@ -1,0 +1,93 @@
+// A digitizer that plays raw groups back instead of recording them: from a recording file
+// (recording_format.hpp) or from groups held in memory.
+//
+// prepare() accepts only the recording's own geometry (ConfigError names the key and the
+// recorded value; recorded_config() gives the matching config). Each acquire_group() delivers
+// the next recorded group with its recorded status and missed sweeps; the sweep counter keeps
+// counting across loops. At the end of a recording without `loop`, acquire_group() reports
+// kGroupDeviceLost (the source is gone) and finished() turns true; so does a read error, whose
+// text error() keeps.
+//
+// Streaming from a file reads each group with pread() into the slot (one copy, a system call per
+// group); preloaded or in-memory groups are copied from memory. The throughput mode is
+// in-memory groups with no pacing: they go into the ring as fast as it takes them.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ioct/hal/digitizer.hpp"
+#include "ioct/recording/recording_format.hpp"
+#include "ioct/recording/recording_reader.hpp"
+
+namespace ioct::sim {
+
+class SimulatedDigitizer;
+
+// Groups held in memory, with what the acquisition said about each.
+struct RecordedGroups {
+  recording::RecordingMetadata metadata;
+  std::vector<std::uint16_t> samples;  // group after group
+  std::vector<recording::RecordedGroupInfo> infos;
+
+  std::uint64_t count() const noexcept { return infos.size(); }
+  std::span<const std::uint16_t> group(std::uint64_t index) const noexcept;
+
+  // Reads every group of a recording (at most `max_groups`).
+  static std::shared_ptr<const RecordedGroups> load(const recording::RecordingReader& reader,
+                                                    std::uint64_t max_groups = UINT64_MAX);
+  // Generates `count` groups with a prepared, started simulated digitizer (the throughput mode's
+  // pre-generated groups).
+  static std::shared_ptr<const RecordedGroups> generate(SimulatedDigitizer& digitizer,
+                                                        std::uint64_t count);
+};
+
+struct ReplayOptions {
+  bool loop = true;      // start again after the last group
+  bool preload = false;  // read the whole recording into memory when constructed
+};
+
+// The digitizer config a recording was made with.
+hal::DigitizerConfig digitizer_config(const recording::RecordingGeometry& geometry);
+
+class ReplayDigitizer final : public hal::Digitizer {
+ public:
+  // Plays a recording file. Throws recording::RecordingError for a bad recording.
+  explicit ReplayDigitizer(const std::filesystem::path& recording, ReplayOptions options = {});
+  // Plays groups held in memory.
+  explicit ReplayDigitizer(std::shared_ptr<const RecordedGroups> groups,
+                           ReplayOptions options = {});
+  ~ReplayDigitizer() override;
+
+  std::string_view backend() const noexcept override { return "replay"; }
+  const recording::RecordingMetadata& metadata() const noexcept;
+  hal::DigitizerConfig recorded_config() const { return digitizer_config(metadata().geometry); }
+  std::uint64_t group_count() const noexcept;
+  bool finished() const noexcept { return finished_; }
+  const std::string& error() const noexcept { return error_; }
+
+ protected:
+  void do_prepare(const hal::DigitizerConfig& config) override;
+  void do_start() override;
+  void do_stop() noexcept override {}
+  void do_acquire_group(std::span<std::uint16_t> group, hal::GroupInfo& info) override;
+
+ private:
+  std::optional<recording::RecordingReader> reader_;
+  std::shared_ptr<const RecordedGroups> memory_;
+  ReplayOptions options_;
+  std::string source_;
+  std::uint64_t next_ = 0;
+  std::uint64_t loops_ = 0;
+  std::uint64_t loop_sweeps_ = 0;  // sweep counter span of one pass
+  std::uint64_t next_counter_ = 0;
+  std::uint64_t first_counter_ = 0;
+  bool finished_ = false;
+  std::string error_;
+};
+
+}  // namespace ioct::sim

@@ -1,0 +1,175 @@
+#include "ioct/sim/replay_digitizer.hpp"
+
+#include <algorithm>
+#include <cstring>
+#include <stdexcept>
+
+#include "ioct/common/config_error.hpp"
+#include "ioct/sim/simulated_digitizer.hpp"
+#include "ioct/sim/simulation_metadata.hpp"
+
+namespace ioct::sim {
+
+std::span<const std::uint16_t> RecordedGroups::group(std::uint64_t index) const noexcept {
+  const std::uint64_t words = metadata.geometry.samples_per_group();
+  return {samples.data() + index * words, static_cast<std::size_t>(words)};
+}
+
+std::shared_ptr<const RecordedGroups> RecordedGroups::load(const recording::RecordingReader& reader,
+                                                           std::uint64_t max_groups) {
+  auto groups = std::make_shared<RecordedGroups>();
+  groups->metadata = reader.metadata();
+  const std::uint64_t count = std::min(reader.group_count(), max_groups);
+  const std::uint64_t words = reader.geometry().samples_per_group();
+  groups->samples.resize(count * words);
+  groups->infos.resize(count);
+  for (std::uint64_t g = 0; g < count; ++g) {
+    reader.read_group(g, std::span<std::uint16_t>(groups->samples.data() + g * words, words),
+                      groups->infos[g]);
+  }
+  return groups;
+}
+
+std::shared_ptr<const RecordedGroups> RecordedGroups::generate(SimulatedDigitizer& digitizer,
+                                                               std::uint64_t count) {
+  auto groups = std::make_shared<RecordedGroups>();
+  groups->metadata = recording_metadata(digitizer);
+  groups->metadata.has_truth = false;  // groups only
+  groups->metadata.truth_tools = 0;
+  const std::uint64_t words = digitizer.config().samples_per_group();
+  groups->samples.resize(count * words);
+  groups->infos.resize(count);
+  for (std::uint64_t g = 0; g < count; ++g) {
+    hal::GroupInfo info;
+    digitizer.acquire_group(std::span<std::uint16_t>(groups->samples.data() + g * words, words),
+                            info);
+    groups->infos[g] = {g, info.first_sweep_counter, info.missed_sweeps, info.status, 0, 0};
+  }
+  return groups;
+}
+
+hal::DigitizerConfig digitizer_config(const recording::RecordingGeometry& g) {
+  hal::DigitizerConfig config;
+  config.samples_per_ascan = g.samples_per_ascan;
+  config.ascans_per_bscan = g.ascans_per_bscan;
+  config.flyback_sweeps = g.flyback_sweeps;
+  config.bscans_per_group = g.bscans_per_group;
+  config.ascan_rate_hz = g.ascan_rate_hz;
+  config.sample_bits = g.sample_bits;
+  config.clock_source = g.clock_source == "internal" ? hal::ClockSource::internal
+                                                     : hal::ClockSource::external_k_clock;
+  return config;
+}
+
+ReplayDigitizer::ReplayDigitizer(const std::filesystem::path& recording, ReplayOptions options)
+    : options_(options) {
+  reader_.emplace(recording);
+  source_ = reader_->json_path().string();
+  if (options_.preload) {
+    memory_ = RecordedGroups::load(*reader_);
+    reader_.reset();
+  }
+}
+
+ReplayDigitizer::ReplayDigitizer(std::shared_ptr<const RecordedGroups> groups,
+                                 ReplayOptions options)
+    : memory_(std::move(groups)), options_(options), source_("groups in memory") {
+  if (!memory_) throw std::invalid_argument("replay digitizer: no groups");
+}
+
+ReplayDigitizer::~ReplayDigitizer() = default;
+
+const recording::RecordingMetadata& ReplayDigitizer::metadata() const noexcept {
+  return memory_ ? memory_->metadata : reader_->metadata();
+}
+
+std::uint64_t ReplayDigitizer::group_count() const noexcept {
+  return memory_ ? memory_->count() : reader_->group_count();
+}
+
+void ReplayDigitizer::do_prepare(const hal::DigitizerConfig& config) {
+  const hal::DigitizerConfig recorded = recorded_config();
+  const auto require = [&](const char* key, auto given, auto expected) {
+    if (given != expected) {
+      throw ioct::ConfigError(std::string("digitizer.") + key, ioct::format_value(given),
+                              "the recording " + source_ + " has " + ioct::format_value(expected));
+    }
+  };
+  require("samples_per_ascan", std::uint64_t{config.samples_per_ascan},
+          std::uint64_t{recorded.samples_per_ascan});
+  require("ascans_per_bscan", std::uint64_t{config.ascans_per_bscan},
+          std::uint64_t{recorded.ascans_per_bscan});
+  require("flyback_sweeps", std::uint64_t{config.flyback_sweeps},
+          std::uint64_t{recorded.flyback_sweeps});
+  require("bscans_per_group", std::uint64_t{config.bscans_per_group},
+          std::uint64_t{recorded.bscans_per_group});
+  require("sample_bits", std::uint64_t{config.sample_bits}, std::uint64_t{recorded.sample_bits});
+  require("ascan_rate_hz", config.ascan_rate_hz, recorded.ascan_rate_hz);
+  if (config.clock_source != recorded.clock_source) {
+    throw ioct::ConfigError(
+        "digitizer.clock_source", std::string(to_string(config.clock_source)),
+        "the recording " + source_ + " has " + std::string(to_string(recorded.clock_source)));
+  }
+  if (group_count() == 0) {
+    throw recording::RecordingError(source_ + ": the recording holds no group to replay");
+  }
+  // One pass spans from the first group's first sweep to the sweep after the last group.
+  recording::RecordedGroupInfo first;
+  recording::RecordedGroupInfo last;
+  if (memory_) {
+    first = memory_->infos.front();
+    last = memory_->infos.back();
+  } else {
+    reader_->read_info(0, first);
+    reader_->read_info(group_count() - 1, last);
+  }
+  first_counter_ = first.first_sweep_counter;
+  loop_sweeps_ =
+      last.first_sweep_counter + metadata().geometry.sweeps_per_group() - first.first_sweep_counter;
+}
+
+void ReplayDigitizer::do_start() {
+  next_ = 0;
+  loops_ = 0;
+  finished_ = false;
+  error_.clear();
+  next_counter_ = first_counter_;
+}
+
+void ReplayDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::GroupInfo& info) {
+  if (!finished_ && next_ == group_count()) {
+    if (options_.loop) {
+      next_ = 0;
+      ++loops_;
+    } else {
+      finished_ = true;
+    }
+  }
+  if (finished_) {
+    info = {next_counter_, 0, hal::kGroupDeviceLost};
+    return;
+  }
+  recording::RecordedGroupInfo recorded;
+  if (memory_) {
+    const std::span<const std::uint16_t> source = memory_->group(next_);
+    std::memcpy(group.data(), source.data(), source.size_bytes());
+    recorded = memory_->infos[next_];
+  } else {
+    try {
+      reader_->read_group(next_, group, recorded);
+    } catch (const std::exception& e) {
+      error_ = e.what();
+      finished_ = true;
+      info = {next_counter_, 0, hal::kGroupDeviceLost};
+      return;
+    }
+  }
+  info.first_sweep_counter = recorded.first_sweep_counter + loops_ * loop_sweeps_;
+  // The first group of a new pass follows the last without a gap.
+  info.missed_sweeps = (loops_ > 0 && next_ == 0) ? 0 : recorded.missed_sweeps;
+  info.status = recorded.status;
+  next_counter_ = info.first_sweep_counter + metadata().geometry.sweeps_per_group();
+  ++next_;
+}
+
+}  // namespace ioct::sim

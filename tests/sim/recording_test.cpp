@@ -1,0 +1,330 @@
+// The raw recording format and the replay digitizer: written groups, their status and ground
+// truth read back byte for byte with the same metadata; a recording whose writer died keeps its
+// whole groups; bad files are refused with a message naming the file and the problem; the replay
+// digitizer delivers the recorded groups (looping, or ending with kGroupDeviceLost).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "ioct/common/config_error.hpp"
+#include "ioct/recording/recording_reader.hpp"
+#include "ioct/recording/recording_writer.hpp"
+#include "ioct/sim/replay_digitizer.hpp"
+#include "ioct/sim/simulated_digitizer.hpp"
+#include "ioct/sim/simulation_metadata.hpp"
+
+namespace ioct::sim {
+namespace {
+
+namespace fs = std::filesystem;
+using recording::RecordingError;
+using recording::RecordingReader;
+using recording::RecordingWriter;
+
+class Recording : public testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ =
+        fs::temp_directory_path() / ("ioct-recording-" + std::to_string(::getpid()) + "-" +
+                                     testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    geometry_.samples_per_ascan = 128;
+    geometry_.ascans_per_bscan = 24;
+    geometry_.flyback_sweeps = 3;
+    geometry_.bscans_per_group = 2;
+    simulation_.scan.ascans_per_bscan = 24;
+    simulation_.scan.bscans_per_volume = 6;
+    simulation_.instruments.push_back(
+        {InstrumentKind::needle, {0.0f, 0.0f, 0.4f, 90.0f, 20.0f, 0.0f}, {0.5f, 0.0f, 0.0f}});
+  }
+  void TearDown() override {
+    if (!HasFailure()) fs::remove_all(dir_);
+  }
+
+  struct Written {
+    std::vector<std::vector<std::uint16_t>> groups;
+    std::vector<hal::GroupInfo> infos;
+    std::vector<GroupTruth> truths;
+    recording::RecordingMetadata metadata;
+  };
+
+  // Simulates `count` groups (a fault in the middle) and writes them to `stem`.
+  Written write(const fs::path& stem, std::uint64_t count, bool close = true) {
+    SimulatedDigitizer digitizer(simulation_);
+    digitizer.prepare(geometry_);
+    digitizer.start();
+    Written w;
+    w.metadata = recording_metadata(digitizer);
+    w.metadata.producer = "recording test";
+    auto writer = std::make_unique<RecordingWriter>(stem, w.metadata);
+    w.metadata = writer->metadata();  // with its creation time
+    for (std::uint64_t g = 0; g < count; ++g) {
+      if (g == 1) digitizer.bench().faults().inject_missed_sweeps(5);
+      std::vector<std::uint16_t> group(geometry_.samples_per_group());
+      hal::GroupInfo info;
+      digitizer.acquire_group(group, info);
+      writer->append(
+          group,
+          {0, info.first_sweep_counter, info.missed_sweeps, info.status, 1000 * g, 1000 * g + 999},
+          &digitizer.last_group_truth());
+      w.groups.push_back(group);
+      w.infos.push_back(info);
+      w.truths.push_back(digitizer.last_group_truth());
+    }
+    if (close) {
+      writer->close();
+    } else {
+      writer.release();  // NOLINT: the writer "dies" without closing: files stay as they are
+    }
+    return w;
+  }
+
+  fs::path dir_;
+  hal::DigitizerConfig geometry_;
+  SimulationConfig simulation_;
+};
+
+TEST_F(Recording, RoundTripGivesBackTheSameBytesStatusTruthAndMetadata) {
+  const fs::path stem = dir_ / "run";
+  const Written w = write(stem, 4);
+  EXPECT_TRUE(fs::exists(dir_ / "run.json"));
+  EXPECT_TRUE(fs::exists(dir_ / "run.raw"));
+  EXPECT_TRUE(fs::exists(dir_ / "run.truth"));
+
+  const RecordingReader reader(dir_ / "run.json");
+  EXPECT_TRUE(reader.complete());
+  EXPECT_EQ(reader.group_count(), 4u);
+  EXPECT_EQ(reader.metadata(), w.metadata);
+  EXPECT_EQ(reader.metadata().geometry.bscans_per_volume, 6u);
+  EXPECT_EQ(reader.metadata().truth_tools, 1u);
+  for (std::uint64_t g = 0; g < 4; ++g) {
+    std::vector<std::uint16_t> payload(geometry_.samples_per_group());
+    recording::RecordedGroupInfo info;
+    reader.read_group(g, payload, info);
+    EXPECT_EQ(payload, w.groups[g]) << g;
+    EXPECT_EQ(info.group_index, g);
+    EXPECT_EQ(info.first_sweep_counter, w.infos[g].first_sweep_counter);
+    EXPECT_EQ(info.missed_sweeps, w.infos[g].missed_sweeps);
+    EXPECT_EQ(info.status, w.infos[g].status);
+    EXPECT_EQ(info.first_sweep_ns, 1000 * g);
+    GroupTruth truth;
+    reader.read_truth(g, truth);
+    EXPECT_TRUE(recording::same_bytes(truth, w.truths[g])) << g;
+  }
+  EXPECT_EQ(w.infos[1].missed_sweeps, 5u) << "the recording carries a fault";
+  // The raw file is what the format document says: a 64-byte header, then the samples.
+  std::ifstream raw(dir_ / "run.raw", std::ios::binary);
+  std::vector<char> bytes(recording::group_stride_bytes(reader.geometry()));
+  raw.seekg(static_cast<std::streamoff>(bytes.size()));
+  raw.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  EXPECT_EQ(std::memcmp(bytes.data(), "IOCTGRP1", 8), 0);
+  std::uint64_t index = 0;
+  std::memcpy(&index, bytes.data() + 8, 8);
+  EXPECT_EQ(index, 1u);
+  EXPECT_EQ(std::memcmp(bytes.data() + 64, w.groups[1].data(), 2 * w.groups[1].size()), 0);
+}
+
+TEST_F(Recording, AWriterThatDiedLeavesItsWholeGroupsReadable) {
+  const fs::path stem = dir_ / "crashed";
+  const Written w = write(stem, 3, false);
+  // Half of a fourth record, as a crash in the middle of a write would leave.
+  {
+    std::ofstream raw(dir_ / "crashed.raw", std::ios::binary | std::ios::app);
+    const std::vector<char> half(100, 'x');
+    raw.write(half.data(), static_cast<std::streamsize>(half.size()));
+  }
+  const RecordingReader reader(stem);
+  EXPECT_FALSE(reader.complete());
+  EXPECT_EQ(reader.group_count(), 3u);
+  std::vector<std::uint16_t> payload(geometry_.samples_per_group());
+  recording::RecordedGroupInfo info;
+  reader.read_group(2, payload, info);
+  EXPECT_EQ(payload, w.groups[2]);
+}
+
+TEST_F(Recording, ExistingRecordingsAreNotOverwrittenUnlessAsked) {
+  const fs::path stem = dir_ / "keep";
+  write(stem, 1);
+  recording::RecordingMetadata metadata;
+  EXPECT_THROW(RecordingWriter(stem, metadata), RecordingError);
+  EXPECT_EQ(RecordingReader(stem).group_count(), 1u) << "the old recording is intact";
+  EXPECT_NO_THROW(RecordingWriter(stem, metadata, {true}));
+  EXPECT_EQ(RecordingReader(stem).group_count(), 0u);
+  EXPECT_FALSE(fs::exists(dir_ / "keep.truth")) << "no stale truth beside the new recording";
+}
+
+// Expects RecordingReader(stem) to throw a RecordingError whose message contains each of
+// `parts`.
+void expect_refused(const fs::path& stem, std::initializer_list<std::string> parts) {
+  try {
+    RecordingReader reader(stem);
+    ADD_FAILURE() << "accepted " << stem;
+  } catch (const RecordingError& e) {
+    const std::string message = e.what();
+    for (const std::string& part : parts) {
+      EXPECT_NE(message.find(part), std::string::npos) << "'" << part << "' not in: " << message;
+    }
+  }
+}
+
+nlohmann::json read_json(const fs::path& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+void write_json(const fs::path& path, const nlohmann::json& json) {
+  std::ofstream(path) << json.dump(2);
+}
+
+TEST_F(Recording, BadFilesGiveClearErrors) {
+  const fs::path stem = dir_ / "good";
+  write(stem, 2);
+  const nlohmann::json good = read_json(dir_ / "good.json");
+  const auto variant = [&](const std::string& name, auto change) {
+    fs::copy_file(dir_ / "good.raw", dir_ / (name + ".raw"));
+    fs::copy_file(dir_ / "good.truth", dir_ / (name + ".truth"));
+    nlohmann::json json = good;
+    json["raw"]["file"] = name + ".raw";
+    json["truth"]["file"] = name + ".truth";
+    change(json);
+    write_json(dir_ / (name + ".json"), json);
+    return dir_ / name;
+  };
+
+  expect_refused(dir_ / "absent", {"absent.json", "cannot open"});
+  std::ofstream(dir_ / "garbage.json") << "{ not json";
+  expect_refused(dir_ / "garbage", {"garbage.json", "not valid JSON"});
+  expect_refused(variant("format", [](auto& j) { j["format"] = "hdf5"; }),
+                 {"format.json", "format = \"hdf5\"", "not an ioct raw recording"});
+  expect_refused(variant("version", [](auto& j) { j["version"] = 7; }),
+                 {"version = 7", "reads version 1"});
+  expect_refused(variant("missing", [](auto& j) { j["geometry"].erase("samples_per_ascan"); }),
+                 {"missing key 'geometry.samples_per_ascan'"});
+  expect_refused(variant("odd", [](auto& j) { j["geometry"]["samples_per_ascan"] = 129; }),
+                 {"geometry.samples_per_ascan = 129", "even"});
+  expect_refused(variant("type", [](auto& j) { j["geometry"]["ascans_per_bscan"] = "24"; }),
+                 {"geometry.ascans_per_bscan = \"24\"", "integer"});
+  expect_refused(variant("clock", [](auto& j) { j["geometry"]["clock_source"] = "k"; }),
+                 {"geometry.clock_source = \"k\""});
+  expect_refused(variant("poly",
+                         [](auto& j) {
+                           j["calibration"]["resampling_coefficients"] = nlohmann::json::array();
+                         }),
+                 {"calibration.resampling_coefficients", "1 to 8"});
+  expect_refused(variant("escape", [](auto& j) { j["raw"]["file"] = "../good.raw"; }),
+                 {"raw.file", "beside the metadata"});
+  // Geometry that does not match the data file: the record size check names both.
+  expect_refused(variant("size", [](auto& j) { j["geometry"]["bscans_per_group"] = 3; }),
+                 {"raw.group_stride_bytes"});
+  expect_refused(variant("count", [](auto& j) { j["group_count"] = 3; }),
+                 {"count.raw", "3 groups", "truncated"});
+  // A damaged record header.
+  const fs::path damaged = variant("damaged", [](auto&) {});
+  {
+    std::fstream raw(dir_ / "damaged.raw", std::ios::binary | std::ios::in | std::ios::out);
+    raw.seekp(static_cast<std::streamoff>(
+        recording::group_stride_bytes(RecordingReader(stem).geometry())));
+    raw.write("XXXX", 4);
+  }
+  const RecordingReader reader(damaged);
+  std::vector<std::uint16_t> payload(geometry_.samples_per_group());
+  recording::RecordedGroupInfo info;
+  EXPECT_NO_THROW(reader.read_group(0, payload, info));
+  try {
+    reader.read_group(1, payload, info);
+    ADD_FAILURE() << "a damaged header was accepted";
+  } catch (const RecordingError& e) {
+    EXPECT_NE(std::string(e.what()).find("damaged.raw: group 1"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("bad magic"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(reader.read_group(2, payload, info), std::out_of_range);
+  std::vector<std::uint16_t> short_payload(10);
+  EXPECT_THROW(reader.read_group(0, short_payload, info), std::invalid_argument);
+}
+
+TEST_F(Recording, ReplayDigitizerDeliversTheRecordedGroupsAndLoops) {
+  const fs::path stem = dir_ / "replay";
+  const Written w = write(stem, 3);
+  for (const bool preload : {false, true}) {
+    SCOPED_TRACE(preload ? "preloaded" : "streamed");
+    ReplayDigitizer replay(stem, {true, preload});
+    EXPECT_EQ(replay.backend(), "replay");
+    replay.prepare(replay.recorded_config());
+    replay.start();
+    std::vector<std::uint16_t> group(geometry_.samples_per_group());
+    const std::uint64_t pass = w.infos[2].first_sweep_counter + geometry_.sweeps_per_group();
+    for (std::uint64_t g = 0; g < 7; ++g) {
+      hal::GroupInfo info;
+      replay.acquire_group(group, info);
+      const std::uint64_t k = g % 3;
+      EXPECT_EQ(group, w.groups[k]) << g;
+      EXPECT_EQ(info.first_sweep_counter, w.infos[k].first_sweep_counter + (g / 3) * pass) << g;
+      EXPECT_EQ(info.status, w.infos[k].status) << g;
+      EXPECT_EQ(info.missed_sweeps, g == 3 || g == 6 ? 0u : w.infos[k].missed_sweeps) << g;
+    }
+  }
+}
+
+TEST_F(Recording, ReplayEndsWithDeviceLostAndRefusesAnotherGeometry) {
+  const fs::path stem = dir_ / "once";
+  const Written w = write(stem, 2);
+  ReplayDigitizer replay(stem, {false, false});
+  hal::DigitizerConfig other = replay.recorded_config();
+  other.samples_per_ascan = 256;
+  try {
+    replay.prepare(other);
+    ADD_FAILURE() << "another geometry was accepted";
+  } catch (const ioct::ConfigError& e) {
+    EXPECT_EQ(e.key(), "digitizer.samples_per_ascan");
+    EXPECT_NE(std::string(e.what()).find("has 128"), std::string::npos) << e.what();
+  }
+  replay.prepare(replay.recorded_config());
+  replay.start();
+  std::vector<std::uint16_t> group(geometry_.samples_per_group());
+  hal::GroupInfo info;
+  replay.acquire_group(group, info);
+  replay.acquire_group(group, info);
+  EXPECT_FALSE(replay.finished());
+  replay.acquire_group(group, info);
+  EXPECT_TRUE(replay.finished());
+  EXPECT_EQ(info.status, hal::kGroupDeviceLost);
+  EXPECT_EQ(info.first_sweep_counter,
+            w.infos[1].first_sweep_counter + geometry_.sweeps_per_group());
+  replay.stop();
+  replay.start();
+  replay.acquire_group(group, info);
+  EXPECT_EQ(group, w.groups[0]) << "start() plays it again";
+}
+
+TEST_F(Recording, PregeneratedGroupsReplayFromMemory) {
+  SimulatedDigitizer digitizer(simulation_);
+  digitizer.prepare(geometry_);
+  digitizer.start();
+  const auto groups = RecordedGroups::generate(digitizer, 2);
+  ASSERT_EQ(groups->count(), 2u);
+  SimulatedDigitizer reference(simulation_);
+  reference.prepare(geometry_);
+  reference.start();
+  ReplayDigitizer replay(groups);
+  replay.prepare(geometry_);
+  replay.start();
+  std::vector<std::uint16_t> expected(geometry_.samples_per_group());
+  std::vector<std::uint16_t> got(geometry_.samples_per_group());
+  for (int g = 0; g < 2; ++g) {
+    hal::GroupInfo a;
+    hal::GroupInfo b;
+    reference.acquire_group(expected, a);
+    replay.acquire_group(got, b);
+    EXPECT_EQ(got, expected);
+    EXPECT_EQ(b.first_sweep_counter, a.first_sweep_counter);
+  }
+}
+
+}  // namespace
+}  // namespace ioct::sim
