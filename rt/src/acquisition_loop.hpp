@@ -1,88 +1,225 @@
-// The acquisition thread: per group it claims a ring slot, has the digitizer fill the slot's
-// payload in place, describes the group in the slot header, waits for the moment the group's
-// last sweep ends (an absolute CLOCK_MONOTONIC deadline) and publishes.
+// The acquisition thread. It owns the digitizer and the galvo output while it runs and is told
+// by the safety supervisor whether to run or to park.
 //
-// After start() the thread neither allocates, locks nor logs: what it has to say goes out
-// through atomic counters that the housekeeping side reads.
+// Arming: the DAC FIFO is prefilled with the scan, then the followers are started before the
+// trigger (galvo output first, digitizer last). Per group: top up the DAC ahead of the beam,
+// claim a ring slot, have the digitizer fill its payload in place, stamp the header from the
+// sweep counter and the scan schedule, wait until the group's last sweep has ended (an absolute
+// CLOCK_MONOTONIC deadline, in slices so a park command is seen) and publish. Faults the thread
+// finds (digitizer timeout, k-clock, missed triggers, galvo underrun or fault, deadline misses,
+// errors) are posted to the supervisor, which drops emission and commands the park; the thread
+// parks when told, or on its own after park_wait.
+//
+// After start() the thread neither allocates, locks nor logs on its way through a group: what it
+// has to say goes out through atomics and lock-free queues that the housekeeping side drains.
+// New scan patterns come in through a single-producer single-consumer mailbox and take effect
+// where a volume and a group start together; patterns it no longer uses go back through another.
 #pragma once
 
 #include <atomic>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "ioct/hal/digitizer.hpp"
+#include "ioct/hal/galvo_output.hpp"
 #include "ioct/shm/ring_writer.hpp"
+#include "latency_histogram.hpp"
 #include "realtime_setup.hpp"
-#include "slot_description.hpp"
+#include "scan/scan_pattern.hpp"
+#include "scan_schedule.hpp"
+#include "spsc_queue.hpp"
 #include "sweep_clock.hpp"
 
 namespace ioct::rt {
 
+struct LoopSettings {
+  hal::DigitizerConfig geometry;   // what the digitizer was prepared with
+  std::uint32_t extra_status = 0;  // shm::kStatus* that hold for every group (simulated)
+  RealtimeRequest realtime;
+  std::size_t stack_prefault_bytes = 256 * 1024;
+  // A group published later than this after its last sweep ended is a deadline miss.
+  std::uint64_t publish_slack_ns = 2'000'000;
+  // More deadline misses in a row than this is a fault, when the thread runs SCHED_FIFO: a thread
+  // without real-time scheduling has no deadline to keep (its misses are counted, not faults)
+  // unless deadline_faults_without_realtime says otherwise.
+  std::uint32_t max_consecutive_misses = 3;
+  bool deadline_faults_without_realtime = false;
+  // More sweeps lost in one group than this is a trigger loss (a fault).
+  std::uint32_t max_missed_sweeps_per_group = 8;
+  // How often the thread looks at its command while it waits (sleep slice).
+  std::uint64_t check_interval_ns = 1'000'000;
+  // The DAC FIFO is kept this many groups of sweeps ahead of the beam (capped by its capacity).
+  std::uint32_t feed_ahead_groups = 3;
+  // Galvo lead compensation: DAC sample n carries the trajectory of sweep n + lead, so that the
+  // mirrors, which lag their command, are where the markers say when the sweep is recorded. The
+  // shift is made here; the galvo output is prepared with lead_samples = 0.
+  std::uint32_t galvo_lead_samples = 0;
+  // After posting a fault, how long the thread waits for the park command before parking anyway.
+  std::uint64_t park_wait_ns = 20'000'000;
+};
+
 struct LoopCounters {
   std::uint64_t groups_generated = 0;
   std::uint64_t groups_published = 0;
-  std::uint64_t deadline_misses = 0;      // groups generated after their last sweep had ended
-  std::uint64_t worst_lateness_ns = 0;    // the furthest past its deadline a group was generated
+  std::uint64_t groups_dropped = 0;       // claimed but not published (incomplete, parked)
+  std::uint64_t deadline_misses = 0;      // published later than their deadline
+  std::uint64_t worst_lateness_ns = 0;    // the furthest past its deadline a group was ready
   std::uint64_t generation_ns_total = 0;  // time acquire_group() took, summed over the groups
   std::uint64_t generation_ns_max = 0;
   std::uint64_t missed_sweeps = 0;  // reported by the digitizer
+  std::uint64_t arms = 0;
+  std::uint64_t parks = 0;
+  std::uint64_t scan_changes = 0;
+  std::uint32_t scan_generation = 0;
+  std::uint32_t scan_pattern_id = 0;
+  std::uint64_t dac_fill_last = 0;       // DAC FIFO fill before the last top-up, samples
+  std::uint64_t dac_fill_min = 0;        // the lowest such fill since arming
+  std::uint64_t dac_underruns = 0;       // as the galvo output reports them, since arming
+  std::uint64_t page_faults = 0;         // the thread's page faults since it started
+  std::uint64_t page_faults_steady = 0;  // since the first lap over the ring after arming
+};
+
+// What the supervisor reads each poll.
+struct LoopReport {
+  bool streaming = false;           // galvo and digitizer running
+  std::uint64_t serving_cycle = 0;  // the run command (cycle) the flags below belong to
+  bool verified = false;            // a good group published and the galvo clocking out, this cycle
+  std::uint32_t faults = 0;         // kFault* posted this cycle
+  std::uint64_t heartbeat_ns = 0;
+};
+
+enum class LoopEventKind : std::uint8_t { armed, parked, fault, scan_changed };
+struct LoopEvent {
+  std::uint64_t time_ns = 0;
+  LoopEventKind kind = LoopEventKind::armed;
+  std::uint32_t value = 0;  // faults, or the new generation
+  std::uint64_t group = 0;  // ring group index at the time
 };
 
 class AcquisitionLoop {
  public:
-  struct Settings {
-    ScanContext context;
-    RealtimeRequest realtime;
-    std::size_t stack_prefault_bytes = 256 * 1024;
-  };
-
-  // `ring` and `digitizer` (prepared with settings.context.geometry) must outlive the loop.
-  AcquisitionLoop(shm::RingWriter& ring, hal::Digitizer& digitizer, Settings settings);
+  // `ring`, `digitizer` (prepared with settings.geometry), `galvo` (prepared) and `initial` must
+  // outlive the loop. `initial` is the pattern scanned until another is offered.
+  AcquisitionLoop(shm::RingWriter& ring, hal::Digitizer& digitizer, hal::GalvoOutput& galvo,
+                  const ScanPattern* initial, LoopSettings settings);
   AcquisitionLoop(const AcquisitionLoop&) = delete;
   AcquisitionLoop& operator=(const AcquisitionLoop&) = delete;
   ~AcquisitionLoop();
 
-  // Locks memory when asked, starts the thread, which makes itself real-time, prefaults its
-  // stack and starts the digitizer; returns once it runs, with what the real-time setup got.
-  // Throws what digitizer.start() throws, and std::logic_error when called twice.
+  // Locks memory when asked and starts the thread, which makes itself real-time, prefaults its
+  // stack and waits, parked, for a run command. Returns what the real-time setup got.
   RealtimeOutcome start();
-  // Stops the thread (within one sleep slice), joins it and stops the digitizer. A group not
-  // yet published when the stop comes is dropped. Idempotent.
+  // Parks (when streaming) and ends the thread. Idempotent.
   void stop() noexcept;
 
+  // The supervisor's side. `cycle` > 0 numbers each run command, so that what the thread reports
+  // is matched to the command it answers.
+  void command_run(std::uint64_t cycle) noexcept;
+  void command_park() noexcept;
+  LoopReport report() const noexcept;
+  // Emission verified on: the groups recorded meanwhile carry kStatusLaserOn.
+  void set_emission_on(bool on) noexcept { emission_on_.store(on, std::memory_order_relaxed); }
+
+  // The housekeeping side. A pattern for the same timing, alive until handed back by
+  // take_retired(); false when the mailbox is full (a change is already pending).
+  bool offer_pattern(const ScanPattern* pattern) noexcept;
+  const ScanPattern* take_retired() noexcept;
+  std::optional<LoopEvent> take_event() noexcept { return events_.pop(); }
   LoopCounters counters() const noexcept;
-  // The thread ended on its own because of an error (then see failure()).
-  bool failed() const noexcept { return failed_.load(std::memory_order_acquire); }
+  LatencySnapshot wake_latency() const noexcept { return wake_latency_.snapshot(); }
+  // The message of the last error that ended acquisition (empty when none).
   std::string failure() const;
-  // Sweep 0 started at clock().start_ns(); valid after start().
-  SweepClock clock() const noexcept { return clock_; }
+  bool failed() const noexcept { return failed_.load(std::memory_order_acquire); }
+  // Sweep 0 of the current (or last) arming started at clock().start_ns().
+  SweepClock clock() const noexcept;
+  const LoopSettings& settings() const noexcept { return settings_; }
 
  private:
   void run() noexcept;
-  void acquire_groups();
-  // Sleeps until `deadline_ns` in slices, so a stop request is seen; false when one came.
-  bool sleep_until(std::uint64_t deadline_ns) const noexcept;
+  void arm() noexcept;
+  void acquire_one_group() noexcept;
+  void park() noexcept;
+  // Tops the DAC FIFO up to its target; `streaming`: note the fill it found as the margin.
+  void feed(bool streaming) noexcept;
+  const ScanPattern* take_offered() noexcept;
+  void retire(const ScanPattern* pattern) noexcept;
+  void post_fault(std::uint32_t faults) noexcept;
+  void wait_for_park_command() noexcept;
+  // Sleeps until `deadline_ns` in slices; false when the command changed meanwhile.
+  bool sleep_until(std::uint64_t deadline_ns) noexcept;
+  bool commanded_to_run() const noexcept;
+  void beat() noexcept;
+  void event(LoopEventKind kind, std::uint32_t value) noexcept;
+  void fail(const char* what) noexcept;
 
   shm::RingWriter& ring_;
   hal::Digitizer& digitizer_;
-  Settings settings_;
-  SweepClock clock_;
+  hal::GalvoOutput& galvo_;
+  LoopSettings settings_;
   std::thread thread_;
-  std::atomic<bool> stop_requested_{false};
+
+  // Supervisor ↔ thread.
+  std::atomic<std::uint64_t> run_cycle_{0};  // 0: park
+  std::atomic<std::uint64_t> serving_cycle_{0};
+  std::atomic<bool> streaming_{false};
+  std::atomic<bool> verified_{false};
+  std::atomic<std::uint32_t> faults_{0};
+  std::atomic<std::uint64_t> heartbeat_ns_{0};
+  std::atomic<bool> emission_on_{false};
+  std::atomic<bool> quit_{false};
+  std::atomic<std::uint64_t> clock_start_ns_{0};
+
+  // Housekeeping ↔ thread.
+  SpscQueue<const ScanPattern*, 4> offered_;
+  SpscQueue<const ScanPattern*, 16> retired_;
+  SpscQueue<LoopEvent, 256> events_;
   std::atomic<bool> failed_{false};
   std::string failure_;  // written by the thread before failed_ (release)
+
+  // The thread's own state.
+  const ScanPattern* current_;
+  ScanSchedule schedule_;
+  SweepClock clock_;
+  std::uint32_t generation_ = 0;
+  std::uint64_t next_volume_ = 0;
+  std::uint64_t feed_target_ = 0;
+  std::vector<hal::GalvoSample> feed_buffer_;
+  std::size_t feed_pending_begin_ = 0;
+  std::size_t feed_pending_end_ = 0;
+  std::uint64_t underruns_at_arm_ = 0;
+  std::uint32_t consecutive_misses_ = 0;
+  bool deadline_faults_ = true;  // decided when the thread starts (see LoopSettings)
+  std::uint64_t groups_this_cycle_ = 0;
+  std::uint64_t last_group_sweep_ = 0;
+  std::array<const ScanPattern*, 16> retire_backlog_{};
+  std::size_t retire_backlog_count_ = 0;
 
   struct AtomicCounters {
     std::atomic<std::uint64_t> groups_generated{0};
     std::atomic<std::uint64_t> groups_published{0};
+    std::atomic<std::uint64_t> groups_dropped{0};
     std::atomic<std::uint64_t> deadline_misses{0};
     std::atomic<std::uint64_t> worst_lateness_ns{0};
     std::atomic<std::uint64_t> generation_ns_total{0};
     std::atomic<std::uint64_t> generation_ns_max{0};
     std::atomic<std::uint64_t> missed_sweeps{0};
+    std::atomic<std::uint64_t> arms{0};
+    std::atomic<std::uint64_t> parks{0};
+    std::atomic<std::uint64_t> scan_changes{0};
+    std::atomic<std::uint32_t> scan_generation{0};
+    std::atomic<std::uint32_t> scan_pattern_id{0};
+    std::atomic<std::uint64_t> dac_fill_last{0};
+    std::atomic<std::uint64_t> dac_fill_min{0};
+    std::atomic<std::uint64_t> dac_underruns{0};
+    std::atomic<std::uint64_t> page_faults{0};
+    std::atomic<std::uint64_t> page_faults_baseline{0};
+    std::atomic<bool> steady{false};
   };
   AtomicCounters counters_;
+  LatencyHistogram wake_latency_;
 };
 
 }  // namespace ioct::rt

@@ -1,24 +1,34 @@
 // ioct-rt: the acquisition process. It creates the shared-memory ring, runs the acquisition
-// thread that fills it group by group from the digitizer (the simulator for now), and reports
-// on stderr what the acquisition and the ring's readers are doing until SIGINT or SIGTERM.
+// thread that fills it group by group and the safety thread that owns the laser lines, and on
+// this (housekeeping) thread serves the control socket, writes status to the journal (stderr),
+// pings systemd's watchdog and stops in order on SIGINT or SIGTERM.
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <csignal>
 #include <cstdio>
-#include <cstring>
 #include <exception>
 #include <limits>
+#include <memory>
+#include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "acquisition_loop.hpp"
+#include "backends.hpp"
+#include "control_protocol.hpp"
+#include "control_server.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_writer.hpp"
-#include "ioct/sim/simulated_digitizer.hpp"
 #include "rt_options.hpp"
 #include "run_summary.hpp"
+#include "safety_supervisor.hpp"
+#include "scan/scan_builder.hpp"
+#include "scan/scan_infeasible.hpp"
+#include "sd_notify.hpp"
+#include "self_test.hpp"
 #include "shutdown_signals.hpp"
 #include "status_report.hpp"
 
@@ -33,99 +43,429 @@ void say(const std::string& line) {
   std::fprintf(stderr, "ioct-rt: %s\n", line.c_str());
 }
 
-std::string describe_startup(const shm::RingWriter& ring, const rt::RtSetup& setup) {
+std::string printf_string(const char* format, auto... values) {
+  char text[512];
+  const int length = std::snprintf(text, sizeof(text), format, values...);
+  return std::string(text, static_cast<std::size_t>(std::clamp(length, 0, 511)));
+}
+
+double ms(std::uint64_t ns) {
+  return static_cast<double>(ns) * 1e-6;
+}
+
+// Patterns live here, on the housekeeping side, from construction until the acquisition thread
+// hands them back.
+class PatternStore {
+ public:
+  const rt::ScanPattern* add(rt::ScanPattern pattern) {
+    patterns_.push_back(std::make_unique<rt::ScanPattern>(std::move(pattern)));
+    return patterns_.back().get();
+  }
+  void release(const rt::ScanPattern* pattern) {
+    std::erase_if(patterns_, [&](const auto& p) { return p.get() == pattern; });
+  }
+  std::size_t size() const noexcept { return patterns_.size(); }
+
+ private:
+  std::vector<std::unique_ptr<rt::ScanPattern>> patterns_;
+};
+
+std::string describe_startup(const shm::RingWriter& ring, const rt::RtSetup& setup,
+                             const rt::Backends& backends, const rt::ScanPattern& pattern) {
   const hal::DigitizerConfig& d = setup.digitizer;
   const double group_ms = static_cast<double>(d.sweeps_per_group()) * d.sweep_period_ns() * 1e-6;
   const char* action = ring.startup_action() == shm::StartupAction::created ? "created"
                        : ring.startup_action() == shm::StartupAction::reused_stale
                            ? "reused a dead producer's ring"
                            : "replaced a dead producer's ring";
-  char text[512];
-  std::snprintf(text, sizeof(text),
-                "ring '%s' %s: %llu slots of %.1f MiB, %s; simulated digitizer: %u samples x %u "
-                "A-scans (+%u flyback) x %u B-scans per group at %.0f Hz = %.2f ms per group "
-                "(%.2f groups/s), %u B-scans per volume, seed %llu",
-                ring.config().name.c_str(), action,
-                static_cast<unsigned long long>(ring.layout().slot_count),
-                static_cast<double>(ring.layout().group_payload_bytes) / (1024.0 * 1024.0),
-                ring.memory_locked() ? "memory locked" : "memory not locked", d.samples_per_ascan,
-                d.ascans_per_bscan, d.flyback_sweeps, d.bscans_per_group, d.ascan_rate_hz, group_ms,
-                1e3 / group_ms, setup.simulation.scan.bscans_per_volume,
-                static_cast<unsigned long long>(setup.simulation.seed));
+  return printf_string(
+             "ring '%s' %s: %llu slots of %.1f MiB, %s; %s: %u samples x %u A-scans (+%u "
+             "flyback) x %u B-scans per group at %.0f Hz = %.2f ms per group (%.2f groups/s), "
+             "seed %llu",
+             ring.config().name.c_str(), action,
+             static_cast<unsigned long long>(ring.layout().slot_count),
+             static_cast<double>(ring.layout().group_payload_bytes) / (1024.0 * 1024.0),
+             ring.memory_locked() ? "memory locked" : "memory not locked",
+             backends.description.c_str(), d.samples_per_ascan, d.ascans_per_bscan,
+             d.flyback_sweeps, d.bscans_per_group, d.ascan_rate_hz, group_ms, 1e3 / group_ms,
+             static_cast<unsigned long long>(setup.config.simulation_seed)) +
+         "; scan " + pattern.describe() +
+         printf_string(" (galvo peak %.3g units/s, %.3g units/s^2)", pattern.usage.peak_velocity,
+                       pattern.usage.peak_acceleration);
+}
+
+rt::LoopSettings loop_settings(const rt::RtSetup& setup) {
+  const rt::RtConfig& c = setup.config;
+  rt::LoopSettings s;
+  s.geometry = setup.digitizer;
+  s.extra_status = c.digitizer_backend == "simulated" ? shm::kStatusSimulated : 0u;
+  s.realtime = setup.realtime;
+  s.stack_prefault_bytes = static_cast<std::size_t>(c.stack_prefault_kib) * 1024;
+  s.publish_slack_ns = c.publish_slack_us * 1000;
+  s.max_consecutive_misses = c.max_consecutive_deadline_misses;
+  s.max_missed_sweeps_per_group = c.max_missed_sweeps_per_group;
+  s.check_interval_ns = c.check_interval_us * 1000;
+  s.feed_ahead_groups = c.feed_ahead_groups;
+  s.park_wait_ns = c.park_wait_ms * 1'000'000;
+  s.galvo_lead_samples = c.galvo_lead_samples();
+  return s;
+}
+
+rt::SupervisorSettings supervisor_settings(const rt::RtSetup& setup) {
+  const rt::RtConfig& c = setup.config;
+  rt::SupervisorSettings s;
+  s.policy.arming_timeout_ns = c.arming_timeout_ms * 1'000'000;
+  s.policy.readback_timeout_ns = c.readback_timeout_ms * 1'000'000;
+  s.policy.stall_timeout_ns = c.effective_stall_timeout_ms() * 1'000'000;
+  s.policy.monitor_laser_ready = c.monitor_laser_ready;
+  s.policy.monitor_k_clock = c.monitor_k_clock;
+  s.policy.monitor_sweep_trigger = c.monitor_sweep_trigger;
+  s.policy.require_footswitch = c.require_footswitch;
+  s.policy.auto_rearm_delay_ns = c.auto_rearm_ms * 1'000'000;
+  s.poll_interval_ns = c.poll_interval_us * 1000;
+  s.watchdog_toggle_interval_ns = c.watchdog_toggle_ms * 1'000'000;
+  s.realtime = {c.effective_safety_priority(), c.safety_cpu, false};
+  return s;
+}
+
+std::string describe_transition(const rt::SafetyTransition& t, const rt::SafetyStatus& status) {
+  std::string text =
+      "safety: " + std::string(to_string(t.from)) + " -> " + std::string(to_string(t.to));
+  if (t.to == rt::SafetyState::fault) text += " (" + rt::describe_faults(t.faults) + ")";
+  const rt::SafetyRecord& r = status.record;
+  if ((t.to == rt::SafetyState::safe || t.to == rt::SafetyState::idle) &&
+      t.from != rt::SafetyState::safe && r.fault_ns != 0 && r.emission_off_ns >= r.fault_ns &&
+      r.parked_ns >= r.fault_ns) {
+    text += printf_string(": emission off read back %.2f ms and galvos parked %.2f ms after the %s",
+                          ms(r.emission_off_ns - r.fault_ns), ms(r.parked_ns - r.fault_ns),
+                          t.to == rt::SafetyState::safe ? "fault" : "stop");
+  }
   return text;
+}
+
+std::string describe_loop_event(const rt::LoopEvent& e) {
+  switch (e.kind) {
+    case rt::LoopEventKind::armed:
+      return printf_string("acquisition: armed (galvo output, then digitizer), scan generation %u",
+                           e.value);
+    case rt::LoopEventKind::parked:
+      return printf_string("acquisition: galvos parked, digitizer stopped at group %llu",
+                           static_cast<unsigned long long>(e.group));
+    case rt::LoopEventKind::fault:
+      return "acquisition: fault posted at group " + std::to_string(e.group) + ": " +
+             rt::describe_faults(e.value);
+    case rt::LoopEventKind::scan_changed:
+      return printf_string("acquisition: scan generation %u scheduled at a volume boundary",
+                           e.value);
+  }
+  return "acquisition: event";
+}
+
+int run_self_test(const rt::RtOptions& options) {
+  rt::SelfTestSettings settings;
+  settings.seconds = options.self_test_seconds;
+  settings.interval_ns = options.self_test_interval_us * 1000;
+  settings.threshold_ns = options.self_test_threshold_us * 1000;
+  // The acquisition thread's real-time request, from the configuration and flags.
+  rt::RtSetup setup = rt::make_setup(options);
+  settings.realtime = setup.realtime;
+  const rt::SelfTestResult result = rt::run_self_test(settings);
+  std::fputs(rt::format_self_test(settings, result).c_str(), stdout);
+  std::fflush(stdout);
+  return result.passed ? 0 : 1;
+}
+
+class Process {
+ public:
+  Process(const rt::RtOptions& options, const rt::ShutdownSignals& signals)
+      : options_(options), signals_(signals), setup_(rt::make_setup(options)) {}
+
+  int run();
+
+ private:
+  std::string handle(const std::string& line);
+  nlohmann::json status_now();
+  std::string wait_for_request(bool start, std::uint64_t request, const nlohmann::json& id);
+  void drain_events();
+  bool healthy(std::uint64_t now) const;
+
+  const rt::RtOptions& options_;
+  const rt::ShutdownSignals& signals_;
+  rt::RtSetup setup_;
+  PatternStore patterns_;
+  rt::Backends backends_;  // before the threads that use it, so it is destroyed after them
+  rt::ScanTiming timing_;
+  rt::ScanSpec current_spec_;
+  std::optional<shm::RingWriter> ring_;
+  std::unique_ptr<rt::AcquisitionLoop> loop_;
+  std::unique_ptr<rt::SafetySupervisor> supervisor_;
+  std::uint64_t started_ns_ = 0;
+  std::uint64_t budget_ns_ = 0;
+};
+
+nlohmann::json Process::status_now() {
+  const rt::StatusSample sample = rt::sample_status(*loop_);
+  const std::vector<shm::ReaderReport> readers = ring_->readers();
+  nlohmann::json status =
+      rt::status_json(sample, started_ns_, budget_ns_, supervisor_->status(), readers);
+  status["scan"]["spec"] = {{"pattern", std::string(to_string(current_spec_.kind))},
+                            {"repeats", current_spec_.repeats},
+                            {"extent_x", current_spec_.extent_x},
+                            {"extent_y", current_spec_.extent_y},
+                            {"offset_x", current_spec_.offset_x},
+                            {"offset_y", current_spec_.offset_y},
+                            {"rotation_deg", current_spec_.rotation_deg},
+                            {"inactive_ascans", current_spec_.inactive_ascans}};
+  status["ring"] = setup_.ring.name;
+  return status;
+}
+
+std::string Process::wait_for_request(bool start, std::uint64_t request, const nlohmann::json& id) {
+  // The safety thread takes a request within one poll; wait for it so the reply says what came of
+  // it.
+  const std::uint64_t give_up = shm::monotonic_ns() + 500'000'000;
+  rt::SafetyStatus s = supervisor_->status();
+  while ((start ? s.start_requests_handled : s.stop_requests_handled) < request &&
+         shm::monotonic_ns() < give_up) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    s = supervisor_->status();
+  }
+  const char* cmd = start ? "start" : "stop";
+  if (start && s.last_refusal_request == request && !s.last_refusal.empty()) {
+    return rt::error_reply(std::string(s.last_refusal) + " (state " +
+                               std::string(to_string(s.state)) + ", faults " +
+                               rt::describe_faults(s.record.faults) + ")",
+                           id, cmd);
+  }
+  nlohmann::json reply = {{"ok", true}, {"cmd", cmd}, {"state", std::string(to_string(s.state))}};
+  if (!id.is_null()) reply["id"] = id;
+  return reply.dump();
+}
+
+std::string Process::handle(const std::string& line) {
+  const auto parsed = rt::parse_control_line(line);
+  if (const auto* error = std::get_if<rt::ControlParseError>(&parsed)) {
+    return rt::error_reply(error->message, error->id);
+  }
+  const rt::ControlRequest& request = std::get<rt::ControlRequest>(parsed);
+  const std::string_view cmd = to_string(request.verb);
+  try {
+    switch (request.verb) {
+      case rt::ControlVerb::status: {
+        nlohmann::json reply = {{"ok", true}, {"cmd", "status"}, {"status", status_now()}};
+        if (!request.id.is_null()) reply["id"] = request.id;
+        return reply.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+      }
+      case rt::ControlVerb::start:
+        return wait_for_request(true, supervisor_->request_start(), request.id);
+      case rt::ControlVerb::stop:
+        return wait_for_request(false, supervisor_->request_stop(), request.id);
+      case rt::ControlVerb::scan: {
+        const rt::ScanSpec spec = rt::apply_scan_changes(current_spec_, request.scan_changes);
+        rt::ScanPattern built = rt::build_scan_pattern(spec, timing_, setup_.config.galvo_limits);
+        const std::string description = built.describe();
+        const rt::ScanPattern* pattern = patterns_.add(std::move(built));
+        if (!loop_->offer_pattern(pattern)) {
+          patterns_.release(pattern);
+          return rt::error_reply(
+              "a scan change is already pending; try again after the next "
+              "volume boundary",
+              request.id, cmd);
+        }
+        current_spec_ = spec;
+        say("control: scan change accepted: " + description);
+        nlohmann::json reply = {{"ok", true},
+                                {"cmd", "scan"},
+                                {"pattern", description},
+                                {"takes_effect", "at the next volume boundary"},
+                                {"generation_now", loop_->counters().scan_generation}};
+        if (!request.id.is_null()) reply["id"] = request.id;
+        return reply.dump();
+      }
+    }
+  } catch (const std::exception& e) {
+    return rt::error_reply(e.what(), request.id, cmd);
+  }
+  return rt::error_reply("unhandled command", request.id, cmd);
+}
+
+void Process::drain_events() {
+  while (const auto e = loop_->take_event()) say(describe_loop_event(*e));
+  if (const std::optional<rt::SafetyTransition> first = supervisor_->take_transition()) {
+    const rt::SafetyStatus status = supervisor_->status();
+    say(describe_transition(*first, status));
+    while (const auto t = supervisor_->take_transition()) say(describe_transition(*t, status));
+  }
+  while (const rt::ScanPattern* retired = loop_->take_retired()) patterns_.release(retired);
+}
+
+bool Process::healthy(std::uint64_t now) const {
+  // The safety thread polls every interval; the acquisition thread beats at least once per group
+  // (plus the digitizer's timeout) while it runs, every check interval while parked.
+  const std::uint64_t safety_age = now - std::min(now, supervisor_->heartbeat_ns());
+  const std::uint64_t loop_age = now - std::min(now, loop_->report().heartbeat_ns);
+  return safety_age < 500'000'000 &&
+         loop_age < setup_.config.effective_stall_timeout_ms() * 1'000'000;
+}
+
+int Process::run() {
+  const rt::RtConfig& config = setup_.config;
+  timing_ = {config.digitizer.ascans_per_bscan, config.digitizer.flyback_sweeps,
+             config.bscans_per_volume, config.digitizer.ascan_rate_hz};
+  current_spec_ = config.scan;
+  const rt::ScanPattern* initial =
+      patterns_.add(rt::build_scan_pattern(current_spec_, timing_, config.galvo_limits));
+
+  // The hardware first: a config it refuses leaves any ring under the name untouched.
+  backends_ = rt::make_backends(setup_);
+  rt::Backends& backends = backends_;
+  backends.digitizer->prepare(setup_.digitizer);
+  hal::GalvoOutputConfig galvo = config.galvo;
+  galvo.sample_rate_hz = config.digitizer.ascan_rate_hz;
+  galvo.lead_samples = 0;  // the acquisition thread shifts the waveform itself (galvo.lead_us)
+  backends.galvo->prepare(galvo);
+  backends.lines->prepare(config.lines);
+  ring_.emplace(shm::RingWriter::create(setup_.ring));
+  say(describe_startup(*ring_, setup_, backends, *initial));
+
+  loop_ = std::make_unique<rt::AcquisitionLoop>(*ring_, *backends.digitizer, *backends.galvo,
+                                                initial, loop_settings(setup_));
+  const rt::RealtimeOutcome loop_outcome = loop_->start();
+  const rt::SupervisorSettings safety = supervisor_settings(setup_);
+  supervisor_ = std::make_unique<rt::SafetySupervisor>(*backends.lines, *loop_, safety);
+  const rt::RealtimeOutcome safety_outcome = supervisor_->start();
+  rt::RealtimeOutcome outcome = loop_outcome;
+  outcome.fifo_error = outcome.fifo_error != 0 ? outcome.fifo_error : safety_outcome.fifo_error;
+  if (!outcome.complete()) say("warning: " + rt::describe_shortfall(setup_.realtime, outcome));
+
+  std::optional<rt::ControlServer> control;
+  if (!config.control_socket.empty()) {
+    control.emplace(config.control_socket, config.control_group, config.max_clients);
+    say("control: listening on " + config.control_socket + " (mode 0660" +
+        (config.control_group.empty() ? "" : ", group " + config.control_group) + ")");
+  }
+  const rt::SdNotifier notifier;
+  if (config.start_scanning) supervisor_->request_start();
+
+  budget_ns_ = static_cast<std::uint64_t>(static_cast<double>(setup_.digitizer.sweeps_per_group()) *
+                                          setup_.digitizer.sweep_period_ns());
+  const std::uint64_t interval_ns = static_cast<std::uint64_t>(config.status_interval_s * 1e9);
+  const rt::StatusSample first = rt::sample_status(*loop_);
+  started_ns_ = first.wall_ns;
+  const std::uint64_t end_ns =
+      options_.seconds > 0.0 ? started_ns_ + static_cast<std::uint64_t>(options_.seconds * 1e9)
+                             : std::numeric_limits<std::uint64_t>::max();
+  const std::uint64_t watchdog_ns = notifier.watchdog_interval_ns().value_or(0) / 2;
+  notifier.notify("READY=1\nSTATUS=acquisition started");
+  rt::StatusSample previous = first;
+  std::uint64_t next_status_ns = started_ns_ + interval_ns;
+  std::uint64_t next_watchdog_ns = started_ns_;
+  std::string reason = "--seconds elapsed";
+  std::vector<pollfd> fds;
+  const rt::ControlServer::Handler handler = [this](const std::string& line) {
+    return handle(line);
+  };
+
+  for (;;) {
+    std::uint64_t now = shm::monotonic_ns();
+    std::uint64_t wake = std::min({next_status_ns, end_ns, now + 50'000'000});
+    if (watchdog_ns != 0) wake = std::min(wake, next_watchdog_ns);
+    fds.clear();
+    fds.push_back({signals_.fd(), POLLIN, 0});
+    if (control) control->add_poll_fds(fds);
+    const int timeout_ms = wake > now ? static_cast<int>((wake - now + 999'999) / 1'000'000) : 0;
+    ::poll(fds.data(), fds.size(), timeout_ms);
+    if ((fds[0].revents & POLLIN) != 0) {
+      if (const int signal_number = signals_.take(); signal_number != 0) {
+        reason = std::string("stopped by ") + (signal_number == SIGINT ? "SIGINT" : "SIGTERM");
+        break;
+      }
+    }
+    if (control) control->process(fds.data() + 1, fds.size() - 1, handler);
+    drain_events();
+    now = shm::monotonic_ns();
+    if (watchdog_ns != 0 && now >= next_watchdog_ns) {
+      // Fed only while both real-time threads are alive; otherwise systemd restarts us.
+      if (healthy(now)) {
+        notifier.notify("WATCHDOG=1\nSTATUS=" +
+                        std::string(to_string(supervisor_->status().state)));
+      }
+      next_watchdog_ns = now + watchdog_ns;
+    }
+    if (now >= end_ns) break;
+    if (now >= next_status_ns) {
+      const rt::StatusSample sample = rt::sample_status(*loop_);
+      const std::size_t reaped = ring_->reap_dead_readers();
+      say(rt::format_status(sample, previous, started_ns_, budget_ns_, supervisor_->status(),
+                            ring_->readers(), reaped));
+      previous = sample;
+      next_status_ns += interval_ns;
+      if (next_status_ns <= sample.wall_ns) next_status_ns = sample.wall_ns + interval_ns;
+    }
+  }
+
+  notifier.notify("STOPPING=1\nSTATUS=" + reason);
+  // Emission off and galvos parked through the safety machine, then the threads end.
+  const std::uint64_t stop_request = supervisor_->request_stop();
+  const std::uint64_t give_up = shm::monotonic_ns() + 2'000'000'000;
+  for (;;) {
+    const rt::SafetyStatus s = supervisor_->status();
+    const bool settled = s.stop_requests_handled >= stop_request &&
+                         (s.state == rt::SafetyState::idle || s.state == rt::SafetyState::safe);
+    if (settled || shm::monotonic_ns() > give_up) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  drain_events();
+  supervisor_->stop();
+  loop_->stop();
+  backends.lines->release();
+  drain_events();
+  // The readers' counters just before the ring closes, for the summary.
+  const std::vector<shm::ReaderReport> readers = ring_->readers();
+  ring_->close();
+  const rt::StatusSample last = rt::sample_status(*loop_);
+  if (!options_.summary.empty()) {
+    rt::write_run_summary(options_.summary,
+                          {setup_.ring.name, reason, loop_->failure(), first, last, budget_ns_,
+                           supervisor_->status()},
+                          readers);
+  }
+  if (loop_->failed()) {
+    say("error: acquisition failed: " + loop_->failure());
+    say(rt::format_summary(last, first, budget_ns_) + " | ring '" + setup_.ring.name + "' closed");
+    return kExitRuntimeError;
+  }
+  say(reason + " | " + rt::format_summary(last, first, budget_ns_) + " | ring '" +
+      setup_.ring.name + "' closed");
+  return 0;
+}
+
+int check_config(const rt::RtOptions& options) {
+  const rt::RtSetup setup = rt::make_setup(options);
+  const rt::RtConfig& c = setup.config;
+  const rt::ScanTiming timing{c.digitizer.ascans_per_bscan, c.digitizer.flyback_sweeps,
+                              c.bscans_per_volume, c.digitizer.ascan_rate_hz};
+  const rt::ScanPattern pattern = rt::build_scan_pattern(c.scan, timing, c.galvo_limits);
+  std::printf(
+      "configuration ok: ring '%s', %u samples x %u A-scans (+%u flyback) x %u per group "
+      "at %.0f Hz, %u B-scans per volume; scan %s; galvo peak %.4g of %.4g units/s, "
+      "%.4g of %.4g units/s^2, position %.4g\n",
+      c.ring_name.c_str(), c.digitizer.samples_per_ascan, c.digitizer.ascans_per_bscan,
+      c.digitizer.flyback_sweeps, c.digitizer.bscans_per_group, c.digitizer.ascan_rate_hz,
+      c.bscans_per_volume, pattern.describe().c_str(), pattern.usage.peak_velocity,
+      c.galvo_limits.max_velocity, pattern.usage.peak_acceleration, c.galvo_limits.max_acceleration,
+      pattern.usage.peak_position);
+  return 0;
 }
 
 int run(const rt::RtOptions& options) {
   const rt::ShutdownSignals signals;  // before any thread, so every thread inherits the mask
   // A closed stderr must not kill the process before it has closed the ring.
   std::signal(SIGPIPE, SIG_IGN);
-  const rt::RtSetup setup = rt::make_setup(options);
-
-  // The digitizer first: a config it refuses leaves any ring under the name untouched.
-  sim::SimulatedDigitizer digitizer(setup.simulation);
-  digitizer.prepare(setup.digitizer);
-  shm::RingWriter ring = shm::RingWriter::create(setup.ring);
-  say(describe_startup(ring, setup));
-
-  rt::AcquisitionLoop::Settings settings;
-  settings.context.geometry = setup.digitizer;
-  settings.context.scan = setup.simulation.scan;
-  settings.context.extra_status = shm::kStatusSimulated | shm::kStatusLaserOn;
-  settings.realtime = setup.realtime;
-  rt::AcquisitionLoop loop(ring, digitizer, settings);
-  const rt::RealtimeOutcome outcome = loop.start();
-  if (!outcome.complete()) say("warning: " + rt::describe_shortfall(setup.realtime, outcome));
-
-  const std::uint64_t budget_ns = static_cast<std::uint64_t>(
-      static_cast<double>(setup.digitizer.sweeps_per_group()) * setup.digitizer.sweep_period_ns());
-  const std::uint64_t interval_ns = static_cast<std::uint64_t>(options.status_interval * 1e9);
-  const rt::StatusSample first = rt::sample_status(loop);
-  const std::uint64_t started_ns = loop.clock().start_ns();
-  const std::uint64_t end_ns = options.seconds > 0.0
-                                   ? started_ns + static_cast<std::uint64_t>(options.seconds * 1e9)
-                                   : std::numeric_limits<std::uint64_t>::max();
-  rt::StatusSample previous = first;
-  std::uint64_t next_status_ns = started_ns + interval_ns;
-  std::string reason = "--seconds elapsed";
-  for (;;) {
-    const std::uint64_t now = shm::monotonic_ns();
-    const std::uint64_t wake = std::min(next_status_ns, end_ns);
-    const int signal_number = signals.wait_for(wake > now ? wake - now : 0);
-    if (signal_number != 0) {
-      reason = std::string("stopped by ") + (signal_number == SIGINT ? "SIGINT" : "SIGTERM");
-      break;
-    }
-    if (loop.failed() || shm::monotonic_ns() >= end_ns) break;
-    if (shm::monotonic_ns() >= next_status_ns) {
-      const rt::StatusSample sample = rt::sample_status(loop);
-      const std::size_t reaped = ring.reap_dead_readers();
-      say(rt::format_status(sample, previous, started_ns, budget_ns, ring.readers(), reaped));
-      previous = sample;
-      // On the interval grid; after a stall, the next line one interval from now.
-      next_status_ns += interval_ns;
-      if (next_status_ns <= sample.wall_ns) next_status_ns = sample.wall_ns + interval_ns;
-    }
-  }
-
-  loop.stop();
-  // The readers' counters just before the ring closes, for the summary.
-  const std::vector<shm::ReaderReport> readers = ring.readers();
-  ring.close();
-  const rt::StatusSample last = rt::sample_status(loop);
-  if (!options.summary.empty()) {
-    rt::write_run_summary(
-        options.summary,
-        {setup.ring.name, reason, loop.failed() ? loop.failure() : "", first, last, budget_ns},
-        readers);
-  }
-  if (loop.failed()) {
-    say("error: acquisition failed: " + loop.failure());
-    say(rt::format_summary(last, first, budget_ns) + " | ring '" + setup.ring.name + "' closed");
-    return kExitRuntimeError;
-  }
-  say(reason + " | " + rt::format_summary(last, first, budget_ns) + " | ring '" + setup.ring.name +
-      "' closed");
-  return 0;
+  if (options.check_config) return check_config(options);
+  if (options.self_test) return run_self_test(options);
+  Process process(options, signals);
+  return process.run();
 }
 
 }  // namespace
@@ -133,13 +473,20 @@ int run(const rt::RtOptions& options) {
 int main(int argc, char** argv) {
   CLI::App app{
       "ioct-rt: acquisition process of the live OCT system. Fills the shared-memory ring with "
-      "groups of raw B-scans from the simulated digitizer and reports status on stderr."};
+      "groups of raw B-scans, drives the galvos and guards the laser; see docs/operations.md."};
   rt::RtOptions options;
   rt::add_rt_options(app, options);
   CLI11_PARSE(app, argc, argv);
+  rt::note_given_options(app, options);
 
   try {
     return run(options);
+  } catch (const rt::ConfigFileError& e) {
+    say(std::string("error: invalid configuration: ") + e.what());
+    return kExitBadConfig;
+  } catch (const rt::ScanInfeasible& e) {
+    say(std::string("error: invalid configuration: ") + e.what());
+    return kExitBadConfig;
   } catch (const ioct::ConfigError& e) {
     const std::string option = rt::option_for_error(e.what());
     say(std::string("error: invalid configuration: ") + e.what() +

@@ -55,7 +55,8 @@ std::string describe_shortfall(const RealtimeRequest& request, const RealtimeOut
         "a CPU this process may use (--cpu)");
   }
   return "running without real-time guarantees: " + refused + ". Grant " + remedy +
-         " to run hard real-time; continuing.";
+         " to run hard real-time; continuing" +
+         (outcome.fifo_error != 0 ? " (deadline misses are counted, not treated as faults)." : ".");
 }
 
 }  // namespace ioct::rt

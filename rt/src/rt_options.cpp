@@ -3,89 +3,217 @@
 #include <array>
 #include <utility>
 
+#include "ioct/common/config_error.hpp"
+#include "scan/scan_builder.hpp"
+#include "scan/scan_infeasible.hpp"
+
 namespace ioct::rt {
+namespace {
+
+// A flag that overrides a configuration key.
+struct Override {
+  const char* option;
+  const char* key;
+  void (*apply)(RtConfig&, const RtOptions&);
+};
+
+const std::array<Override, 15> kOverrides{{
+    {"--ring", "ring.name", [](RtConfig& c, const RtOptions& o) { c.ring_name = o.ring; }},
+    {"--slots", "ring.slots", [](RtConfig& c, const RtOptions& o) { c.ring_slots = o.slots; }},
+    {"--group", "ring.group", [](RtConfig& c, const RtOptions& o) { c.ring_group = o.group; }},
+    {"--samples", "digitizer.samples_per_ascan",
+     [](RtConfig& c, const RtOptions& o) { c.digitizer.samples_per_ascan = o.samples; }},
+    {"--ascans", "digitizer.ascans_per_bscan",
+     [](RtConfig& c, const RtOptions& o) { c.digitizer.ascans_per_bscan = o.ascans; }},
+    {"--flyback", "digitizer.flyback_sweeps",
+     [](RtConfig& c, const RtOptions& o) { c.digitizer.flyback_sweeps = o.flyback; }},
+    {"--bscans-per-group", "digitizer.bscans_per_group",
+     [](RtConfig& c, const RtOptions& o) { c.digitizer.bscans_per_group = o.bscans_per_group; }},
+    {"--ascan-rate", "digitizer.ascan_rate_hz",
+     [](RtConfig& c, const RtOptions& o) { c.digitizer.ascan_rate_hz = o.ascan_rate; }},
+    {"--bscans-per-volume", "scan.bscans_per_volume",
+     [](RtConfig& c, const RtOptions& o) { c.bscans_per_volume = o.bscans_per_volume; }},
+    {"--pattern", "scan.pattern",
+     [](RtConfig& c, const RtOptions& o) {
+       const std::optional<ScanKind> kind = scan_kind_from_string(o.pattern);
+       if (!kind) {
+         throw ConfigError("scan.pattern", "\"" + o.pattern + "\"",
+                           "must be one of raster, bidirectional, crosshair, radial");
+       }
+       c.scan.kind = *kind;
+     }},
+    {"--seed", "simulation.seed",
+     [](RtConfig& c, const RtOptions& o) { c.simulation_seed = o.seed; }},
+    {"--status-interval", "status.interval_s",
+     [](RtConfig& c, const RtOptions& o) { c.status_interval_s = o.status_interval; }},
+    {"--rt-priority", "realtime.priority",
+     [](RtConfig& c, const RtOptions& o) { c.rt_priority = o.rt_priority; }},
+    {"--cpu", "realtime.cpu", [](RtConfig& c, const RtOptions& o) { c.rt_cpu = o.cpu; }},
+    {"--control-socket", "control.socket",
+     [](RtConfig& c, const RtOptions& o) { c.control_socket = o.control_socket; }},
+}};
+
+bool given(const RtOptions& options, const char* option) {
+  return !options.given || options.given->count(option) != 0;
+}
+
+// The error in the file's terms when the key came from the file and no flag overrode it.
+[[noreturn]] void rethrow_located(const RtOptions& options, const KeyPositions& positions,
+                                  const std::string& key) {
+  if (!options.config.empty()) {
+    bool overridden = false;
+    for (const Override& o : kOverrides) {
+      if (key == o.key && given(options, o.option)) overridden = true;
+    }
+    const auto at = positions.find(key);
+    if (!overridden && at != positions.end()) {
+      try {
+        throw;
+      } catch (const std::exception& e) {
+        throw ConfigFileError(options.config, at->second, e.what());
+      }
+    }
+  }
+  throw;
+}
+
+}  // namespace
 
 void add_rt_options(CLI::App& app, RtOptions& options) {
-  app.add_option("--ring", options.ring, "name of the shared-memory ring (POSIX shm, no '/')")
+  app.add_option("--config", options.config,
+                 "TOML configuration file (see docs/operations.md); flags given override its keys")
+      ->check(CLI::ExistingFile);
+  app.add_option("--ring", options.ring, "ring.name: the shared-memory ring (POSIX shm, no '/')")
       ->capture_default_str();
-  app.add_option("--slots", options.slots, "slots in the ring, each one group")
+  app.add_option("--slots", options.slots, "ring.slots: slots in the ring, each one group")
       ->capture_default_str();
-  app.add_option("--samples", options.samples, "k-clock samples per A-scan (even)")
+  app.add_option("--samples", options.samples,
+                 "digitizer.samples_per_ascan: k-clock samples per A-scan (even)")
       ->capture_default_str();
-  app.add_option("--ascans", options.ascans, "recorded A-scans per B-scan")->capture_default_str();
+  app.add_option("--ascans", options.ascans,
+                 "digitizer.ascans_per_bscan: recorded A-scans per B-scan")
+      ->capture_default_str();
   app.add_option("--flyback", options.flyback,
-                 "sweeps between B-scans while the galvo returns (not recorded)")
+                 "digitizer.flyback_sweeps: sweeps between B-scans while the galvo returns")
       ->capture_default_str();
-  app.add_option("--bscans-per-group", options.bscans_per_group, "B-scans per ring slot")
+  app.add_option("--bscans-per-group", options.bscans_per_group,
+                 "digitizer.bscans_per_group: B-scans per ring slot")
       ->capture_default_str();
-  app.add_option("--bscans-per-volume", options.bscans_per_volume, "B-scans per volume")
+  app.add_option("--bscans-per-volume", options.bscans_per_volume,
+                 "scan.bscans_per_volume: B-scans per volume")
       ->capture_default_str();
-  app.add_option("--ascan-rate", options.ascan_rate, "sweep rate of the source, Hz")
+  app.add_option("--ascan-rate", options.ascan_rate, "digitizer.ascan_rate_hz: sweep rate, Hz")
       ->capture_default_str();
+  app.add_option("--pattern", options.pattern,
+                 "scan.pattern: raster, bidirectional, crosshair or radial")
+      ->capture_default_str();
+  app.add_option("--group", options.group,
+                 "ring.group: group that owns the ring (readers need it); default: this process's");
+  app.add_option("--seed", options.seed, "simulation.seed: same seed, same bytes")
+      ->capture_default_str();
+  app.add_option("--status-interval", options.status_interval,
+                 "status.interval_s: seconds between status lines on stderr")
+      ->capture_default_str();
+  app.add_option("--rt-priority", options.rt_priority,
+                 "realtime.priority: SCHED_FIFO priority of the acquisition thread; 0: none")
+      ->capture_default_str();
+  app.add_option("--cpu", options.cpu,
+                 "realtime.cpu: CPU to pin the acquisition thread to; -1: none")
+      ->capture_default_str();
+  app.add_option("--control-socket", options.control_socket,
+                 "control.socket: Unix socket of the control channel (JSON lines); default: none");
   app.add_option("--seconds", options.seconds, "run this long, then stop; 0: until SIGINT/SIGTERM")
       ->check(CLI::Range(0.0, 1e9))
       ->capture_default_str();
-  app.add_option("--group", options.group,
-                 "group that owns the ring (readers need it); default: this process's");
   app.add_option("--summary", options.summary,
                  "write a JSON summary of the run to this file at exit");
-  app.add_option("--seed", options.seed, "seed of the simulation: same seed, same bytes")
+  app.add_flag(
+      "--check-config", options.check_config,
+      "validate the configuration (and the scan against the galvo limits), print it, exit");
+  app.add_flag("--self-test", options.self_test,
+               "measure the wake-up latency of a real-time thread (like cyclictest) and exit");
+  app.add_option("--self-test-seconds", options.self_test_seconds, "length of the self-test")
+      ->check(CLI::Range(0.1, 86400.0))
       ->capture_default_str();
-  app.add_option("--status-interval", options.status_interval,
-                 "seconds between status lines on stderr")
-      ->check(CLI::Range(0.05, 3600.0))
+  app.add_option("--self-test-interval-us", options.self_test_interval_us,
+                 "period of the self-test's timer")
+      ->check(CLI::Range(50, 1'000'000))
       ->capture_default_str();
-  app.add_option("--rt-priority", options.rt_priority,
-                 "SCHED_FIFO priority of the acquisition thread; 0: none")
-      ->check(CLI::Range(0, 99))
+  app.add_option("--self-test-threshold-us", options.self_test_threshold_us,
+                 "the self-test fails when the worst wake-up latency exceeds this")
+      ->check(CLI::Range(1, 10'000'000))
       ->capture_default_str();
-  app.add_option("--cpu", options.cpu, "CPU to pin the acquisition thread to; -1: none")
-      ->check(CLI::Range(-1, 1023))
-      ->capture_default_str();
+}
+
+void note_given_options(const CLI::App& app, RtOptions& options) {
+  std::set<std::string> names;
+  for (const Override& o : kOverrides) {
+    if (app.get_option(o.option)->count() > 0) names.insert(o.option);
+  }
+  options.given = std::move(names);
 }
 
 RtSetup make_setup(const RtOptions& options) {
   RtSetup setup;
-  hal::DigitizerConfig& digitizer = setup.digitizer;
-  digitizer.samples_per_ascan = options.samples;
-  digitizer.ascans_per_bscan = options.ascans;
-  digitizer.flyback_sweeps = options.flyback;
-  digitizer.bscans_per_group = options.bscans_per_group;
-  digitizer.ascan_rate_hz = options.ascan_rate;
-  digitizer.clock_source = hal::ClockSource::external_k_clock;
-  digitizer.validate();
+  RtConfig& config = setup.config;
+  KeyPositions positions;
+  if (!options.config.empty()) load_config_file(options.config, config, &positions);
+  for (const Override& o : kOverrides) {
+    if (!given(options, o.option)) continue;
+    // Options filled by a program all count, but an empty socket means "none", as by default.
+    if (!options.given && std::string_view(o.option) == "--control-socket" &&
+        options.control_socket.empty() && !options.config.empty()) {
+      continue;
+    }
+    o.apply(config, options);
+  }
 
-  setup.simulation.scan.ascans_per_bscan = options.ascans;
-  setup.simulation.scan.bscans_per_volume = options.bscans_per_volume;
-  setup.simulation.seed = options.seed;
-  setup.simulation.validate();
+  try {
+    config.validate();
+    ScanTiming timing{config.digitizer.ascans_per_bscan, config.digitizer.flyback_sweeps,
+                      config.bscans_per_volume, config.digitizer.ascan_rate_hz};
+    // Feasibility: the same check a scan change gets, so a bad config is refused at start-up.
+    (void)build_scan_pattern(config.scan, timing, config.galvo_limits);
 
-  shm::RingConfig& ring = setup.ring;
-  ring.name = options.ring;
-  ring.geometry.samples_per_ascan = options.samples;
-  ring.geometry.ascans_per_bscan = options.ascans;
-  ring.geometry.bscans_per_group = options.bscans_per_group;
-  ring.geometry.bscans_per_volume = options.bscans_per_volume;
-  ring.geometry.bytes_per_sample = sizeof(std::uint16_t);
-  ring.slot_count = options.slots;
-  ring.group = options.group;
-  ring.validate();
+    setup.digitizer = config.digitizer;
 
-  setup.realtime.fifo_priority = options.rt_priority;
-  setup.realtime.cpu = options.cpu;
+    sim::SimulationConfig& simulation = setup.simulation;
+    simulation.scan.ascans_per_bscan = config.digitizer.ascans_per_bscan;
+    simulation.scan.bscans_per_volume = config.bscans_per_volume;
+    simulation.scan.center_x = static_cast<float>(config.scan.offset_x);
+    simulation.scan.center_y = static_cast<float>(config.scan.offset_y);
+    simulation.scan.extent_x = static_cast<float>(config.scan.extent_x);
+    simulation.scan.extent_y = static_cast<float>(config.scan.extent_y);
+    simulation.seed = config.simulation_seed;
+    simulation.bench.mirrors.natural_hz = config.mirror_natural_hz;
+    simulation.bench.mirrors.damping = config.mirror_damping;
+    simulation.bench.watchdog_timeout_ms = config.laser_watchdog_timeout_ms;
+    simulation.validate();
+
+    shm::RingConfig& ring = setup.ring;
+    ring.name = config.ring_name;
+    ring.geometry.samples_per_ascan = config.digitizer.samples_per_ascan;
+    ring.geometry.ascans_per_bscan = config.digitizer.ascans_per_bscan;
+    ring.geometry.bscans_per_group = config.digitizer.bscans_per_group;
+    ring.geometry.bscans_per_volume = config.bscans_per_volume;
+    ring.geometry.bytes_per_sample = sizeof(std::uint16_t);
+    ring.slot_count = config.ring_slots;
+    ring.group = config.ring_group;
+    ring.validate();
+  } catch (const ConfigError& e) {
+    rethrow_located(options, positions, e.key());
+  } catch (const ScanInfeasible& e) {
+    rethrow_located(options, positions, e.limit());
+  }
+
+  setup.realtime.fifo_priority = config.rt_priority;
+  setup.realtime.cpu = config.rt_cpu;
+  setup.realtime.lock_memory = config.lock_memory;
   return setup;
 }
 
 std::string option_for_error(const std::string& message) {
-  static constexpr std::array<std::pair<const char*, const char*>, 14> kOptions{{
-      {"digitizer.samples_per_group", "--samples x --ascans x --bscans-per-group"},
-      {"digitizer.samples_per_ascan", "--samples"},
-      {"digitizer.ascans_per_bscan", "--ascans"},
-      {"digitizer.flyback_sweeps", "--flyback"},
-      {"digitizer.bscans_per_group", "--bscans-per-group"},
-      {"digitizer.ascan_rate_hz", "--ascan-rate"},
-      {"scan.ascans_per_bscan", "--ascans"},
-      {"scan.bscans_per_volume", "--bscans-per-volume"},
+  static constexpr std::array<std::pair<const char*, const char*>, 6> kRingKeys{{
       {"ring: name", "--ring"},
       {"slot_count", "--slots"},
       {"samples_per_ascan", "--samples"},
@@ -93,7 +221,17 @@ std::string option_for_error(const std::string& message) {
       {"bscans_per_volume", "--bscans-per-volume"},
       {"ascans_per_bscan", "--ascans"},
   }};
-  for (const auto& [key, option] : kOptions) {
+  if (message.find("digitizer.samples_per_group") != std::string::npos) {
+    return "--samples x --ascans x --bscans-per-group";
+  }
+  for (const Override& o : kOverrides) {
+    if (message.rfind(std::string(o.key) + " ", 0) == 0 ||
+        message.find(std::string(o.key) + " =") != std::string::npos) {
+      return o.option;
+    }
+  }
+  if (message.find("scan.ascans_per_bscan") != std::string::npos) return "--ascans";
+  for (const auto& [key, option] : kRingKeys) {
     if (message.find(key) != std::string::npos) return option;
   }
   return {};

@@ -1,8 +1,8 @@
 #include "run_summary.hpp"
 
-#include "ioct/common/atomic_file.hpp"
-
 #include <nlohmann/json.hpp>
+
+#include "ioct/common/atomic_file.hpp"
 
 namespace ioct::rt {
 
@@ -30,11 +30,13 @@ void write_run_summary(const std::string& path, const RunSummary& s,
       {"deadline_misses", c.deadline_misses},
       {"worst_lateness_ms", static_cast<double>(c.worst_lateness_ns) * ms},
       {"generation_ms_mean",
-       groups == 0 ? 0.0 : static_cast<double>(c.generation_ns_total) * ms / groups},
+       groups == 0 ? 0.0
+                   : static_cast<double>(c.generation_ns_total) * ms / static_cast<double>(groups)},
       {"generation_ms_max", static_cast<double>(c.generation_ns_max) * ms},
       {"group_budget_ms", static_cast<double>(s.group_budget_ns) * ms},
       {"missed_sweeps", c.missed_sweeps},
-      {"readers_at_close", readers_json}};
+      {"readers_at_close", readers_json},
+      {"status", status_json(s.end, s.start.wall_ns, s.group_budget_ns, s.safety, readers)}};
 
   write_text_file_atomically(path, json.dump(2) + "\n");
 }

@@ -1,5 +1,6 @@
 // The machine-readable end of a run (--summary FILE): what ioct-rt published and how its timing
-// held, for the launcher and the end-to-end tests to check against what the readers got.
+// and its safety held, for the launcher and the end-to-end tests to check against what the
+// readers got.
 #pragma once
 
 #include <span>
@@ -17,6 +18,7 @@ struct RunSummary {
   StatusSample start;
   StatusSample end;
   std::uint64_t group_budget_ns = 0;
+  SafetyStatus safety;
 };
 
 // Writes the summary as JSON to `path` atomically (AtomicFile): a reader never sees half of it.

@@ -1,5 +1,7 @@
-// The acquisition loop in-process: it publishes the digitizer's groups in order, each only once
-// its last sweep has ended, stops promptly, and reports a digitizer that fails.
+// The acquisition loop in-process, commanded directly (no supervisor): it arms followers before
+// the trigger, feeds the DAC ahead with the lead-shifted trajectory, publishes each group once
+// its sweeps have ended, switches patterns at a volume boundary, parks on command, neither
+// allocates nor faults in steady state, and posts what goes wrong.
 #include "acquisition_loop.hpp"
 
 #include <gtest/gtest.h>
@@ -8,170 +10,200 @@
 #include <atomic>
 #include <chrono>
 #include <cstring>
-#include <optional>
 #include <stdexcept>
 #include <thread>
 #include <vector>
 
-#include "ioct/shm/monotonic_clock.hpp"
-#include "ioct/shm/ring_reader.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "ioct/test_support/allocation_counter.hpp"
 #include "ioct/test_support/page_fault_counter.hpp"
-#include "ioct/test_support/scoped_shm_name.hpp"
+#include "rig.hpp"
+#include "safety_state_machine.hpp"
 
 namespace ioct::rt {
 namespace {
 
 using namespace std::chrono_literals;
+using test::eventually;
+using test::Rig;
 
-// A small geometry: 256 samples, 4 lines of 64 A-scans (+2 flyback) per group, 8 per volume.
-hal::DigitizerConfig small_geometry(double rate_hz) {
-  hal::DigitizerConfig geometry;
-  geometry.samples_per_ascan = 256;
-  geometry.ascans_per_bscan = 64;
-  geometry.flyback_sweeps = 2;
-  geometry.bscans_per_group = 4;
-  geometry.ascan_rate_hz = rate_hz;
-  return geometry;
-}
-
-sim::SimulationConfig small_simulation() {
-  sim::SimulationConfig simulation;
-  simulation.scan.ascans_per_bscan = 64;
-  simulation.scan.bscans_per_volume = 8;
-  simulation.seed = 5;
-  return simulation;
-}
-
-shm::RingConfig ring_config(const std::string& name, const hal::DigitizerConfig& geometry) {
-  shm::RingConfig config;
-  config.name = name;
-  config.geometry.samples_per_ascan = geometry.samples_per_ascan;
-  config.geometry.ascans_per_bscan = geometry.ascans_per_bscan;
-  config.geometry.bscans_per_group = geometry.bscans_per_group;
-  config.geometry.bscans_per_volume = 8;
-  config.slot_count = 8;
-  config.memory_lock = shm::MemoryLock::none;
-  return config;
-}
-
-AcquisitionLoop::Settings settings_for(const hal::DigitizerConfig& geometry,
-                                       const hal::RasterScan& scan) {
-  AcquisitionLoop::Settings settings;
-  settings.context.geometry = geometry;
-  settings.context.scan = scan;
-  settings.context.extra_status = shm::kStatusSimulated;
-  settings.realtime.fifo_priority = 0;  // tests share the machine
-  settings.realtime.lock_memory = false;
-  return settings;
-}
-
-template <typename Predicate>
-bool eventually(Predicate done, std::chrono::milliseconds timeout) {
+// Reads groups until `count` arrived or `timeout`; returns how many.
+std::uint64_t read_groups(
+    shm::RingReader& reader, std::uint64_t count, std::chrono::milliseconds timeout,
+    const std::function<void(const shm::SlotHeader&, std::span<const std::byte>)>& each) {
+  std::vector<std::byte> payload(reader.layout().group_payload_bytes);
+  shm::SlotHeader header{};
+  std::uint64_t got = 0;
   const auto end = std::chrono::steady_clock::now() + timeout;
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > end) return false;
-    std::this_thread::sleep_for(1ms);
+  while (got < count && std::chrono::steady_clock::now() < end) {
+    if (reader.read_next(payload, header) == shm::PollStatus::ready) {
+      each(header, payload);
+      ++got;
+    } else {
+      std::this_thread::sleep_for(200us);
+    }
   }
-  return true;
+  return got;
 }
 
-TEST(AcquisitionLoop, PublishesTheDigitizersGroupsInOrderOnceTheirSweepsHaveEnded) {
-  const test_support::ScopedShmName name("rt-loop");
-  const hal::DigitizerConfig geometry = small_geometry(100'000.0);  // 2.64 ms per group
-  shm::RingWriter ring = shm::RingWriter::create(ring_config(name.str(), geometry));
-  sim::SimulatedDigitizer digitizer(small_simulation());
+TEST(AcquisitionLoop, PublishesTheSimulatorsGroupsInOrderOnceTheirSweepsHaveEnded) {
+  // 7.2 ms per group: the ring's 8 slots give this reader (which also recomputes every group)
+  // 58 ms of slack on a loaded box.
+  const hal::DigitizerConfig geometry = test::small_geometry();
+  Rig rig("rt-loop", geometry);
+  sim::SimulationConfig simulation;
+  simulation.scan.ascans_per_bscan = geometry.ascans_per_bscan;
+  simulation.scan.bscans_per_volume = test::kBscansPerVolume;
+  simulation.seed = 5;
+  sim::SimulatedDigitizer digitizer(simulation);
   digitizer.prepare(geometry);
   // The same simulation on the side: what every published group must hold, byte for byte.
-  sim::SimulatedDigitizer reference(small_simulation());
+  sim::SimulatedDigitizer reference(simulation);
   reference.prepare(geometry);
   reference.start();
   std::vector<std::uint16_t> expected(geometry.samples_per_group());
-  hal::GroupInfo expected_info;
 
-  shm::RingReader reader = shm::RingReader::attach(name.str(), {.label = "loop-test"});
-  AcquisitionLoop loop(ring, digitizer, settings_for(geometry, small_simulation().scan));
-  const RealtimeOutcome outcome = loop.start();
-  EXPECT_TRUE(outcome.complete());  // nothing was requested, so nothing was refused
+  shm::RingReader reader = shm::RingReader::attach(rig.name.str(), {.label = "loop-test"});
+  rig.start_loop(&digitizer);
+  EXPECT_TRUE(rig.loop_outcome.complete() || rig.priority > 0);
+  rig.loop->command_run(1);
 
-  const double period_ns = geometry.sweep_period_ns();
-  std::vector<std::byte> payload(reader.layout().group_payload_bytes);
-  shm::SlotHeader header{};
-  std::uint64_t groups = 0;
   std::uint64_t previous_publish_ns = 0;
-  const auto deadline = std::chrono::steady_clock::now() + 30s;
-  while (groups < 24 && std::chrono::steady_clock::now() < deadline) {
-    const shm::PollStatus status = reader.read_next(payload, header);
-    if (status != shm::PollStatus::ready) {
-      ASSERT_NE(status, shm::PollStatus::producer_gone);
-      std::this_thread::sleep_for(200us);
-      continue;
-    }
-    SCOPED_TRACE(testing::Message() << "group " << header.group_index);
-    EXPECT_EQ(header.group_index, groups) << "a reader that keeps up sees every group";
-    EXPECT_EQ(header.first_sweep_counter, header.group_index * geometry.sweeps_per_group());
-    const GroupTimes times = group_times(loop.clock(), geometry, header.first_sweep_counter);
-    EXPECT_EQ(header.t_first_sweep_ns, times.first_sweep_ns);
-    EXPECT_EQ(header.t_last_sweep_ns, times.last_sweep_ns);
-    EXPECT_GE(header.t_publish_ns, times.complete_ns) << "published before its sweeps ended";
-    EXPECT_GE(header.t_publish_ns, previous_publish_ns);
-    EXPECT_NEAR(static_cast<double>(times.complete_ns - header.t_last_sweep_ns), period_ns, 1.0);
-    EXPECT_EQ(header.status_flags, shm::kStatusSimulated);
-    EXPECT_EQ(header.bscan_count, geometry.bscans_per_group);
-    EXPECT_EQ(header.bscans[0].bscan_in_volume, (header.group_index % 2) * 4);
-    EXPECT_EQ(header.bscans[0].volume_index, header.group_index / 2);
-    previous_publish_ns = header.t_publish_ns;
-
-    reference.acquire_group(expected, expected_info);
-    ASSERT_EQ(expected_info.first_sweep_counter, header.first_sweep_counter);
-    EXPECT_EQ(std::memcmp(payload.data(), expected.data(), payload.size()), 0)
-        << "the slot holds exactly what the digitizer produced";
-    ++groups;
-  }
-  EXPECT_EQ(groups, 24u);
-  loop.stop();
-  const LoopCounters counters = loop.counters();
-  EXPECT_GE(counters.groups_published, groups);
-  EXPECT_EQ(counters.groups_published, ring.published());
-  EXPECT_GE(counters.groups_generated, counters.groups_published);
-  EXPECT_GT(counters.generation_ns_total, 0u);
-  EXPECT_GE(counters.generation_ns_total, counters.generation_ns_max);
-  EXPECT_FALSE(loop.failed());
+  std::uint64_t index = 0;
+  const std::uint64_t got = read_groups(
+      reader, 24, 30s, [&](const shm::SlotHeader& h, std::span<const std::byte> payload) {
+        SCOPED_TRACE(testing::Message() << "group " << h.group_index);
+        EXPECT_EQ(h.group_index, index) << "a reader that keeps up sees every group";
+        EXPECT_EQ(h.first_sweep_counter, h.group_index * geometry.sweeps_per_group());
+        const GroupTimes times = group_times(rig.loop->clock(), geometry, h.first_sweep_counter);
+        EXPECT_EQ(h.t_first_sweep_ns, times.first_sweep_ns);
+        EXPECT_EQ(h.t_last_sweep_ns, times.last_sweep_ns);
+        EXPECT_GE(h.t_publish_ns, times.complete_ns) << "published before its sweeps ended";
+        EXPECT_GE(h.t_publish_ns, previous_publish_ns);
+        EXPECT_EQ(h.status_flags, shm::kStatusSimulated)
+            << "no laser flag: emission never verified";
+        EXPECT_EQ(h.bscan_count, geometry.bscans_per_group);
+        EXPECT_EQ(h.scan_generation, 1u);
+        EXPECT_EQ(h.bscans[0].bscan_in_volume, (h.group_index % 2) * 4);
+        EXPECT_EQ(h.bscans[0].volume_index, h.group_index / 2);
+        EXPECT_EQ(h.bscans[0].galvo_start[0],
+                  rig.pattern.bscans[h.bscans[0].bscan_in_volume].start.x);
+        previous_publish_ns = h.t_publish_ns;
+        hal::GroupInfo info;
+        reference.acquire_group(expected, info);
+        EXPECT_EQ(std::memcmp(payload.data(), expected.data(), payload.size()), 0)
+            << "the slot holds exactly what the digitizer produced";
+        ++index;
+      });
+  EXPECT_EQ(got, 24u);
+  rig.loop->stop();
+  const LoopCounters c = rig.loop->counters();
+  EXPECT_EQ(c.groups_published, rig.ring.published());
+  EXPECT_GE(c.groups_generated, c.groups_published);
+  EXPECT_GE(c.generation_ns_total, c.generation_ns_max);
+  EXPECT_EQ(c.arms, 1u);
+  EXPECT_EQ(c.parks, 1u) << "stop() parks";
+  EXPECT_GT(rig.loop->wake_latency().samples, 0u);
+  EXPECT_FALSE(rig.loop->failed());
   EXPECT_EQ(reader.counters().dropped(), 0u);
+  EXPECT_EQ(digitizer.state(), hal::Digitizer::State::prepared);
 }
 
-TEST(AcquisitionLoop, StopsPromptlyAndNeverPublishesAGroupBeforeItsSweepsEnd) {
-  const test_support::ScopedShmName name("rt-stop");
-  const hal::DigitizerConfig geometry = small_geometry(1'000.0);  // 264 ms per group
-  shm::RingWriter ring = shm::RingWriter::create(ring_config(name.str(), geometry));
-  sim::SimulatedDigitizer digitizer(small_simulation());
-  digitizer.prepare(geometry);
-  AcquisitionLoop loop(ring, digitizer, settings_for(geometry, small_simulation().scan));
-  loop.start();
-  ASSERT_TRUE(eventually([&] { return loop.counters().groups_generated == 1; }, 10s));
-  const auto asked = std::chrono::steady_clock::now();
-  loop.stop();
-  EXPECT_LT(std::chrono::steady_clock::now() - asked, 2s);
-  EXPECT_EQ(loop.counters().groups_published, 0u);
-  EXPECT_EQ(ring.published(), 0u);
-  EXPECT_EQ(digitizer.state(), hal::Digitizer::State::prepared);
+TEST(AcquisitionLoop, ArmsFollowersBeforeTheTriggerAndParksGalvosBeforeStopping) {
+  Rig rig("rt-order");
+  rig.start_loop();
+  rig.loop->command_run(1);
+  ASSERT_TRUE(eventually([&] { return rig.loop->counters().groups_published >= 3; }, 10s));
+  const LoopReport running = rig.loop->report();
+  EXPECT_TRUE(running.streaming);
+  EXPECT_TRUE(running.verified);
+  EXPECT_EQ(running.serving_cycle, 1u);
+  rig.loop->command_park();
+  ASSERT_TRUE(eventually([&] { return !rig.loop->report().streaming; }, 5s));
+  EXPECT_FALSE(rig.loop->report().verified);
+  const std::vector<std::string> expected = {"galvo.start", "digitizer.start", "galvo.park",
+                                             "digitizer.stop"};
+  EXPECT_EQ(rig.log.calls(), expected);
+  EXPECT_EQ(rig.galvo.state(), hal::GalvoOutput::State::prepared);
+  // Armed again with a new cycle: the same order, the digitizer's counter from 0, the volume
+  // count continuing.
+  const std::uint64_t before = rig.loop->counters().groups_published;
+  rig.loop->command_run(2);
+  ASSERT_TRUE(eventually([&] { return rig.loop->counters().groups_published >= before + 2; }, 10s));
+  EXPECT_EQ(rig.loop->report().serving_cycle, 2u);
+  EXPECT_EQ(rig.log.calls().size(), 6u);
+  EXPECT_EQ(rig.log.calls()[4], "galvo.start");
+  EXPECT_EQ(rig.log.calls()[5], "digitizer.start");
+  EXPECT_EQ(rig.loop->counters().scan_generation, 2u) << "every arming is a new generation";
+}
+
+TEST(AcquisitionLoop, FeedsTheDacAheadWithTheLeadShiftedTrajectory) {
+  constexpr std::uint32_t kLead = 5;
+  Rig rig("rt-feed", test::small_geometry(), kLead);
+  rig.start_loop();
+  rig.loop->command_run(1);
+  ASSERT_TRUE(eventually([&] { return rig.loop->counters().groups_published >= 6; }, 10s));
+  const LoopCounters c = rig.loop->counters();
+  rig.loop->stop();
+  const std::span<const hal::GalvoSample> written = rig.galvo.written();
+  const std::size_t spv = rig.pattern.trajectory.size();
+  ASSERT_GT(written.size(), 2 * spv);
+  for (std::size_t n = 0; n < written.size(); ++n) {
+    ASSERT_EQ(written[n], rig.pattern.trajectory[(n + kLead) % spv]) << "DAC sample " << n;
+  }
+  // Fed three groups ahead (capped by the FIFO): the stream never ran low.
+  EXPECT_GT(c.dac_fill_min, rig.geometry.sweeps_per_group());
+  EXPECT_EQ(c.dac_underruns, 0u);
+}
+
+TEST(AcquisitionLoop, AScanChangeTakesEffectAtAVolumeBoundaryAndTheOldPatternComesBack) {
+  Rig rig("rt-change");
+  const ScanPattern other = test::small_pattern(rig.geometry, 0.3, ScanKind::bidirectional);
+  shm::RingReader reader = shm::RingReader::attach(rig.name.str(), {.label = "change-test"});
+  rig.start_loop();
+  rig.loop->command_run(1);
+  ASSERT_TRUE(eventually([&] { return rig.loop->counters().groups_published >= 3; }, 10s));
+  ASSERT_TRUE(rig.loop->offer_pattern(&other));
+
+  std::optional<std::uint64_t> first_new;
+  std::uint32_t last_generation = 0;
+  read_groups(reader, 40, 20s, [&](const shm::SlotHeader& h, std::span<const std::byte>) {
+    ASSERT_GE(h.scan_generation, last_generation) << "generations never go back";
+    last_generation = h.scan_generation;
+    if (h.scan_generation == 2 && !first_new) {
+      first_new = h.group_index;
+      EXPECT_EQ(h.bscans[0].bscan_in_volume, 0u) << "starts a volume";
+      EXPECT_NE(h.bscans[0].flags & shm::kBscanVolumeStart, 0u);
+    }
+    const ScanPattern& p = h.scan_generation == 2 ? other : rig.pattern;
+    EXPECT_EQ(h.scan_pattern_id, p.pattern_id());
+    for (std::uint32_t b = 0; b < h.bscan_count; ++b) {
+      const std::uint32_t line = h.bscans[b].bscan_in_volume;
+      EXPECT_EQ(h.bscans[b].galvo_start[0], p.bscans[line].start.x);
+      EXPECT_EQ((h.bscans[b].flags & shm::kBscanReversed) != 0, p.bscans[line].reversed);
+    }
+  });
+  ASSERT_TRUE(first_new.has_value()) << "the new pattern never landed";
+  EXPECT_TRUE(eventually([&] { return rig.loop->take_retired() == &rig.pattern; }, 5s))
+      << "the replaced pattern is handed back once no group needs it";
+  EXPECT_EQ(rig.loop->counters().scan_changes, 1u);
+  rig.loop->stop();
+  // The DAC got the old trajectory up to the switch and the new one from there.
 }
 
 // A backend that notes, each time the loop asks it for a group, how many allocations and page
 // faults the loop's thread has made so far: the differences cover whole iterations of the loop.
 class ProbeDigitizer final : public hal::Digitizer {
  public:
-  static constexpr std::size_t kProbes = 32;
+  static constexpr std::size_t kProbes = 40;
   std::array<std::atomic<std::uint64_t>, kProbes> allocations{};
   std::array<std::atomic<std::uint64_t>, kProbes> page_faults{};
   std::atomic<std::size_t> calls{0};
-
   std::string_view backend() const noexcept override { return "probe"; }
 
  protected:
   void do_prepare(const hal::DigitizerConfig&) override {}
-  void do_start() override {}
+  void do_start() override { sweep_ = 0; }
   void do_stop() noexcept override {}
   void do_acquire_group(std::span<std::uint16_t> group, hal::GroupInfo& info) override {
     const std::size_t call = calls.load(std::memory_order_relaxed);
@@ -181,82 +213,120 @@ class ProbeDigitizer final : public hal::Digitizer {
                               std::memory_order_relaxed);
     }
     std::fill(group.begin(), group.end(), static_cast<std::uint16_t>(call));
-    info.first_sweep_counter = call * config().sweeps_per_group();
+    info = {};
+    info.first_sweep_counter = sweep_;
+    sweep_ += config().sweeps_per_group();
     calls.store(call + 1, std::memory_order_release);
   }
+
+ private:
+  std::uint64_t sweep_ = 0;
 };
 
 TEST(AcquisitionLoop, SteadyStateIterationsNeitherAllocateNorFault) {
-  const test_support::ScopedShmName name("rt-steady");
-  const hal::DigitizerConfig geometry = small_geometry(100'000.0);
-  shm::RingWriter ring = shm::RingWriter::create(ring_config(name.str(), geometry));
+  Rig rig("rt-steady");
   ProbeDigitizer digitizer;
-  digitizer.prepare(geometry);
-  AcquisitionLoop loop(ring, digitizer, settings_for(geometry, small_simulation().scan));
-  loop.start();
+  digitizer.prepare(rig.geometry);
+  rig.start_loop(&digitizer);
+  rig.loop->command_run(1);
   ASSERT_TRUE(eventually([&] { return digitizer.calls.load() >= ProbeDigitizer::kProbes; }, 20s));
-  loop.stop();
-  // From the second lap over the ring's 8 slots on.
+  rig.loop->stop();
+  // From the second lap over the ring's 8 slots on (the feed, the schedule, the counters and the
+  // ring all in their steady state).
   const std::size_t first = 16;
   const std::size_t last = ProbeDigitizer::kProbes - 1;
   EXPECT_EQ(digitizer.allocations[last] - digitizer.allocations[first], 0u)
       << test_support::allocation_counting_method();
   EXPECT_EQ(digitizer.page_faults[last] - digitizer.page_faults[first], 0u);
+  EXPECT_EQ(rig.loop->counters().page_faults_steady, 0u);
 }
 
-// A backend that reports trouble on group 1 and fails on group 3.
-class TroubledDigitizer final : public hal::Digitizer {
+TEST(AcquisitionLoop, PublishesTroubleWithItsFlagsAndPostsFaults) {
+  Rig rig("rt-trouble");
+  shm::RingReader reader = shm::RingReader::attach(rig.name.str(), {.label = "trouble-test"});
+  rig.start_loop();
+  rig.digitizer.next_status = hal::kGroupOverrun;  // reported, not a fault
+  rig.digitizer.next_missed_sweeps = 3;            // within max_missed_sweeps_per_group
+  rig.loop->command_run(1);
+  ASSERT_TRUE(eventually([&] { return rig.loop->counters().groups_published >= 4; }, 10s));
+  EXPECT_EQ(rig.loop->report().faults, 0u);
+  EXPECT_EQ(rig.loop->counters().missed_sweeps, 3u);
+
+  rig.digitizer.next_status = hal::kGroupClockFault;  // the k-clock went: a fault
+  ASSERT_TRUE(eventually([&] { return rig.loop->report().faults != 0; }, 10s));
+  EXPECT_EQ(rig.loop->report().faults, kFaultClockLost);
+  // Nobody commands the park: the loop parks on its own after park_wait.
+  ASSERT_TRUE(eventually([&] { return !rig.loop->report().streaming; }, 5s));
+  EXPECT_NE(rig.galvo.parked_ns.load(), 0u);
+  std::uint32_t flags = 0;
+  std::uint32_t missed = 0;
+  read_groups(reader, rig.loop->counters().groups_published, 5s,
+              [&](const shm::SlotHeader& h, std::span<const std::byte>) {
+                flags |= h.status_flags;
+                missed += h.missed_sweeps;
+              });
+  EXPECT_EQ(flags, shm::kStatusSimulated | shm::kStatusOverrun | shm::kStatusMissedTriggers |
+                       shm::kStatusClockFault)
+      << "the clock-fault group was published with its flag: nothing recorded is lost";
+  EXPECT_EQ(missed, 3u);
+
+  // An error from the digitizer ends the cycle with its message.
+  rig.loop->command_run(2);
+  ASSERT_TRUE(eventually([&] { return rig.loop->report().verified; }, 10s));
+  rig.digitizer.throw_next = true;
+  ASSERT_TRUE(eventually([&] { return rig.loop->failed(); }, 10s));
+  EXPECT_NE(rig.loop->failure().find("USB transfer failed"), std::string::npos);
+  EXPECT_TRUE(eventually([&] { return rig.loop->report().faults == kFaultAcquisitionFailed; }, 5s));
+}
+
+// A digitizer that takes longer than a group lasts: every group misses its deadline.
+class SlowDigitizer final : public hal::Digitizer {
  public:
-  std::string_view backend() const noexcept override { return "troubled"; }
+  std::string_view backend() const noexcept override { return "slow"; }
 
  protected:
   void do_prepare(const hal::DigitizerConfig&) override {}
-  void do_start() override { group_ = 0; }
+  void do_start() override { sweep_ = 0; }
   void do_stop() noexcept override {}
-  void do_acquire_group(std::span<std::uint16_t> group, hal::GroupInfo& info) override {
-    if (group_ == 3) throw std::runtime_error("USB transfer timed out");
-    std::fill(group.begin(), group.end(), static_cast<std::uint16_t>(group_));
-    info.first_sweep_counter = group_ * config().sweeps_per_group() + (group_ >= 1 ? 7 : 0);
-    info.missed_sweeps = group_ == 1 ? 7 : 0;
-    info.status = group_ == 1 ? hal::kGroupOverrun : 0;
-    ++group_;
+  void do_acquire_group(std::span<std::uint16_t>, hal::GroupInfo& info) override {
+    std::this_thread::sleep_for(std::chrono::milliseconds(15));  // groups last 7.2 ms
+    info = {};
+    info.first_sweep_counter = sweep_;
+    sweep_ += config().sweeps_per_group();
   }
 
  private:
-  std::uint64_t group_ = 0;
+  std::uint64_t sweep_ = 0;
 };
 
-TEST(AcquisitionLoop, ReportsDigitizerTroubleInTheHeadersAndStopsOnAFailure) {
-  const test_support::ScopedShmName name("rt-fail");
-  const hal::DigitizerConfig geometry = small_geometry(100'000.0);
-  shm::RingWriter ring = shm::RingWriter::create(ring_config(name.str(), geometry));
-  TroubledDigitizer digitizer;
-  digitizer.prepare(geometry);
-  shm::RingReader reader = shm::RingReader::attach(name.str(), {.label = "fail-test"});
-  AcquisitionLoop loop(ring, digitizer, settings_for(geometry, small_simulation().scan));
-  loop.start();
-  ASSERT_TRUE(eventually([&] { return loop.failed(); }, 10s));
-  EXPECT_NE(loop.failure().find("USB transfer timed out"), std::string::npos) << loop.failure();
-  EXPECT_EQ(loop.counters().groups_published, 3u);
-  EXPECT_EQ(loop.counters().missed_sweeps, 7u);
-  loop.stop();
+TEST(AcquisitionLoop, WithoutRealTimeSchedulingMissesAreCountedNotFaults) {
+  Rig rig("rt-misses-nort");
+  SlowDigitizer slow;
+  slow.prepare(rig.geometry);
+  LoopSettings settings = test::loop_settings(rig.geometry, 0);  // SCHED_OTHER
+  settings.publish_slack_ns = 1'000'000;
+  rig.start_loop(&slow, settings);
+  rig.loop->command_run(1);
+  ASSERT_TRUE(eventually([&] { return rig.loop->counters().deadline_misses >= 8; }, 10s));
+  EXPECT_EQ(rig.loop->report().faults, 0u);
+  EXPECT_TRUE(rig.loop->report().streaming);
+}
 
-  std::vector<std::byte> payload(reader.layout().group_payload_bytes);
-  shm::SlotHeader header{};
-  std::uint32_t flags[3] = {};
-  for (std::uint64_t g = 0; g < 3; ++g) {
-    ASSERT_EQ(reader.read_next(payload, header), shm::PollStatus::ready);
-    ASSERT_EQ(header.group_index, g);
-    flags[g] = header.status_flags;
-    EXPECT_EQ(header.missed_sweeps, g == 1 ? 7u : 0u);
-    EXPECT_EQ(static_cast<std::uint16_t>(payload[0]), g);  // little-endian low byte of word 0
-  }
-  EXPECT_EQ(flags[0], shm::kStatusSimulated);
-  EXPECT_EQ(flags[1], shm::kStatusSimulated | shm::kStatusOverrun | shm::kStatusMissedTriggers);
-  EXPECT_EQ(flags[2], shm::kStatusSimulated);
-  // Lost sweeps move the timestamps with them.
-  EXPECT_EQ(header.t_first_sweep_ns,
-            loop.clock().sweep_start_ns(2 * geometry.sweeps_per_group() + 7));
+TEST(AcquisitionLoop, TooManyDeadlineMissesInARowAreAFault) {
+  Rig rig("rt-misses");
+  SlowDigitizer slow;
+  slow.prepare(rig.geometry);
+  LoopSettings settings = test::loop_settings(rig.geometry, rig.priority);
+  settings.publish_slack_ns = 1'000'000;
+  settings.max_consecutive_misses = 3;
+  settings.deadline_faults_without_realtime = true;  // whatever scheduling this box grants
+  rig.start_loop(&slow, settings);
+  rig.loop->command_run(1);
+  ASSERT_TRUE(eventually([&] { return rig.loop->report().faults != 0; }, 10s));
+  EXPECT_EQ(rig.loop->report().faults, kFaultDeadlineMisses);
+  const LoopCounters c = rig.loop->counters();
+  EXPECT_EQ(c.deadline_misses, 4u) << "the fourth miss in a row is the fault";
+  EXPECT_GT(c.worst_lateness_ns, 5'000'000u);
 }
 
 }  // namespace

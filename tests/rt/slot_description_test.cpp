@@ -1,33 +1,40 @@
-// What ioct-rt writes into a slot header: times from the sweep counter, status flags, and
-// B-scan markers that place every line of the group in its volume.
+// What ioct-rt writes into a slot header: times from the sweep counter, status flags, and B-scan
+// markers from the scan that holds for the group: volume, line, volume start/end, reversed lines,
+// active range, pattern and generation, and the commanded galvo positions.
 #include "slot_description.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cstring>
 
+#include "scan/scan_builder.hpp"
+
 namespace ioct::rt {
 namespace {
 
 // 8 A-scans + 2 flyback sweeps per line, 4 lines per group, 6 lines per volume: groups straddle
 // volume boundaries.
-ScanContext small_context() {
-  ScanContext context;
-  context.geometry.samples_per_ascan = 32;
-  context.geometry.ascans_per_bscan = 8;
-  context.geometry.flyback_sweeps = 2;
-  context.geometry.bscans_per_group = 4;
-  context.scan.ascans_per_bscan = 8;
-  context.scan.bscans_per_volume = 6;
-  context.scan_generation = 3;
-  context.extra_status = shm::kStatusSimulated | shm::kStatusLaserOn;
-  return context;
+hal::DigitizerConfig geometry() {
+  hal::DigitizerConfig g;
+  g.samples_per_ascan = 32;
+  g.ascans_per_bscan = 8;
+  g.flyback_sweeps = 2;
+  g.bscans_per_group = 4;
+  return g;
+}
+
+ScanPattern pattern(ScanKind kind, std::uint32_t inactive = 0) {
+  ScanSpec s;
+  s.kind = kind;
+  s.extent_x = s.extent_y = 1.0;
+  s.inactive_ascans = inactive;
+  if (kind == ScanKind::bidirectional) s.extent_x = 0.5;
+  return build_scan_pattern(s, {8, 2, 6, 100'000.0}, {1e9, 1e15});
 }
 
 TEST(GroupTimes, FollowTheSweepCounter) {
-  const ScanContext context = small_context();
   const SweepClock clock(1'000, 10'000.0);  // sweeps every 10 us from t = 1 us
-  const GroupTimes times = group_times(clock, context.geometry, 40);
+  const GroupTimes times = group_times(clock, geometry(), 40);
   EXPECT_EQ(times.first_sweep_ns, 1'000u + 40 * 10'000u);
   // Last recorded sweep: 3 lines of 10 sweeps on, then the 8th A-scan of the 4th line.
   EXPECT_EQ(times.last_sweep_ns, 1'000u + (40 + 30 + 7) * 10'000u);
@@ -35,13 +42,15 @@ TEST(GroupTimes, FollowTheSweepCounter) {
 }
 
 TEST(SlotDescription, MarkersPlaceEachLineInItsVolume) {
-  const ScanContext context = small_context();
+  const ScanPattern raster = pattern(ScanKind::raster);
+  const ScheduledScan scan{0, 0, 3, &raster};
   shm::SlotHeader header;
   std::memset(&header, 0xFF, sizeof(header));  // whatever the slot held before
   hal::GroupInfo info;
   info.first_sweep_counter = 40;  // group 1: lines 4..7 of the run
   const GroupTimes times{100, 200, 210};
-  describe_group(header, info, times, context);
+  describe_group(header, info, times, geometry(), scan,
+                 shm::kStatusSimulated | shm::kStatusLaserOn);
 
   EXPECT_EQ(header.first_sweep_counter, 40u);
   EXPECT_EQ(header.t_first_sweep_ns, 100u);
@@ -49,7 +58,7 @@ TEST(SlotDescription, MarkersPlaceEachLineInItsVolume) {
   EXPECT_EQ(header.bscan_count, 4u);
   EXPECT_EQ(header.active_ascan_begin, 0u);
   EXPECT_EQ(header.active_ascan_end, 8u);
-  EXPECT_EQ(header.scan_pattern_id, static_cast<std::uint32_t>(hal::ScanPatternKind::raster));
+  EXPECT_EQ(header.scan_pattern_id, static_cast<std::uint32_t>(ScanKind::raster));
   EXPECT_EQ(header.scan_generation, 3u);
   EXPECT_EQ(header.status_flags, shm::kStatusSimulated | shm::kStatusLaserOn);
   EXPECT_EQ(header.missed_sweeps, 0u);
@@ -74,6 +83,34 @@ TEST(SlotDescription, MarkersPlaceEachLineInItsVolume) {
     EXPECT_EQ(header.bscans[b].volume_index, 0u) << b;
     EXPECT_EQ(header.bscans[b].flags, 0u) << b;
   }
+}
+
+TEST(SlotDescription, AScheduledPatternCountsItsVolumesFromItsStart) {
+  const ScanPattern bidi = pattern(ScanKind::bidirectional, 1);
+  // Scheduled from sweep 120 (line 12 of the run), continuing the volume count at 9.
+  const ScheduledScan scan{120, 9, 5, &bidi};
+  shm::SlotHeader header{};
+  hal::GroupInfo info;
+  info.first_sweep_counter = 160;  // lines 16..19: lines 4, 5 of volume 9, 0, 1 of volume 10
+  describe_group(header, info, {}, geometry(), scan, 0);
+  EXPECT_EQ(header.scan_pattern_id, static_cast<std::uint32_t>(ScanKind::bidirectional));
+  EXPECT_EQ(header.scan_generation, 5u);
+  EXPECT_EQ(header.active_ascan_begin, 1u);
+  EXPECT_EQ(header.active_ascan_end, 7u);
+  const std::uint64_t volume[] = {9, 9, 10, 10};
+  const std::uint32_t line[] = {4, 5, 0, 1};
+  const std::uint32_t flags[] = {0, shm::kBscanVolumeEnd | shm::kBscanReversed,
+                                 shm::kBscanVolumeStart, shm::kBscanReversed};
+  for (int b = 0; b < 4; ++b) {
+    SCOPED_TRACE(b);
+    EXPECT_EQ(header.bscans[b].volume_index, volume[b]);
+    EXPECT_EQ(header.bscans[b].bscan_in_volume, line[b]);
+    EXPECT_EQ(header.bscans[b].flags, flags[b]);
+    const BscanPlan& plan = bidi.bscans[line[b]];
+    EXPECT_EQ(header.bscans[b].galvo_start[0], plan.start.x);
+    EXPECT_EQ(header.bscans[b].galvo_end[0], plan.end.x);
+  }
+  EXPECT_GT(header.bscans[1].galvo_start[0], header.bscans[1].galvo_end[0]) << "right to left";
 }
 
 TEST(SlotDescription, DigitizerFindingsBecomeRingStatusFlags) {

@@ -1,0 +1,129 @@
+// Everything ioct-rt is configured with, as one validated struct: read from a TOML file (every key
+// documented in docs/operations.md), then overridden by command-line flags. Unknown keys are
+// refused; every error names the key, the value, what is allowed and, for a file, file:line.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <stdexcept>
+#include <string>
+
+#include "ioct/hal/digitizer_config.hpp"
+#include "ioct/hal/galvo_output.hpp"
+#include "ioct/hal/lines.hpp"
+#include "scan/scan_spec.hpp"
+
+namespace ioct::rt {
+
+struct RtConfig {
+  // [ring]
+  std::string ring_name = "ioct-ring";
+  std::uint64_t ring_slots = 8;
+  std::string ring_group;  // owner group of the ring; empty: the process's
+
+  // [digitizer]
+  std::string digitizer_backend = "simulated";
+  hal::DigitizerConfig digitizer;
+
+  // [scan]
+  std::uint32_t bscans_per_volume = 128;
+  ScanSpec scan;
+
+  // [galvo]
+  std::string galvo_backend = "simulated";
+  // sample_rate_hz follows digitizer.ascan_rate_hz; lead_samples is derived from galvo_lead_us.
+  hal::GalvoOutputConfig galvo;
+  // Galvo lead compensation, as a time: the mirrors' lag behind their command. 111.4 us is
+  // 2 zeta / omega of the simulator's default mirrors (2 kHz, zeta 0.7); measure the real
+  // scanner's on the bench.
+  double galvo_lead_us = 111.4;
+  GalvoLimits galvo_limits;
+  std::uint32_t feed_ahead_groups = 3;
+
+  // [usb]: the USB instrument (digitizer and galvo DAC) when a backend is "usb".
+  std::uint32_t usb_vendor_id = 0x1209;  // placeholder IDs, as hal/usb's and the udev rules'
+  std::uint32_t usb_product_id = 0x0001;
+  std::string usb_serial;  // empty: the first instrument with these IDs
+
+  // [lines]
+  std::string lines_backend = "simulated";
+  hal::LinesConfig lines;
+
+  // [realtime]
+  int rt_priority = 80;  // SCHED_FIFO of the acquisition thread; 0: none
+  int rt_cpu = -1;       // CPU to pin it to; -1: none
+  bool lock_memory = true;
+  int safety_priority = -1;  // of the safety thread; -1: rt_priority + 5 (max 99), 0: none
+  int safety_cpu = -1;
+  std::uint64_t check_interval_us = 1000;
+  std::uint64_t publish_slack_us = 2000;
+  std::uint32_t max_consecutive_deadline_misses = 3;
+  std::uint64_t stack_prefault_kib = 256;
+
+  // [safety]
+  std::uint64_t poll_interval_us = 1000;
+  std::uint64_t watchdog_toggle_ms = 5;
+  std::uint64_t arming_timeout_ms = 2000;
+  std::uint64_t readback_timeout_ms = 10;
+  std::uint64_t stall_timeout_ms = 0;  // 0: one group + digitizer.timeout_ms + 100 ms
+  std::uint64_t park_wait_ms = 20;
+  std::uint32_t max_missed_sweeps_per_group = 8;
+  bool monitor_laser_ready = true;
+  bool monitor_k_clock = true;
+  bool monitor_sweep_trigger = true;
+  bool require_footswitch = false;
+  std::uint64_t auto_rearm_ms = 0;  // 0: re-arm on a start command only
+
+  // [control]
+  std::string control_socket;  // empty: no control channel
+  std::string control_group;   // group of the socket (mode 0660); empty: the process's
+  bool start_scanning = true;  // arm at start-up without waiting for a start command
+  std::uint32_t max_clients = 8;
+
+  // [status]
+  double status_interval_s = 1.0;
+
+  // [simulation]
+  std::uint64_t simulation_seed = 1;
+  double mirror_natural_hz = 2000.0;  // the simulated galvo servo's bandwidth
+  double mirror_damping = 0.7;
+  std::uint32_t laser_watchdog_timeout_ms = 100;  // the simulated external laser watchdog
+
+  // Cross-checks and each part's own validate(); throws ConfigError naming the key.
+  void validate() const;
+
+  int effective_safety_priority() const noexcept;
+  // galvo_lead_us in sweeps at the A-scan rate, rounded.
+  std::uint32_t galvo_lead_samples() const noexcept;
+  std::uint64_t effective_stall_timeout_ms() const noexcept;
+};
+
+// Where each key came from in a file: "scan.extent_x" -> line 12, column 1.
+struct SourcePosition {
+  std::uint32_t line = 0;
+  std::uint32_t column = 0;
+};
+using KeyPositions = std::map<std::string, SourcePosition>;
+
+// A configuration file's error: "<file>:<line>:<column>: <ConfigError text>".
+class ConfigFileError : public std::runtime_error {
+ public:
+  ConfigFileError(const std::string& file, SourcePosition position, const std::string& message);
+  const std::string& file() const noexcept { return file_; }
+  SourcePosition position() const noexcept { return position_; }
+
+ private:
+  std::string file_;
+  SourcePosition position_;
+};
+
+// Reads `path` over `config` (keys absent from the file keep their value). Throws
+// ConfigFileError for a syntax error, an unknown key, a value of the wrong type or out of range;
+// the file's keys and where they are go to `positions` when given.
+void load_config_file(const std::string& path, RtConfig& config, KeyPositions* positions = nullptr);
+
+// Reads TOML text (`origin` names it in errors); what load_config_file() does after reading.
+void load_config_text(const std::string& text, const std::string& origin, RtConfig& config,
+                      KeyPositions* positions = nullptr);
+
+}  // namespace ioct::rt

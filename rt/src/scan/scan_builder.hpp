@@ -1,0 +1,19 @@
+// Plans a scan pattern: lays out the lines of one volume for the pattern kind, maps them into
+// the field (extent, rotation, offset), joins consecutive lines with quintic transitions during
+// the flyback sweeps, and checks the result against the field and the galvo's limits.
+#pragma once
+
+#include "scan/scan_pattern.hpp"
+#include "scan/scan_spec.hpp"
+
+namespace ioct::rt {
+
+// Throws ConfigError ("scan.<key>") when the spec does not fit the timing (repeats that do not
+// divide the volume, too many inactive A-scans, ...), and ScanInfeasible when the mirrors would
+// leave the field or exceed a limit: the message names the limit, the B-scan and axis, the value
+// required against the one allowed, the excess in percent, and the fewest flyback sweeps that
+// would do where more flyback time helps.
+ScanPattern build_scan_pattern(const ScanSpec& spec, const ScanTiming& timing,
+                               const GalvoLimits& limits);
+
+}  // namespace ioct::rt

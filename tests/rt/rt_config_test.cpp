@@ -1,0 +1,175 @@
+// The configuration file: the sample configs load and validate, every kind of mistake is refused
+// with the key, the value, what is allowed and file:line, unknown keys are refused, and flags
+// given on the command line override the file.
+#include "rt_config.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "ioct/common/config_error.hpp"
+#include "rt_options.hpp"
+#include "scan/scan_infeasible.hpp"
+
+namespace ioct::rt {
+namespace {
+
+std::string sample_config(const std::string& name) {
+  return std::string(IOCT_RT_CONFIG_DIR) + "/" + name;
+}
+
+// The message load_config_text() or validate() gives for `text`, or "ok".
+std::string error_for(const std::string& text) {
+  RtConfig config;
+  try {
+    load_config_text(text, "bad.toml", config);
+    config.validate();
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "ok";
+}
+
+TEST(RtConfig, TheSampleConfigsLoadAndValidateAndTheirScansAreFeasible) {
+  for (const char* name : {"simulator.toml", "paper-100khz.toml", "bench.toml"}) {
+    SCOPED_TRACE(name);
+    RtOptions options;
+    options.config = sample_config(name);
+    options.given = std::set<std::string>{};
+    RtSetup setup;
+    ASSERT_NO_THROW(setup = make_setup(options));
+    setup.config.validate();
+  }
+}
+
+TEST(RtConfig, ThePaperConfigIsThePapersSystem) {
+  RtConfig c;
+  load_config_file(sample_config("paper-100khz.toml"), c);
+  EXPECT_EQ(c.digitizer.ascan_rate_hz, 100'000.0);
+  EXPECT_EQ(c.digitizer.samples_per_ascan, 1376u);
+  EXPECT_EQ(c.digitizer.ascans_per_bscan, 512u);
+  EXPECT_EQ(c.bscans_per_volume, 128u);
+  EXPECT_EQ(c.digitizer.bscans_per_group, 16u);
+}
+
+TEST(RtConfig, ValuesOutOfRangeNameKeyValueRangeAndLine) {
+  const std::string e = error_for("[digitizer]\nsamples_per_ascan = 1376\nascans_per_bscan = 0\n");
+  EXPECT_EQ(e, "bad.toml:3:20: digitizer.ascans_per_bscan = 0: must be in [1, 65536]");
+  EXPECT_EQ(error_for("[ring]\nslots = -3\n"),
+            "bad.toml:2:9: ring.slots = -3: must be in [2, 4096]");
+  EXPECT_EQ(error_for("[realtime]\npriority = 100\n"),
+            "bad.toml:2:12: realtime.priority = 100: must be in [0, 99]");
+}
+
+TEST(RtConfig, WrongTypesAreRefused) {
+  EXPECT_EQ(error_for("[scan]\nextent_x = \"wide\"\n"),
+            "bad.toml:2:12: scan.extent_x = \"wide\": must be a number, not a string");
+  EXPECT_EQ(error_for("[control]\nstart_scanning = 1\n"),
+            "bad.toml:2:18: control.start_scanning = 1: must be true or false, not an integer");
+  EXPECT_EQ(error_for("digitizer = 3\n"),
+            "bad.toml:1:13: digitizer = 3: must be a table, not an integer");
+  EXPECT_EQ(error_for("[scan]\npattern = \"spiral\"\n"),
+            "bad.toml:2:11: scan.pattern = \"spiral\": must be one of raster, bidirectional, "
+            "crosshair, radial");
+}
+
+TEST(RtConfig, UnknownKeysAndTablesAreRefused) {
+  const std::string e = error_for("[scan]\nextent_x = 0.5\nextnt_y = 0.5\n");
+  EXPECT_EQ(e.rfind("bad.toml:3:1: scan.extnt_y: unknown key; [scan] takes pattern, ", 0), 0u) << e;
+  const std::string t = error_for("[scanner]\nx = 1\n");
+  EXPECT_EQ(t.rfind("bad.toml:1:2: scanner: unknown key; the file takes ring, digitizer", 0), 0u)
+      << t;
+  const std::string n = error_for("[lines.laser_emission]\noffset = 3\npolarity = 1\n");
+  EXPECT_EQ(n.rfind("bad.toml:3:1: lines.laser_emission.polarity: unknown key", 0), 0u) << n;
+}
+
+TEST(RtConfig, SyntaxErrorsSayWhere) {
+  const std::string e = error_for("[ring]\nname = \"unterminated\n");
+  EXPECT_EQ(e.rfind("bad.toml:2:", 0), 0u) << e;
+  EXPECT_NE(e.find("not valid TOML"), std::string::npos) << e;
+}
+
+TEST(RtConfig, CrossChecksNameTheKey) {
+  EXPECT_EQ(error_for("[realtime]\npriority = 80\nsafety_priority = 70\n"),
+            "realtime.safety_priority = 70: must be above realtime.priority = 80: the safety "
+            "thread preempts the acquisition thread");
+  const std::string fifo = error_for("[galvo]\nfifo_capacity = 1000\n");
+  EXPECT_EQ(
+      fifo.rfind("galvo.fifo_capacity = 1000: must hold more than one group of sweeps (8608)", 0),
+      0u)
+      << fifo;
+  EXPECT_EQ(error_for("[lines]\nlaser_emission = { offset = 4 }\n"),
+            "lines.k_clock_valid.offset = 4: is already used by lines.laser_emission.offset");
+  EXPECT_EQ(error_for("[digitizer]\nsamples_per_ascan = 1377\n")
+                .rfind("digitizer.samples_per_ascan = 1377: must be even", 0),
+            0u);
+}
+
+class TempFile {
+ public:
+  explicit TempFile(const std::string& text)
+      : path_(std::filesystem::temp_directory_path() /
+              ("ioct-rt-config-" + std::to_string(::getpid()) + "-" + std::to_string(counter_++) +
+               ".toml")) {
+    std::ofstream(path_) << text;
+  }
+  ~TempFile() { std::filesystem::remove(path_); }
+  std::string str() const { return path_.string(); }
+
+ private:
+  static inline int counter_ = 0;
+  std::filesystem::path path_;
+};
+
+TEST(RtConfig, SemanticErrorsFromTheFileCarryItsLineAndFlagsOverrideTheFile) {
+  const TempFile file(
+      "[scan]\nbscans_per_volume = 100\n[digitizer]\nbscans_per_group = 16\n"
+      "[galvo]\nmax_acceleration = 1e8\n");
+  RtOptions options;
+  options.config = file.str();
+  options.given = std::set<std::string>{};
+  try {
+    make_setup(options);
+    FAIL() << "accepted";
+  } catch (const ConfigFileError& e) {
+    // The infeasible flyback is refused at the line of the limit it violates.
+    EXPECT_EQ(std::string(e.what()).rfind(file.str() + ":6:20: scan infeasible: ", 0), 0u)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("galvo.max_acceleration"), std::string::npos);
+  }
+  // A flag overrides the file's key: the same file with --flyback 40 is feasible.
+  options.flyback = 40;
+  options.given = std::set<std::string>{"--flyback"};
+  const RtSetup setup = make_setup(options);
+  EXPECT_EQ(setup.config.digitizer.flyback_sweeps, 40u);
+  EXPECT_EQ(setup.config.bscans_per_volume, 100u) << "from the file";
+  EXPECT_EQ(setup.ring.geometry.bscans_per_volume, 100u);
+  // A flag the command line did not give leaves the file's value alone.
+  options.samples = 2048;
+  EXPECT_EQ(make_setup(options).config.digitizer.samples_per_ascan, 1376u);
+}
+
+TEST(RtConfig, AFlagsBadValueIsReportedAgainstTheFlag) {
+  RtOptions options;
+  options.samples = 7;
+  try {
+    make_setup(options);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "digitizer.samples_per_ascan");
+    EXPECT_EQ(option_for_error(e.what()), "--samples");
+  }
+  options = RtOptions{};
+  options.pattern = "zigzag";
+  try {
+    make_setup(options);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(option_for_error(e.what()), "--pattern");
+  }
+}
+
+}  // namespace
+}  // namespace ioct::rt

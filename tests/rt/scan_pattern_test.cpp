@@ -1,0 +1,328 @@
+// Scan patterns: golden waveforms and markers of each kind on tiny geometries, the properties
+// every trajectory has (one sample per sweep, continuous position, velocity and acceleration,
+// lines at constant speed), and infeasible patterns refused with the limit and the excess.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "ioct/common/config_error.hpp"
+#include "scan/quintic_transition.hpp"
+#include "scan/scan_builder.hpp"
+#include "scan/scan_infeasible.hpp"
+
+namespace ioct::rt {
+namespace {
+
+GalvoLimits unlimited() {
+  return {1e9, 1e15};
+}
+
+ScanSpec spec(ScanKind kind, double extent = 0.5) {
+  ScanSpec s;
+  s.kind = kind;
+  s.extent_x = extent;
+  s.extent_y = extent;
+  return s;
+}
+
+void expect_trajectory(const ScanPattern& pattern, const std::vector<hal::GalvoSample>& golden) {
+  ASSERT_EQ(pattern.trajectory.size(), golden.size());
+  for (std::size_t i = 0; i < golden.size(); ++i) {
+    EXPECT_NEAR(pattern.trajectory[i].x, golden[i].x, 2e-6) << "sweep " << i;
+    EXPECT_NEAR(pattern.trajectory[i].y, golden[i].y, 2e-6) << "sweep " << i;
+  }
+}
+
+// Golden values computed independently (a separate implementation of the documented rules).
+TEST(ScanPattern, RasterGoldenWaveformAndMarkers) {
+  const ScanPattern p = build_scan_pattern(spec(ScanKind::raster), {5, 3, 2, 1.0}, unlimited());
+  expect_trajectory(p, {{-0.5f, -0.5f},
+                        {-0.25f, -0.5f},
+                        {0.0f, -0.5f},
+                        {0.25f, -0.5f},
+                        {0.5f, -0.5f},
+                        {0.542969f, -0.396484f},
+                        {0.0f, 0.0f},
+                        {-0.542969f, 0.396484f},
+                        {-0.5f, 0.5f},
+                        {-0.25f, 0.5f},
+                        {0.0f, 0.5f},
+                        {0.25f, 0.5f},
+                        {0.5f, 0.5f},
+                        {0.542969f, 0.396484f},
+                        {0.0f, 0.0f},
+                        {-0.542969f, -0.396484f}});
+  ASSERT_EQ(p.bscans.size(), 2u);
+  EXPECT_FALSE(p.bscans[0].reversed);
+  EXPECT_EQ(p.bscans[0].start, (hal::GalvoSample{-0.5f, -0.5f}));
+  EXPECT_EQ(p.bscans[0].end, (hal::GalvoSample{0.5f, -0.5f}));
+  EXPECT_EQ(p.bscans[1].start, (hal::GalvoSample{-0.5f, 0.5f}));
+  EXPECT_EQ(p.active_begin, 0u);
+  EXPECT_EQ(p.active_end, 5u);
+  EXPECT_EQ(p.pattern_id(), 1u);  // hal::ScanPatternKind::raster
+}
+
+TEST(ScanPattern, BidirectionalGoldenWaveformReversesEveryOtherLine) {
+  const ScanPattern p =
+      build_scan_pattern(spec(ScanKind::bidirectional), {4, 2, 2, 1.0}, unlimited());
+  expect_trajectory(p, {{-0.5f, -0.5f},
+                        {-0.166667f, -0.5f},
+                        {0.166667f, -0.5f},
+                        {0.5f, -0.5f},
+                        {0.771605f, -0.290123f},
+                        {0.771605f, 0.290123f},
+                        {0.5f, 0.5f},
+                        {0.166667f, 0.5f},
+                        {-0.166667f, 0.5f},
+                        {-0.5f, 0.5f},
+                        {-0.771605f, 0.290123f},
+                        {-0.771605f, -0.290123f}});
+  EXPECT_FALSE(p.bscans[0].reversed);
+  EXPECT_TRUE(p.bscans[1].reversed);
+  EXPECT_EQ(p.bscans[1].start, (hal::GalvoSample{0.5f, 0.5f}));
+  EXPECT_EQ(p.bscans[1].end, (hal::GalvoSample{-0.5f, 0.5f}));
+  EXPECT_EQ(p.pattern_id(), 2u);
+}
+
+TEST(ScanPattern, CrosshairGoldenWaveformRotatedAndOffset) {
+  ScanSpec s = spec(ScanKind::crosshair);
+  s.rotation_deg = 90.0;
+  s.offset_x = 0.1;
+  s.offset_y = -0.2;
+  const ScanPattern p = build_scan_pattern(s, {3, 2, 2, 1.0}, unlimited());
+  expect_trajectory(p, {{0.1f, -0.7f},
+                        {0.1f, -0.2f},
+                        {0.1f, 0.3f},
+                        {0.316049f, 0.491358f},
+                        {0.791358f, 0.016049f},
+                        {0.6f, -0.2f},
+                        {0.1f, -0.2f},
+                        {-0.4f, -0.2f},
+                        {-0.591358f, -0.416049f},
+                        {-0.116049f, -0.891358f}});
+  EXPECT_EQ(p.pattern_id(), 3u);
+}
+
+TEST(ScanPattern, RadialGoldenWaveform) {
+  const ScanPattern p =
+      build_scan_pattern(spec(ScanKind::radial, 0.4), {3, 3, 2, 1.0}, unlimited());
+  expect_trajectory(p, {{-0.4f, 0.0f},
+                        {0.0f, 0.0f},
+                        {0.4f, 0.0f},
+                        {0.653906f, -0.102344f},
+                        {0.45f, -0.45f},
+                        {0.102344f, -0.653906f},
+                        {0.0f, -0.4f},
+                        {0.0f, 0.0f},
+                        {0.0f, 0.4f},
+                        {-0.102344f, 0.653906f},
+                        {-0.45f, 0.45f},
+                        {-0.653906f, 0.102344f}});
+  EXPECT_EQ(p.pattern_id(), 4u);
+}
+
+TEST(ScanPattern, InactiveAscansNarrowTheActiveRangeAndJoinTheTransition) {
+  ScanSpec s = spec(ScanKind::raster);
+  s.inactive_ascans = 1;
+  const ScanPattern p = build_scan_pattern(s, {6, 2, 2, 1.0}, unlimited());
+  expect_trajectory(p, {{-0.67888f, -0.44208f},
+                        {-0.5f, -0.5f},
+                        {-0.166667f, -0.5f},
+                        {0.166667f, -0.5f},
+                        {0.5f, -0.5f},
+                        {0.67888f, -0.44208f},
+                        {0.32016f, -0.18256f},
+                        {-0.32016f, 0.18256f},
+                        {-0.67888f, 0.44208f},
+                        {-0.5f, 0.5f},
+                        {-0.166667f, 0.5f},
+                        {0.166667f, 0.5f},
+                        {0.5f, 0.5f},
+                        {0.67888f, 0.44208f},
+                        {0.32016f, 0.18256f},
+                        {-0.32016f, -0.18256f}});
+  EXPECT_EQ(p.active_begin, 1u);
+  EXPECT_EQ(p.active_end, 5u);
+  // The markers are the commanded positions at the first and last *active* A-scan.
+  EXPECT_EQ(p.bscans[0].start, (hal::GalvoSample{-0.5f, -0.5f}));
+  EXPECT_EQ(p.bscans[0].end, (hal::GalvoSample{0.5f, -0.5f}));
+}
+
+TEST(ScanPattern, RepeatsScanEachLineSeveralTimes) {
+  ScanSpec s = spec(ScanKind::raster);
+  s.repeats = 3;
+  const ScanPattern p = build_scan_pattern(s, {8, 4, 6, 1.0}, unlimited());
+  ASSERT_EQ(p.bscans.size(), 6u);
+  for (std::uint32_t b = 0; b < 6; ++b) {
+    EXPECT_FLOAT_EQ(p.bscans[b].start.y, b < 3 ? -0.5f : 0.5f) << b;
+    EXPECT_FLOAT_EQ(p.bscans[b].start.x, -0.5f) << b;
+  }
+  // Crosshair with repeats: H, H, V, V.
+  ScanSpec c = spec(ScanKind::crosshair);
+  c.repeats = 2;
+  const ScanPattern q = build_scan_pattern(c, {8, 4, 4, 1.0}, unlimited());
+  EXPECT_FLOAT_EQ(q.bscans[1].start.y, 0.0f);
+  EXPECT_FLOAT_EQ(q.bscans[2].start.x, 0.0f);
+  EXPECT_FLOAT_EQ(q.bscans[2].start.y, -0.5f);
+}
+
+// The default geometry for every kind: one sample per sweep, lines at constant speed, smooth
+// transitions, the markers match the trajectory at the active ends, everything inside the field.
+class EveryKind : public testing::TestWithParam<ScanKind> {};
+
+TEST_P(EveryKind, DefaultGeometryTrajectoryIsSmoothAndMatchesItsMarkers) {
+  ScanSpec s;
+  s.kind = GetParam();
+  s.repeats = s.kind == ScanKind::crosshair ? 2 : 1;
+  const ScanTiming timing;  // 512 + 26 sweeps, 128 B-scans, 100 kHz
+  const ScanPattern p = build_scan_pattern(s, timing, GalvoLimits{});
+  ASSERT_EQ(p.trajectory.size(), timing.sweeps_per_volume());
+  ASSERT_EQ(p.bscans.size(), 128u);
+  std::size_t reversed = 0;
+  for (std::uint32_t b = 0; b < 128; ++b) {
+    const std::uint64_t first = b * timing.sweeps_per_bscan();
+    EXPECT_EQ(p.trajectory[first + p.active_begin], p.bscans[b].start) << b;
+    EXPECT_EQ(p.trajectory[first + p.active_end - 1], p.bscans[b].end) << b;
+    reversed += p.bscans[b].reversed ? 1 : 0;
+    // Constant speed along the line: equal steps.
+    const float dx = p.trajectory[first + 1].x - p.trajectory[first].x;
+    const float dy = p.trajectory[first + 1].y - p.trajectory[first].y;
+    for (std::uint32_t a = 1; a + 1 < timing.records_per_bscan; ++a) {
+      ASSERT_NEAR(p.trajectory[first + a + 1].x - p.trajectory[first + a].x, dx, 1e-5f) << b;
+      ASSERT_NEAR(p.trajectory[first + a + 1].y - p.trajectory[first + a].y, dy, 1e-5f) << b;
+    }
+  }
+  EXPECT_EQ(reversed, s.kind == ScanKind::bidirectional ? 64u : 0u);
+  // Continuity across the whole volume (and across its wrap into the next): the second
+  // difference (acceleration per sweep^2) stays within the planned peak.
+  const double rate = timing.sweep_rate_hz;
+  const double allowed = p.usage.peak_acceleration / (rate * rate) * 1.05 + 1e-6;
+  const std::size_t n = p.trajectory.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const hal::GalvoSample a = p.trajectory[(i + n - 1) % n];
+    const hal::GalvoSample b = p.trajectory[i];
+    const hal::GalvoSample c = p.trajectory[(i + 1) % n];
+    ASSERT_LE(std::fabs(a.x - 2 * b.x + c.x), allowed) << "sweep " << i;
+    ASSERT_LE(std::fabs(a.y - 2 * b.y + c.y), allowed) << "sweep " << i;
+    ASSERT_LE(std::fabs(b.x), 1.0f);
+    ASSERT_LE(std::fabs(b.y), 1.0f);
+  }
+  EXPECT_LE(p.usage.peak_velocity, GalvoLimits{}.max_velocity);
+  EXPECT_LE(p.usage.peak_acceleration, GalvoLimits{}.max_acceleration);
+}
+
+INSTANTIATE_TEST_SUITE_P(Kinds, EveryKind,
+                         testing::Values(ScanKind::raster, ScanKind::bidirectional,
+                                         ScanKind::crosshair, ScanKind::radial),
+                         [](const testing::TestParamInfo<ScanKind>& kind) {
+                           return std::string(to_string(kind.param));
+                         });
+
+TEST(QuinticTransition, MatchesItsEndsAndFindsItsPeaks) {
+  const QuinticTransition t(1.0, 0.5, -1.0, 0.5, 10.0);
+  EXPECT_DOUBLE_EQ(t.position(0.0), 1.0);
+  EXPECT_NEAR(t.position(10.0), -1.0, 1e-12);
+  EXPECT_NEAR(t.velocity(0.0), 0.5, 1e-12);
+  EXPECT_NEAR(t.velocity(10.0), 0.5, 1e-12);
+  EXPECT_NEAR(t.acceleration(0.0), 0.0, 1e-12);
+  EXPECT_NEAR(t.acceleration(10.0), 0.0, 1e-12);
+  double v = 0.0, a = 0.0;
+  for (int i = 0; i <= 100000; ++i) {
+    v = std::max(v, std::fabs(t.velocity(i * 1e-4)));
+    a = std::max(a, std::fabs(t.acceleration(i * 1e-4)));
+  }
+  EXPECT_NEAR(t.peak_velocity(), v, 1e-6);
+  EXPECT_NEAR(t.peak_acceleration(), a, 1e-6);
+  // Rest to rest: the minimum-jerk profile's known peaks, 1.875 d/T and 5.7735 d/T^2.
+  const QuinticTransition r(0.0, 0.0, 2.0, 0.0, 4.0);
+  EXPECT_NEAR(r.peak_velocity(), 1.875 * 2.0 / 4.0, 1e-12);
+  EXPECT_NEAR(r.peak_acceleration(), 10.0 / std::sqrt(3.0) * 2.0 / 16.0, 1e-9);
+}
+
+TEST(ScanPattern, RefusesAnAccelerationBeyondTheLimitSayingByHowMuchAndWhatWouldDo) {
+  GalvoLimits limits;
+  limits.max_acceleration = 1e8;
+  try {
+    build_scan_pattern(ScanSpec{}, ScanTiming{}, limits);
+    FAIL() << "accepted";
+  } catch (const ScanInfeasible& e) {
+    EXPECT_EQ(e.limit(), "galvo.max_acceleration");
+    EXPECT_DOUBLE_EQ(e.allowed(), 1e8);
+    EXPECT_NEAR(e.required(), 1.584e8, 0.001e8);
+    const std::string what = e.what();
+    EXPECT_NE(what.find("flyback after B-scan"), std::string::npos) << what;
+    EXPECT_NE(what.find("58."), std::string::npos) << "the excess in percent: " << what;
+    EXPECT_NE(what.find("at least 34 flyback sweeps"), std::string::npos) << what;
+    // The suggestion holds: with 34 flyback sweeps it is feasible, with 33 not.
+    ScanTiming longer;
+    longer.flyback_sweeps = 34;
+    EXPECT_NO_THROW(build_scan_pattern(ScanSpec{}, longer, limits));
+    longer.flyback_sweeps = 33;
+    EXPECT_THROW(build_scan_pattern(ScanSpec{}, longer, limits), ScanInfeasible);
+  }
+}
+
+TEST(ScanPattern, RefusesALineFasterThanTheVelocityLimit) {
+  GalvoLimits limits;
+  limits.max_velocity = 300.0;  // the default line needs 371 units/s
+  // A flyback so long that its own peak (89 units/s) stays below the limit: the line is the worst.
+  const ScanTiming slow_flyback{512, 4000, 128, 100'000.0};
+  try {
+    build_scan_pattern(ScanSpec{}, slow_flyback, limits);
+    FAIL() << "accepted";
+  } catch (const ScanInfeasible& e) {
+    EXPECT_EQ(e.limit(), "galvo.max_velocity");
+    EXPECT_NEAR(e.required(), 1.9 / 511 * 1e5, 0.01);
+    EXPECT_NE(std::string(e.what()).find("line's constant speed"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ScanPattern, RefusesAFieldThatLeavesTheScannerRange) {
+  ScanSpec s;
+  s.kind = ScanKind::bidirectional;
+  s.extent_x = 1.0;  // the turn-around overshoots the line's end
+  try {
+    build_scan_pattern(s, ScanTiming{}, GalvoLimits{});
+    FAIL() << "accepted";
+  } catch (const ScanInfeasible& e) {
+    EXPECT_EQ(e.limit(), "scan.field");
+    EXPECT_GT(e.required(), 1.0);
+    EXPECT_NE(std::string(e.what()).find("beyond the field [-1, 1] by"), std::string::npos);
+  }
+  ScanSpec rotated;
+  rotated.extent_x = rotated.extent_y = 0.9;
+  rotated.rotation_deg = 45.0;  // the corners reach 0.9 * sqrt(2)
+  EXPECT_THROW(build_scan_pattern(rotated, ScanTiming{}, GalvoLimits{}), ScanInfeasible);
+}
+
+TEST(ScanPattern, RefusesSpecsThatDoNotFitTheVolume) {
+  const auto key_of = [](const ScanSpec& s, const ScanTiming& t) -> std::string {
+    try {
+      build_scan_pattern(s, t, GalvoLimits{});
+    } catch (const ConfigError& e) {
+      return e.key();
+    }
+    return "accepted";
+  };
+  ScanSpec s;
+  s.repeats = 3;  // 128 is not a multiple of 3
+  EXPECT_EQ(key_of(s, ScanTiming{}), "scan.repeats");
+  s = ScanSpec{};
+  s.kind = ScanKind::crosshair;
+  s.repeats = 128;  // one line per volume: not a pair
+  EXPECT_EQ(key_of(s, ScanTiming{}), "scan.repeats");
+  s = ScanSpec{};
+  s.inactive_ascans = 256;  // leaves none of 512 active
+  EXPECT_EQ(key_of(s, ScanTiming{}), "scan.inactive_ascans");
+  s = ScanSpec{};
+  s.extent_x = 1.5;
+  EXPECT_EQ(key_of(s, ScanTiming{}), "scan.extent_x");
+  s = ScanSpec{};
+  s.rotation_deg = std::nan("");
+  EXPECT_EQ(key_of(s, ScanTiming{}), "scan.rotation_deg");
+}
+
+}  // namespace
+}  // namespace ioct::rt
