@@ -47,4 +47,13 @@ void DbToU8::map_row(const std::complex<float>* bins, std::uint8_t* out,
   }
 }
 
+void DbToU8::map_power_row(const float* power, std::uint8_t* out,
+                           std::uint32_t count) const noexcept {
+  const float gain = gain_;
+  const float offset = offset_;
+  const float* __restrict in = power;
+  std::uint8_t* __restrict pixels = out;
+  for (std::size_t d = 0; d < count; ++d) pixels[d] = clamp_level(gain * log2_of(in[d]) + offset);
+}
+
 }  // namespace ioct::gpu

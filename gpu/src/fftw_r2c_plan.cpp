@@ -9,15 +9,14 @@
 #include <stdexcept>
 #include <utility>
 
+#include "fftw_planner.hpp"
 #include "ioct/common/config_error.hpp"
 
 namespace ioct::gpu {
-namespace {
 
 static_assert(sizeof(std::complex<float>) == sizeof(fftwf_complex),
               "std::complex<float> and fftwf_complex share one layout");
 
-// FFTW's planner and wisdom are process-wide state without locking of their own.
 std::mutex& planner_mutex() {
   static std::mutex mutex;
   return mutex;
@@ -52,8 +51,6 @@ void export_wisdom(const std::string& path) {
     throw ConfigError("fft_wisdom", "'" + path + "'", "could not be written");
   }
 }
-
-}  // namespace
 
 std::string_view to_string(FftRigor rigor) noexcept {
   switch (rigor) {

@@ -6,7 +6,8 @@ namespace ioct::gpu {
 
 std::optional<std::string> find_group_problem(const shm::SlotHeader& header,
                                               const shm::RingGeometry& geometry,
-                                              std::size_t payload_bytes) {
+                                              std::size_t payload_bytes,
+                                              std::uint32_t repeats_per_position) {
   const auto text = [](auto value) { return std::to_string(value); };
   if (payload_bytes < geometry.group_payload_bytes()) {
     return "payload of " + text(payload_bytes) + " bytes, the geometry needs " +
@@ -15,6 +16,10 @@ std::optional<std::string> find_group_problem(const shm::SlotHeader& header,
   if (header.bscan_count < 1 || header.bscan_count > geometry.bscans_per_group) {
     return "bscan_count = " + text(header.bscan_count) + " is out of range [1, " +
            text(geometry.bscans_per_group) + "]";
+  }
+  if (repeats_per_position > 1 && header.bscan_count % repeats_per_position != 0) {
+    return "bscan_count = " + text(header.bscan_count) + " is not a multiple of " +
+           text(repeats_per_position) + " repeats per position";
   }
   if (header.active_ascan_begin >= header.active_ascan_end ||
       header.active_ascan_end > geometry.ascans_per_bscan) {

@@ -10,6 +10,7 @@
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/group_check.hpp"
+#include "ioct/gpu/live_pipeline.hpp"
 #include "ioct/gpu/png_file.hpp"
 #include "ioct/gpu/run_summary_json.hpp"
 #include "ioct/shm/monotonic_clock.hpp"
@@ -74,20 +75,15 @@ void LiveConfig::validate() const {
 }
 
 // One attachment to the ring, from the first group to the summary.
-class LiveProcessor::Session {
+class LiveProcessor::Session final : public LiveEvents {
  public:
-  Session(LiveProcessor& owner, shm::RingReader reader)
+  Session(LiveProcessor& owner, Backend backend, shm::RingReader reader)
       : owner_(owner),
         config_(owner.config_),
-        reader_(std::move(reader)),
-        geometry_(reader_.geometry()),
-        processor_(make_oct_processor(config_.backend, config_.processing)),
-        assembler_(geometry_.bscans_per_volume, depth_of(geometry_)),
-        spectra_((reader_.layout().group_payload_bytes + 1) / 2) {
-    processor_->prepare(geometry_);
-    processed_.pixels.reserve(std::size_t{geometry_.bscans_per_group} * geometry_.ascans_per_bscan *
-                              depth_of(geometry_));
-  }
+        geometry_(reader.geometry()),
+        pipeline_(make_live_pipeline(backend, config_.processing, std::move(reader))) {}
+
+  std::string_view backend_name() const noexcept { return pipeline_->backend_name(); }
 
   StopReason loop() {
     started_ns_ = shm::monotonic_ns();
@@ -95,37 +91,36 @@ class LiveProcessor::Session {
     const std::uint64_t limit_ns = seconds_to_ns(config_.run_s);
     const std::uint64_t status_ns = seconds_to_ns(config_.status_interval_s);
     const std::uint64_t poll_ns = seconds_to_ns(config_.poll_interval_s);
-    const std::span<std::byte> buffer(reinterpret_cast<std::byte*>(spectra_.data()),
-                                      reader_.layout().group_payload_bytes);
     for (;;) {
       if (owner_.stop_.load(std::memory_order_relaxed)) return StopReason::stop_requested;
       const std::uint64_t now = shm::monotonic_ns();
       if (limit_ns > 0 && now - started_ns_ >= limit_ns) return StopReason::time_limit;
       if (status_ns > 0 && now - last_status_ns_ >= status_ns) print_status(now);
 
-      shm::SlotHeader header;
-      switch (reader_.read_next(buffer, header)) {
+      switch (pipeline_->poll(*this)) {
         case shm::PollStatus::ready:
-          handle_group(header);
+        case shm::PollStatus::lapped:  // counted by the reader
           break;
         case shm::PollStatus::empty:
           sleep_ns(poll_ns);
           break;
-        case shm::PollStatus::lapped:
-          break;  // counted by the reader
         case shm::PollStatus::producer_gone:
           return StopReason::producer_gone;
       }
+      owner_.groups_consumed_.store(pipeline_->reader().counters().consumed,
+                                    std::memory_order_release);
     }
   }
 
   RunSummary finish(StopReason reason) {
+    pipeline_->drain(*this);
     const std::uint64_t now = shm::monotonic_ns();
     if (!images_) {
       // No volume completed (a short run, or the stream ended mid-volume): show what arrived,
       // gaps zeroed, rather than nothing.
-      if (const std::optional<VolumeInfo> partial = assembler_.seal_partial()) {
-        prepare_images(assembler_.volume(), *partial);
+      const Volume* volume = nullptr;
+      if (const std::optional<VolumeInfo> partial = pipeline_->seal_partial(volume)) {
+        prepare_images(*volume, *partial);
         write_pending_images();
       }
     }
@@ -142,6 +137,42 @@ class LiveProcessor::Session {
     return summary;
   }
 
+  // LiveEvents
+  void on_volume(const Volume& volume, const VolumeInfo& info) override {
+    const std::uint64_t begin = shm::monotonic_ns();
+    ++counters_.volumes_completed;
+    if (!info.complete()) ++counters_.volumes_with_gaps;
+    if (owner_.observer_) owner_.observer_(volume, info);
+    prepare_images(volume, info);
+    completion_ns_ += shm::monotonic_ns() - begin;
+  }
+
+  void on_group(const shm::SlotHeader& header, const PlacementResult& placed) override {
+    status_flags_seen_ |= header.status_flags;
+    // Publish -> in the volume; the time spent on completed volumes' images is not processing.
+    // (Clamped: the timestamp comes from another process and is not trusted to be sane.)
+    const std::uint64_t now = shm::monotonic_ns();
+    const std::uint64_t elapsed = now > header.t_publish_ns ? now - header.t_publish_ns : 0;
+    const std::uint64_t latency = elapsed > completion_ns_ ? elapsed - completion_ns_ : 0;
+    completion_ns_ = 0;
+    latency_total_.record(latency);
+    latency_interval_.record(latency);
+    ++counters_.groups_processed;
+    counters_.bscans_rejected += placed.bscans_rejected;
+    counters_.volumes_abandoned += placed.volumes_abandoned;
+    write_pending_images();
+  }
+
+  void on_rejected(const shm::SlotHeader& header, const std::string& problem) override {
+    status_flags_seen_ |= header.status_flags;
+    ++counters_.groups_rejected;
+    note_problem("group " + std::to_string(header.group_index) + " rejected: " + problem);
+  }
+
+  void on_restart(bool volume_abandoned) override {
+    if (volume_abandoned) ++counters_.volumes_abandoned;
+  }
+
  private:
   struct PendingImages {
     GrayImage bscan;
@@ -151,7 +182,7 @@ class LiveProcessor::Session {
 
   LiveCounters counters() const {
     LiveCounters c = counters_;
-    const shm::ReaderCounters& r = reader_.counters();
+    const shm::ReaderCounters& r = pipeline_->reader().counters();
     c.groups_consumed = r.consumed;
     c.dropped_lapped = r.dropped_lapped;
     c.dropped_behind = r.dropped_behind;
@@ -169,46 +200,6 @@ class LiveProcessor::Session {
                                   : "")
                           << std::endl;
     }
-  }
-
-  void handle_group(const shm::SlotHeader& header) {
-    status_flags_seen_ |= header.status_flags;
-    if (last_epoch_ && *last_epoch_ != header.producer_epoch && assembler_.reset()) {
-      ++counters_.volumes_abandoned;  // the producer restarted mid-volume
-    }
-    last_epoch_ = header.producer_epoch;
-
-    if (auto problem =
-            find_group_problem(header, geometry_, reader_.layout().group_payload_bytes)) {
-      ++counters_.groups_rejected;
-      note_problem("group " + std::to_string(header.group_index) + " rejected: " + *problem);
-    } else {
-      processor_->process(RawGroup{header, std::span<const std::uint16_t>(spectra_)}, processed_);
-      completion_ns_ = 0;
-      const PlacementResult placed = assembler_.place(
-          processed_, [this](const Volume& v, const VolumeInfo& info) { on_complete(v, info); });
-      // Publish -> in the volume; the time spent on completed volumes' images is not processing.
-      // (Clamped: the timestamp comes from another process and is not trusted to be sane.)
-      const std::uint64_t now = shm::monotonic_ns();
-      const std::uint64_t elapsed = now > header.t_publish_ns ? now - header.t_publish_ns : 0;
-      const std::uint64_t latency = elapsed > completion_ns_ ? elapsed - completion_ns_ : 0;
-      latency_total_.record(latency);
-      latency_interval_.record(latency);
-      ++counters_.groups_processed;
-      counters_.bscans_rejected += placed.bscans_rejected;
-      counters_.volumes_abandoned += placed.volumes_abandoned;
-      write_pending_images();
-    }
-    owner_.groups_consumed_.store(reader_.counters().consumed, std::memory_order_release);
-  }
-
-  void on_complete(const Volume& volume, const VolumeInfo& info) {
-    const std::uint64_t begin = shm::monotonic_ns();
-    ++counters_.volumes_completed;
-    if (!info.complete()) ++counters_.volumes_with_gaps;
-    if (owner_.observer_) owner_.observer_(volume, info);
-    prepare_images(volume, info);
-    completion_ns_ += shm::monotonic_ns() - begin;
   }
 
   void prepare_images(const Volume& volume, const VolumeInfo& info) {
@@ -265,18 +256,13 @@ class LiveProcessor::Session {
 
   LiveProcessor& owner_;
   const LiveConfig& config_;
-  shm::RingReader reader_;
   shm::RingGeometry geometry_;
-  std::unique_ptr<OctProcessor> processor_;
-  VolumeAssembler assembler_;
-  std::vector<std::uint16_t> spectra_;  // one group, read into by read_next()
-  ProcessedGroup processed_;
+  std::unique_ptr<LivePipeline> pipeline_;
 
   LiveCounters counters_;
   LatencyHistogram latency_total_;
   LatencyHistogram latency_interval_;
   std::uint64_t completion_ns_ = 0;
-  std::optional<std::uint64_t> last_epoch_;
   std::optional<PendingImages> pending_;
   std::optional<ImageSet> images_;
   std::uint32_t status_flags_seen_ = 0;
@@ -316,14 +302,24 @@ RunSummary LiveProcessor::run() {
       sleep_ns(50'000'000);
     }
   }
+  std::string backend_name(to_string(config_.backend));
   if (reader) {
-    Session session(*this, std::move(*reader));
+    // Only now is "auto" resolved (which initialises the CUDA driver, a fraction of a second):
+    // the reader is attached first, so every group published from then on is read or counted
+    // as dropped, as with the CPU backend's FFT planning.
+    std::string warning;
+    const Backend backend = resolve_backend(config_.backend, &warning);
+    if (!warning.empty() && status_out_ != nullptr) {
+      *status_out_ << "ioct-gpu: warning: " << warning << std::endl;
+    }
+    Session session(*this, backend, std::move(*reader));
+    backend_name = session.backend_name();
     attached_.store(true, std::memory_order_release);
     const StopReason reason = session.loop();
     summary = session.finish(reason);
   }
   summary.ring_name = config_.ring_name;
-  summary.backend = std::string(to_string(config_.backend));
+  summary.backend = backend_name;
   summary.threads = config_.processing.threads;
   summary.scale = config_.processing.scale;
   summary.summary_json = std::filesystem::absolute(config_.out_dir / "summary.json");

@@ -33,10 +33,12 @@ void install_stop_handlers() {
 int main(int argc, char** argv) {
   using namespace ioct::gpu;
   LiveConfig config;
-  std::string backend = "cpu";
+  std::string backend = "auto";
   std::string out_dir = config.out_dir.string();
   std::string background = std::string(to_string(config.processing.background.mode));
   std::string window = std::string(to_string(config.processing.window.kind));
+  std::string resampling = std::string(to_string(config.processing.resampling.interpolation));
+  std::string coefficients = "0,1";
   std::string rigor = std::string(to_string(config.processing.fft.rigor));
   std::string enface = std::string(to_string(config.enface));
 
@@ -44,7 +46,8 @@ int main(int argc, char** argv) {
   app.option_defaults()->always_capture_default();
   app.add_option("--ring", config.ring_name, "shared-memory ring to read");
   app.add_option("--out", out_dir, "directory for bscan.png, enface.png and summary.json");
-  app.add_option("--backend", backend, "processing backend: cpu or cuda");
+  app.add_option("--backend", backend,
+                 "processing backend: cpu, cuda, or auto (cuda when a usable GPU is present)");
   app.add_option("--db-min", config.processing.scale.db_min,
                  "dB shown as black (20 log10 of the fringe amplitude in ADC counts)");
   app.add_option("--db-max", config.processing.scale.db_max, "dB shown as white");
@@ -55,8 +58,21 @@ int main(int argc, char** argv) {
                  "seconds to run; 0: until SIGINT/SIGTERM or the producer closes the ring");
   app.add_option("--status-interval", config.status_interval_s,
                  "seconds between status lines on stderr; 0: none");
-  app.add_option("--background", background, "background removal: group-mean or none");
+  app.add_option("--background", background, "background removal: rolling or none");
+  app.add_option("--background-groups", config.processing.background.groups,
+                 "groups in the rolling mean background, the current one included (1 to 64)");
+  app.add_option("--resample", resampling,
+                 "lambda -> k resampling: none (k-clock), linear or cubic");
+  app.add_option("--resample-poly", coefficients,
+                 "calibration c0,c1,...: output sample j is read at raw position "
+                 "(N-1) * sum c_i (j/(N-1))^i");
   app.add_option("--window", window, "spectral window: hann or rectangular");
+  app.add_option("--dispersion-c2", config.processing.dispersion.c2,
+                 "quadratic dispersion phase (rad at the sweep's ends); see ioct-dispersion");
+  app.add_option("--dispersion-c3", config.processing.dispersion.c3,
+                 "cubic dispersion phase (rad)");
+  app.add_option("--repeats", config.processing.repeats_per_position,
+                 "B-scans acquired per position, averaged into one (1 to 16)");
   app.add_option("--fft-rigor", rigor, "FFTW planning: estimate, measure or patient");
   app.add_option("--fft-wisdom", config.processing.fft.wisdom_path,
                  "FFTW wisdom file, read before planning and updated after");
@@ -68,12 +84,16 @@ int main(int argc, char** argv) {
     config.backend = parse_backend(backend);
     config.processing.background.mode = parse_background_mode(background);
     config.processing.window.kind = parse_window_kind(window);
+    config.processing.resampling.interpolation = parse_interpolation(resampling);
+    config.processing.resampling.coefficients = parse_coefficients(coefficients);
     config.processing.fft.rigor = parse_fft_rigor(rigor);
     config.enface = parse_enface_projection(enface);
     LiveProcessor processor(config);
     if (config.backend == Backend::cuda) {
       (void)make_oct_processor(config.backend, config.processing);  // fail before waiting
     }
+    // "auto" is resolved once the ring is attached (LiveProcessor), with one warning when it
+    // falls back to the CPU.
     processor.set_status_stream(&std::cerr);
     g_processor = &processor;
     install_stop_handlers();

@@ -4,15 +4,33 @@
 
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/cpu_oct_processor.hpp"
+#if IOCT_GPU_WITH_CUDA
+#include "ioct/gpu/cuda_oct_processor.hpp"
+#endif
 
 namespace ioct::gpu {
 
 void OctProcessorConfig::validate() const {
   background.validate();
+  resampling.validate();
   window.validate();
+  dispersion.validate();
   fft.validate();
   scale.validate();
-  require_real_in_range("threads", threads, 1, 16);
+  require_integer_in_range("repeats_per_position", repeats_per_position, 1, 16);
+  require_integer_in_range("threads", threads, 1, 16);
+}
+
+void OctProcessorConfig::validate_for(const shm::RingGeometry& geometry) const {
+  validate();
+  resampling.validate_for(geometry.samples_per_ascan);
+  const std::uint32_t r = repeats_per_position;
+  if (geometry.bscans_per_group % r != 0 || geometry.bscans_per_volume % r != 0) {
+    throw ConfigError("repeats_per_position", format_value(std::uint64_t{r}),
+                      "must divide the ring's bscans_per_group (" +
+                          std::to_string(geometry.bscans_per_group) + ") and bscans_per_volume (" +
+                          std::to_string(geometry.bscans_per_volume) + ")");
+  }
 }
 
 std::string_view to_string(Backend backend) noexcept {
@@ -21,6 +39,8 @@ std::string_view to_string(Backend backend) noexcept {
       return "cpu";
     case Backend::cuda:
       return "cuda";
+    case Backend::automatic:
+      return "auto";
   }
   return "?";
 }
@@ -28,21 +48,45 @@ std::string_view to_string(Backend backend) noexcept {
 Backend parse_backend(std::string_view text) {
   if (text == "cpu") return Backend::cpu;
   if (text == "cuda") return Backend::cuda;
-  throw ConfigError("backend", "'" + std::string(text) + "'", "must be cpu or cuda");
+  if (text == "auto") return Backend::automatic;
+  throw ConfigError("backend", "'" + std::string(text) + "'", "must be cpu, cuda or auto");
+}
+
+std::optional<std::string> cuda_unavailable_reason() {
+#if IOCT_GPU_WITH_CUDA
+  return cuda_device_problem();
+#else
+  return "this ioct-gpu was built without CUDA";
+#endif
+}
+
+Backend resolve_backend(Backend requested, std::string* warning) {
+  if (requested != Backend::automatic) return requested;
+  if (const std::optional<std::string> reason = cuda_unavailable_reason()) {
+    if (warning != nullptr) *warning = "backend auto: using the CPU (" + *reason + ")";
+    return Backend::cpu;
+  }
+  return Backend::cuda;
 }
 
 std::unique_ptr<OctProcessor> make_oct_processor(Backend backend,
                                                  const OctProcessorConfig& config) {
   config.validate();
-  switch (backend) {
+  switch (resolve_backend(backend)) {
     case Backend::cpu:
       return std::make_unique<CpuOctProcessor>(config);
     case Backend::cuda:
-      // The CUDA stages are not part of this build (no CUDA implementation is compiled in yet).
+#if IOCT_GPU_WITH_CUDA
+      return std::make_unique<CudaOctProcessor>(config);
+#else
       throw BackendUnavailable(
-          "backend cuda: this ioct-gpu was built without CUDA; use --backend cpu");
+          "backend cuda: this ioct-gpu was built without CUDA; use --backend cpu or auto");
+#endif
+    case Backend::automatic:
+      break;
   }
-  throw ConfigError("backend", std::to_string(static_cast<int>(backend)), "must be cpu or cuda");
+  throw ConfigError("backend", std::to_string(static_cast<int>(backend)),
+                    "must be cpu, cuda or auto");
 }
 
 }  // namespace ioct::gpu

@@ -6,29 +6,41 @@
 
 namespace ioct::gpu {
 
-VolumeAssembler::VolumeAssembler(std::uint32_t bscans_per_volume, std::uint32_t depth)
-    : bscans_per_volume_(bscans_per_volume), depth_(depth), placed_(bscans_per_volume, false) {
-  if (bscans_per_volume == 0 || depth == 0) {
-    throw std::invalid_argument("VolumeAssembler: " + std::to_string(bscans_per_volume) +
+// The pixels of one place() call: copies from the group, zeroes and reports at completion.
+class VolumeAssembler::HostPixels final : public VolumeBook::Pixels {
+ public:
+  HostPixels(VolumeAssembler& owner, const ProcessedGroup* group,
+             const CompletionHandler* on_complete)
+      : owner_(owner), group_(group), on_complete_(on_complete) {}
+
+  void begin(std::uint32_t ascans) override {
+    Volume& v = owner_.volume_;
+    if (v.ascans() != ascans || v.bscans() != owner_.book_.positions()) {
+      v.reshape(owner_.book_.positions(), ascans, owner_.depth_);
+    }
+  }
+  void place(std::uint32_t source, std::uint32_t position) override {
+    std::ranges::copy(group_->bscan(source), owner_.volume_.bscan(position).begin());
+  }
+  void finish(const VolumeInfo& info, const std::vector<bool>& placed) override {
+    for (std::uint32_t p = 0; p < placed.size(); ++p) {
+      if (!placed[p]) std::ranges::fill(owner_.volume_.bscan(p), std::uint8_t{0});
+    }
+    if (on_complete_ != nullptr && *on_complete_) (*on_complete_)(owner_.volume_, info);
+  }
+
+ private:
+  VolumeAssembler& owner_;
+  const ProcessedGroup* group_;
+  const CompletionHandler* on_complete_;
+};
+
+VolumeAssembler::VolumeAssembler(std::uint32_t positions_per_volume, std::uint32_t depth)
+    : depth_(depth), book_(positions_per_volume == 0 ? 1 : positions_per_volume) {
+  if (positions_per_volume == 0 || depth == 0) {
+    throw std::invalid_argument("VolumeAssembler: " + std::to_string(positions_per_volume) +
                                 " B-scans of depth " + std::to_string(depth));
   }
-}
-
-void VolumeAssembler::begin_volume(std::uint64_t volume_index, std::uint32_t ascans) {
-  if (volume_.ascans() != ascans || volume_.bscans() != bscans_per_volume_) {
-    volume_.reshape(bscans_per_volume_, ascans, depth_);
-  }
-  std::fill(placed_.begin(), placed_.end(), false);
-  progress_ = VolumeInfo{volume_index, 0, bscans_per_volume_, 0};
-}
-
-VolumeInfo VolumeAssembler::finish_volume() {
-  for (std::uint32_t b = 0; b < bscans_per_volume_; ++b) {
-    if (!placed_[b]) std::ranges::fill(volume_.bscan(b), std::uint8_t{0});
-  }
-  const VolumeInfo info = *progress_;
-  progress_.reset();
-  return info;
 }
 
 PlacementResult VolumeAssembler::place(const ProcessedGroup& group,
@@ -37,49 +49,14 @@ PlacementResult VolumeAssembler::place(const ProcessedGroup& group,
     throw std::invalid_argument("VolumeAssembler: group of depth " + std::to_string(group.depth) +
                                 ", the volume's is " + std::to_string(depth_));
   }
-  PlacementResult result;
-  for (std::uint32_t b = 0; b < group.bscan_count; ++b) {
-    const shm::BscanMarker& marker = group.markers[b];
-    if (marker.bscan_in_volume >= bscans_per_volume_ || last_completed_ == marker.volume_index) {
-      ++result.bscans_rejected;  // out of range, or late for a volume already shown
-      continue;
-    }
-    if (!progress_ || progress_->volume_index != marker.volume_index) {
-      if (progress_ && progress_->bscans_placed > 0) ++result.volumes_abandoned;
-      begin_volume(marker.volume_index, group.ascans);
-    }
-    if (group.ascans != volume_.ascans()) {
-      ++result.bscans_rejected;  // the scan changed width inside a volume
-      continue;
-    }
-    std::ranges::copy(group.bscan(b), volume_.bscan(marker.bscan_in_volume).begin());
-    if (!placed_[marker.bscan_in_volume]) {
-      placed_[marker.bscan_in_volume] = true;
-      ++progress_->bscans_placed;
-      --progress_->bscans_missing;
-    }
-    progress_->last_group_index = group.group_index;
-    ++result.bscans_placed;
-    if ((marker.flags & shm::kBscanVolumeEnd) != 0) {
-      const VolumeInfo info = finish_volume();
-      last_completed_ = info.volume_index;
-      ++result.volumes_completed;
-      if (on_complete) on_complete(volume_, info);
-    }
-  }
-  return result;
-}
-
-bool VolumeAssembler::reset() {
-  const bool abandoned = progress_ && progress_->bscans_placed > 0;
-  progress_.reset();
-  last_completed_.reset();
-  return abandoned;
+  HostPixels pixels(*this, &group, &on_complete);
+  return book_.place(std::span(group.markers.data(), group.bscan_count), group.ascans,
+                     group.group_index, pixels);
 }
 
 std::optional<VolumeInfo> VolumeAssembler::seal_partial() {
-  if (!progress_ || progress_->bscans_placed == 0) return std::nullopt;
-  return finish_volume();
+  HostPixels pixels(*this, nullptr, nullptr);
+  return book_.seal_partial(pixels);
 }
 
 }  // namespace ioct::gpu

@@ -10,10 +10,12 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "ioct/gpu/oct_processor.hpp"
 #include "live_ring_fixture.hpp"
 
 extern char** environ;
@@ -35,8 +37,9 @@ std::string read_file(const fs::path& path) {
 // ioct-gpu in a child process, stdout and stderr into files.
 class Child {
  public:
-  Child(const fs::path& dir, std::vector<std::string> args) : dir_(dir) {
-    args.insert(args.begin(), IOCT_GPU_EXE);
+  Child(const fs::path& dir, std::vector<std::string> args, const char* exe = IOCT_GPU_EXE)
+      : dir_(dir) {
+    args.insert(args.begin(), exe);
     std::vector<char*> argv;
     for (std::string& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
@@ -88,12 +91,14 @@ class Cli : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir_); }
 
-  // Runs ioct-gpu to completion; returns its exit status.
-  int run(const std::vector<std::string>& args, std::string* err = nullptr) {
-    Child child(dir_, args);
+  // Runs ioct-gpu (or `exe`) to completion; returns its exit status.
+  int run(const std::vector<std::string>& args, std::string* err = nullptr,
+          const char* exe = IOCT_GPU_EXE, std::string* out = nullptr) {
+    Child child(dir_, args, exe);
     EXPECT_TRUE(child.started());
     const int status = child.wait_exit();
     if (err != nullptr) *err = child.err();
+    if (out != nullptr) *out = child.out();
     return status;
   }
 
@@ -110,8 +115,11 @@ class Cli : public ::testing::Test {
 
 TEST_F(Cli, BadOptionsExitNonZeroWithAClearMessage) {
   std::string err;
-  EXPECT_EQ(run({"--backend", "cuda"}, &err), 2);
-  EXPECT_NE(err.find("built without CUDA"), std::string::npos) << err;
+  if (const std::optional<std::string> reason = cuda_unavailable_reason()) {
+    // No usable CUDA here (this build, or this machine): asking for it is refused, saying why.
+    EXPECT_EQ(run({"--backend", "cuda"}, &err), 2);
+    EXPECT_NE(err.find(*reason), std::string::npos) << err;
+  }
   EXPECT_EQ(run({"--backend", "opencl"}, &err), 2);
   EXPECT_NE(err.find("backend = 'opencl'"), std::string::npos) << err;
   EXPECT_EQ(run({"--db-min", "50", "--db-max", "40"}, &err), 2);
@@ -148,10 +156,23 @@ TEST_F(Cli, ProcessesARingUntilTheProducerClosesIt) {
   ASSERT_EQ(child.wait_exit(), 0) << child.err();
 
   EXPECT_NE(child.err().find("groups/s"), std::string::npos) << child.err();
+  // The default backend is auto: CUDA where it can run, else the CPU and one warning saying why.
+  const std::optional<std::string> reason = cuda_unavailable_reason();
+  const std::string err = child.err();
+  const std::size_t warning = err.find("warning: backend auto: using the CPU");
+  if (reason) {
+    EXPECT_NE(warning, std::string::npos) << err;
+    EXPECT_EQ(err.find("warning", warning + 1), std::string::npos)
+        << "more than one warning: " << err;
+    EXPECT_NE(err.find(*reason), std::string::npos) << err;
+  } else {
+    EXPECT_EQ(warning, std::string::npos) << err;
+  }
   EXPECT_NE(child.out().find((fs::absolute(out) / "bscan.png").string()), std::string::npos)
       << child.out();
   const nlohmann::json j = nlohmann::json::parse(read_file(out / "summary.json"));
   EXPECT_EQ(j["stop_reason"], "producer_gone");
+  EXPECT_EQ(j["backend"], reason ? "cpu" : "cuda");
   EXPECT_EQ(j["groups"]["processed"], 4);
   EXPECT_EQ(j["volumes"]["completed"], 2);
   EXPECT_EQ(j["images"]["volume_index"], 1);
@@ -172,6 +193,55 @@ TEST_F(Cli, SigtermEndsTheRunWithASummary) {
   const nlohmann::json j = nlohmann::json::parse(read_file(out / "summary.json"));
   EXPECT_EQ(j["stop_reason"], "stop_requested");
   EXPECT_EQ(j["groups"]["consumed"], 0);
+}
+
+TEST_F(Cli, DispersionEstimatesC2AndC3FromAGroupFile) {
+  // 4 B-scans x 32 A-scans x 1024 samples, three layers dispersed by c2 = 30, c3 = -8.
+  shm::RingGeometry g;
+  g.samples_per_ascan = 1024;
+  g.ascans_per_bscan = 32;
+  g.bscans_per_group = 4;
+  testing::SpectrumModel model{.samples = 1024, .noise_sigma = 2.0};
+  model.c2 = 30.0;
+  model.c3 = -8.0;
+  testing::SpectrumSynthesizer synthesizer(model, 21);
+  std::vector<std::uint16_t> payload(g.group_payload_bytes() / 2);
+  testing::fill_group(
+      g, synthesizer,
+      [](std::uint32_t b, std::uint32_t) {
+        return std::vector<testing::Reflector>{{150.0 + 5 * b, 30.0}, {400.0, 20.0}};
+      },
+      payload);
+  const fs::path group = dir_ / "group.u16";
+  std::ofstream(group, std::ios::binary)
+      .write(reinterpret_cast<const char*>(payload.data()),
+             static_cast<std::streamsize>(payload.size() * 2));
+
+  std::string err;
+  std::string out;
+  const fs::path json = dir_ / "dispersion.json";
+  ASSERT_EQ(run({"--group-file", group.string(), "--samples", "1024", "--ascans-per-bscan", "32",
+                 "--ascans", "64", "--json", json.string()},
+                &err, IOCT_DISPERSION_EXE, &out),
+            0)
+      << err;
+  EXPECT_NE(out.find("--dispersion-c2"), std::string::npos) << out;
+  const nlohmann::json j = nlohmann::json::parse(read_file(json));
+  EXPECT_NEAR(j["c2"].get<double>(), 30.0, 2.0) << out;
+  EXPECT_NEAR(j["c3"].get<double>(), -8.0, 2.0) << out;
+  EXPECT_GT(j["sharpness"].get<double>(), j["sharpness_uncompensated"].get<double>());
+
+  // Bad input: no source, a file that is not whole B-scans, a bad calibration.
+  EXPECT_EQ(run({}, &err, IOCT_DISPERSION_EXE), 2);
+  EXPECT_NE(err.find("--group-file or --ring"), std::string::npos) << err;
+  EXPECT_EQ(run({"--group-file", group.string(), "--samples", "1000"}, &err, IOCT_DISPERSION_EXE),
+            2);
+  EXPECT_NE(err.find("group_file"), std::string::npos) << err;
+  EXPECT_EQ(run({"--group-file", group.string(), "--samples", "1024", "--ascans-per-bscan", "32",
+                 "--resample", "linear", "--resample-poly", "0,nan"},
+                &err, IOCT_DISPERSION_EXE),
+            2);
+  EXPECT_NE(err.find("resampling_coefficients"), std::string::npos) << err;
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <functional>
+#include <optional>
 #include <string>
 
 #include "ioct/common/config_error.hpp"
@@ -57,12 +58,18 @@ TEST(ConfigValidation, ProcessorThreads) {
 }
 
 TEST(ConfigValidation, NamedChoices) {
-  expect_config_error([] { parse_backend("gpu"); }, "backend", {"'gpu'", "cpu or cuda"});
+  expect_config_error([] { parse_backend("gpu"); }, "backend", {"'gpu'", "cpu, cuda or auto"});
   expect_config_error([] { parse_window_kind("hamming"); }, "window", {"'hamming'", "hann"});
   expect_config_error([] { parse_fft_rigor("exhaustive"); }, "fft_rigor", {"patient"});
-  expect_config_error([] { parse_background_mode("rolling"); }, "background", {"group-mean"});
+  expect_config_error([] { parse_background_mode("group-mean"); }, "background",
+                      {"rolling or none"});
+  expect_config_error([] { parse_interpolation("spline"); }, "resampling",
+                      {"'spline'", "none, linear or cubic"});
   expect_config_error([] { parse_enface_projection("sum"); }, "enface", {"mean or max"});
   EXPECT_EQ(parse_backend("cuda"), Backend::cuda);
+  EXPECT_EQ(parse_backend("auto"), Backend::automatic);
+  EXPECT_EQ(parse_background_mode("rolling"), BackgroundMode::rolling);
+  EXPECT_EQ(parse_interpolation("cubic"), Interpolation::cubic);
   EXPECT_EQ(parse_window_kind("rectangular"), WindowKind::rectangular);
   EXPECT_EQ(parse_fft_rigor("patient"), FftRigor::patient);
   EXPECT_EQ(parse_background_mode("none"), BackgroundMode::none);
@@ -90,14 +97,53 @@ TEST(ConfigValidation, LiveConfig) {
   EXPECT_THROW(LiveProcessor{negative_wait}, ConfigError);
 }
 
-TEST(ConfigValidation, CudaBackendIsAClearErrorInThisBuild) {
-  try {
-    (void)make_oct_processor(Backend::cuda, OctProcessorConfig{});
-    FAIL() << "a CUDA processor was made";
-  } catch (const BackendUnavailable& e) {
-    EXPECT_NE(std::string(e.what()).find("built without CUDA"), std::string::npos) << e.what();
+TEST(ConfigValidation, CudaBackendRunsOrIsAClearError) {
+  const std::optional<std::string> reason = cuda_unavailable_reason();
+  if (!IOCT_GPU_WITH_CUDA) {
+    ASSERT_TRUE(reason.has_value());
+    EXPECT_NE(reason->find("built without CUDA"), std::string::npos) << *reason;
   }
+  std::string warning;
+  if (reason) {
+    try {
+      (void)make_oct_processor(Backend::cuda, OctProcessorConfig{});
+      FAIL() << "a CUDA processor was made although " << *reason;
+    } catch (const BackendUnavailable& e) {
+      EXPECT_NE(std::string(e.what()).find(*reason), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(resolve_backend(Backend::automatic, &warning), Backend::cpu);
+    EXPECT_NE(warning.find(*reason), std::string::npos) << warning;
+    EXPECT_EQ(make_oct_processor(Backend::automatic, OctProcessorConfig{})->backend_name(), "cpu");
+  } else {
+    EXPECT_EQ(make_oct_processor(Backend::cuda, OctProcessorConfig{})->backend_name(), "cuda");
+    EXPECT_EQ(resolve_backend(Backend::automatic, &warning), Backend::cuda);
+    EXPECT_TRUE(warning.empty()) << warning;
+  }
+  EXPECT_EQ(resolve_backend(Backend::cpu, &warning), Backend::cpu);
   EXPECT_EQ(make_oct_processor(Backend::cpu, OctProcessorConfig{})->backend_name(), "cpu");
+}
+
+TEST(ConfigValidation, ProcessingStages) {
+  OctProcessorConfig config;
+  config.background.groups = 0;
+  expect_config_error([&] { config.validate(); }, "background_groups", {"0", "[1, 64]"});
+  config = {};
+  config.repeats_per_position = 17;
+  expect_config_error([&] { config.validate(); }, "repeats_per_position", {"17", "[1, 16]"});
+  config = {};
+  config.dispersion.c2 = std::nan("");
+  expect_config_error([&] { config.validate(); }, "dispersion_c2", {"nan"});
+  config = {};
+  config.dispersion.c3 = 2e4;
+  expect_config_error([&] { config.validate(); }, "dispersion_c3", {"20000"});
+  // repeats must divide the group and the volume
+  config = {};
+  config.repeats_per_position = 3;
+  shm::RingGeometry geometry;  // 16 per group, 128 per volume
+  expect_config_error([&] { config.validate_for(geometry); }, "repeats_per_position",
+                      {"3", "bscans_per_group (16)", "bscans_per_volume (128)"});
+  config.repeats_per_position = 4;
+  EXPECT_NO_THROW(config.validate_for(geometry));
 }
 
 }  // namespace

@@ -7,6 +7,9 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <regex>
+#include <string>
 #include <thread>
 
 #include "ioct/gpu/live_processor.hpp"
@@ -21,20 +24,38 @@ namespace fs = std::filesystem;
 using testing::LiveRing;
 using testing::wait_until;
 
-class LiveProcessorTest : public ::testing::Test {
+}  // namespace
+
+void PrintTo(Backend backend, std::ostream* out) {
+  *out << to_string(backend);
+}
+
+namespace {
+
+// Every test runs on both backends; the CUDA one where a usable GPU is present.
+class LiveProcessorTest : public ::testing::TestWithParam<Backend> {
  protected:
   void SetUp() override {
+    if (GetParam() == Backend::cuda) {
+      if (const std::optional<std::string> reason = cuda_unavailable_reason()) {
+        GTEST_SKIP() << "cuda backend not tested: " << *reason;
+      }
+    }
     out_dir_ = fs::temp_directory_path() /
                ("ioct-gpu-live-test-" + std::to_string(::getpid()) + "-" +
-                ::testing::UnitTest::GetInstance()->current_test_info()->name());
+                std::regex_replace(::testing::UnitTest::GetInstance()->current_test_info()->name(),
+                                   std::regex("/"), "-"));
     fs::remove_all(out_dir_);
   }
-  void TearDown() override { fs::remove_all(out_dir_); }
+  void TearDown() override {
+    if (!out_dir_.empty()) fs::remove_all(out_dir_);
+  }
 
   LiveConfig config_for(const LiveRing& ring) const {
     LiveConfig config;
     config.ring_name = ring.name();
     config.out_dir = out_dir_;
+    config.backend = GetParam();
     config.processing.fft.rigor = FftRigor::estimate;
     config.processing.threads = 2;
     config.wait_s = 20.0;
@@ -72,7 +93,7 @@ class LiveProcessorTest : public ::testing::Test {
   fs::path out_dir_;
 };
 
-TEST_F(LiveProcessorTest, BuildsVolumesFromTheRingAndWritesImagesAndSummary) {
+TEST_P(LiveProcessorTest, BuildsVolumesFromTheRingAndWritesImagesAndSummary) {
   LiveRing ring;
   LiveProcessor processor(config_for(ring));
   std::vector<Volume> volumes;
@@ -162,7 +183,7 @@ TEST_F(LiveProcessorTest, BuildsVolumesFromTheRingAndWritesImagesAndSummary) {
   EXPECT_EQ(names, (std::vector<std::string>{"bscan.png", "enface.png", "summary.json"}));
 }
 
-TEST_F(LiveProcessorTest, RejectedGroupsAndLostVolumeEndsAreCountedNotShown) {
+TEST_P(LiveProcessorTest, RejectedGroupsAndLostVolumeEndsAreCountedNotShown) {
   LiveRing ring;
   ring.create();
   LiveProcessor processor(config_for(ring));
@@ -194,7 +215,7 @@ TEST_F(LiveProcessorTest, RejectedGroupsAndLostVolumeEndsAreCountedNotShown) {
       << summary.last_problem;
 }
 
-TEST_F(LiveProcessorTest, ShowsAPartialVolumeWhenNoneCompleted) {
+TEST_P(LiveProcessorTest, ShowsAPartialVolumeWhenNoneCompleted) {
   LiveRing ring;
   ring.create();
   LiveProcessor processor(config_for(ring));
@@ -214,7 +235,7 @@ TEST_F(LiveProcessorTest, ShowsAPartialVolumeWhenNoneCompleted) {
   EXPECT_GT(*std::ranges::max_element(bscan.pixels), 150);
 }
 
-TEST_F(LiveProcessorTest, StopsAtTheTimeLimitOrOnRequest) {
+TEST_P(LiveProcessorTest, StopsAtTheTimeLimitOrOnRequest) {
   LiveRing ring;
   ring.create();
   LiveConfig config = config_for(ring);
@@ -241,7 +262,7 @@ TEST_F(LiveProcessorTest, StopsAtTheTimeLimitOrOnRequest) {
   EXPECT_FALSE(stopped.geometry);
 }
 
-TEST_F(LiveProcessorTest, ARingThatNeverAppearsIsAnErrorNamingIt) {
+TEST_P(LiveProcessorTest, ARingThatNeverAppearsIsAnErrorNamingIt) {
   LiveRing ring;  // never created
   LiveConfig config = config_for(ring);
   config.wait_s = 0.1;
@@ -255,7 +276,7 @@ TEST_F(LiveProcessorTest, ARingThatNeverAppearsIsAnErrorNamingIt) {
   }
 }
 
-TEST_F(LiveProcessorTest, AnOutputDirectoryThatCannotBeMadeIsAnErrorNamingIt) {
+TEST_P(LiveProcessorTest, AnOutputDirectoryThatCannotBeMadeIsAnErrorNamingIt) {
   LiveRing ring;
   ring.create();
   fs::create_directories(out_dir_);
@@ -270,6 +291,12 @@ TEST_F(LiveProcessorTest, AnOutputDirectoryThatCannotBeMadeIsAnErrorNamingIt) {
     EXPECT_NE(std::string(e.what()).find(config.out_dir.string()), std::string::npos) << e.what();
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(Backends, LiveProcessorTest,
+                         ::testing::Values(Backend::cpu, Backend::cuda),
+                         [](const ::testing::TestParamInfo<Backend>& p) {
+                           return std::string(to_string(p.param));
+                         });
 
 }  // namespace
 }  // namespace ioct::gpu

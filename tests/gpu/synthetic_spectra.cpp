@@ -3,18 +3,22 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <utility>
 
 namespace ioct::gpu::testing {
 
 SpectrumSynthesizer::SpectrumSynthesizer(SpectrumModel model, std::uint32_t seed)
-    : model_(model), envelope_(model.samples), rng_(seed) {
-  // A Gaussian source spectrum centred on the sweep, 1/e half width a third of the sweep.
-  const double centre = 0.5 * (model.samples - 1);
-  const double width = model.samples / 3.0;
-  for (std::uint32_t s = 0; s < model.samples; ++s) {
-    const double x = (s - centre) / width;
-    envelope_[s] = std::exp(-x * x);
+    : model_(std::move(model)), rng_(seed) {
+  for (std::uint32_t s = 0; s < model_.samples; ++s) {
+    envelope_.push_back(envelope_at(model_.k_of_sample.empty() ? s : model_.k_of_sample[s]));
   }
+}
+
+double SpectrumSynthesizer::envelope_at(double k) const {
+  // A Gaussian source spectrum centred on the sweep, 1/e half width a third of the sweep.
+  const double centre = 0.5 * (model_.samples - 1);
+  const double x = (k - centre) / (model_.samples / 3.0);
+  return std::exp(-x * x);
 }
 
 void SpectrumSynthesizer::fill(std::span<std::uint16_t> spectrum,
@@ -25,12 +29,17 @@ void SpectrumSynthesizer::fill(std::span<std::uint16_t> spectrum,
   for (std::size_t r = 0; r < reflectors.size(); ++r) phases.push_back(phase(rng_));
   const double step = 2.0 * std::numbers::pi / model_.samples;
   for (std::uint32_t s = 0; s < model_.samples; ++s) {
-    double fringe = 0.0;
+    const double k = model_.k_of_sample.empty() ? s : model_.k_of_sample[s];
+    const double envelope = envelope_[s];
+    const double t = 2.0 * k / (model_.samples - 1) - 1.0;
+    const double dispersion = (model_.c2 + model_.c3 * t) * t * t;
+    double fringe =
+        model_.fixed_pattern_amplitude * std::cos(step * model_.fixed_pattern_depth * k);
     for (std::size_t r = 0; r < reflectors.size(); ++r) {
-      fringe += reflectors[r].amplitude * std::cos(step * reflectors[r].depth_bin * s + phases[r]);
+      fringe += reflectors[r].amplitude *
+                std::cos(step * reflectors[r].depth_bin * k + dispersion + phases[r]);
     }
-    const double value =
-        model_.dc + model_.pattern * envelope_[s] + envelope_[s] * fringe + noise(rng_);
+    const double value = model_.dc + model_.pattern * envelope + envelope * fringe + noise(rng_);
     spectrum[s] = static_cast<std::uint16_t>(std::clamp(std::lround(value), 0L, 4095L));
   }
 }

@@ -1,9 +1,12 @@
 // Synthetic raw spectra for the gpu tests and benchmarks: what a k-clocked swept source and a
 // 12-bit digitizer deliver, reduced to what the processing chain must cope with.
 //
-//   sample(s) = dc + pattern * envelope(s)                      background, the same every sweep
-//             + envelope(s) * sum_r A_r cos(2 pi f_r s / N + phi) interference of each reflector
+//   sample(s) = dc + pattern * envelope(k)                      background, the same every sweep
+//             + envelope(k) * sum_r A_r cos(2 pi f_r k / N + disp(k) + phi)   each reflector
 //             + noise                                           white, sigma counts
+// where k = k(s) is the wavenumber (in k-linear sample units) at which raw sample s was taken:
+// k = s for a k-clocked source, or a chirp given by `k_of_sample` for one that needs resampling;
+// disp(k) = c2 t^2 + c3 t^3, t = 2 k / (N - 1) - 1, is a dispersion mismatch.
 //
 // A reflector at depth bin f (f cycles over the sweep) must come out at depth pixel f. The phase
 // phi is random per A-scan, as sample motion makes it, so the fringes average out of the group's
@@ -31,6 +34,12 @@ struct SpectrumModel {
   double dc = 2048.0;      // mid-level of the 12-bit digitizer
   double pattern = 600.0;  // source spectrum height above dc
   double noise_sigma = 2.0;
+  double c2 = 0.0;  // dispersion mismatch, radians at the sweep's ends
+  double c3 = 0.0;
+  std::vector<double> k_of_sample{};  // empty: k = s (k-linear samples)
+  // A reflection in the optics at this depth bin, the same phase in every sweep (0: none).
+  double fixed_pattern_depth = 0.0;
+  double fixed_pattern_amplitude = 0.0;
 };
 
 class SpectrumSynthesizer {
@@ -41,10 +50,12 @@ class SpectrumSynthesizer {
   void fill(std::span<std::uint16_t> spectrum, std::span<const Reflector> reflectors);
 
   const SpectrumModel& model() const noexcept { return model_; }
+  // The source envelope at wavenumber k (k-linear sample units), peak 1 mid-sweep.
+  double envelope_at(double k) const;
 
  private:
   SpectrumModel model_;
-  std::vector<double> envelope_;
+  std::vector<double> envelope_;  // at each raw sample
   std::mt19937 rng_;
 };
 

@@ -15,9 +15,10 @@
 // strong layer (the RPE, some tens of counts) is bright and only its speckle peaks saturate.
 #pragma once
 
-#include <bit>
 #include <complex>
 #include <cstdint>
+
+#include "ioct/gpu/host_device.hpp"
 
 namespace ioct::gpu {
 
@@ -44,31 +45,19 @@ class DbToU8 {
   // Pixels of `count` bins.
   void map_row(const std::complex<float>* bins, std::uint8_t* out,
                std::uint32_t count) const noexcept;
+  // Pixels of `count` powers |X|^2 (the mean power of repeated B-scans).
+  void map_power_row(const float* power, std::uint8_t* out, std::uint32_t count) const noexcept;
 
-  // log2 to within 2e-5 (a u8 step is 0.18 dB = 0.06 in log2 at the defaults), written so the
-  // compiler vectorises it; the library log2f is not. x = 2^e * m with m in [1, 2):
-  // log2(x) = e + log2(m), log2(m) by a polynomial in t = m - 1. Zero and denormals come out very
-  // negative, which maps to 0.
-  static float log2_of(float x) noexcept {
-    const std::uint32_t bits = std::bit_cast<std::uint32_t>(x);
-    const float exponent = static_cast<float>(static_cast<std::int32_t>(bits >> 23) - 127);
-    const float t = std::bit_cast<float>((bits & 0x007FFFFFu) | 0x3F800000u) - 1.0f;
-    // Least-squares fit of log2(1 + t) on [0, 1] by t * (c1 + c2 t + ... + c5 t^4): max error
-    // 1.7e-5, i.e. 5e-5 dB.
-    const float p =
-        t * (1.44187984f +
-             t * (-0.708864548f + t * (0.415243263f + t * (-0.193513461f + t * 0.0452668996f))));
-    return exponent + p;
-  }
+  // The shared host/device definitions (host_device.hpp), under the names the CPU code uses.
+  static float log2_of(float x) noexcept { return fast_log2(x); }
+
+  // The mapping as two numbers, for the CUDA kernels: pixel = level_to_u8(gain * log2(power) +
+  // offset).
+  float gain() const noexcept { return gain_; }
+  float offset() const noexcept { return offset_; }
 
  private:
-  // Rounds a level to the nearest u8, clamped. The level is always finite (log2_of is), so the
-  // conversion is defined; clamping as integers keeps the loop free of FP compares, which GCC
-  // will not turn into vector selects while FP traps are possible.
-  static std::uint8_t clamp_level(float level) noexcept {
-    const auto rounded = static_cast<std::int32_t>(level + 0.5f);  // toward zero: < 0.5 -> 0
-    return static_cast<std::uint8_t>(rounded < 0 ? 0 : (rounded > 255 ? 255 : rounded));
-  }
+  static std::uint8_t clamp_level(float level) noexcept { return level_to_u8(level); }
 
   float gain_ = 0.0f;    // u8 units per unit of log2(power)
   float offset_ = 0.0f;  // u8 value at power 1

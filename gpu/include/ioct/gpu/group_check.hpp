@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 
@@ -12,9 +13,11 @@
 namespace ioct::gpu {
 
 // Why the group cannot be processed (naming the field and its value), or nothing when it can.
+// With repeats_per_position R > 1 the group's bscan_count must be a multiple of R.
 std::optional<std::string> find_group_problem(const shm::SlotHeader& header,
                                               const shm::RingGeometry& geometry,
-                                              std::size_t payload_bytes);
+                                              std::size_t payload_bytes,
+                                              std::uint32_t repeats_per_position = 1);
 
 // Throws std::invalid_argument, naming the value, for a geometry the processing chain cannot
 // handle: samples must be 16-bit, an even count of at least 8, and a volume at most 4 GiB.

@@ -1,22 +1,28 @@
 // The OCT processing chain as one interface: raw spectra of a group in, u8 B-scans out.
 //
-//   background removal -> window -> FFT (real to complex) -> log magnitude -> u8 (dB range)
-//   -> flip of reversed lines
+//   rolling background removal -> [lambda -> k resampling] -> window x [dispersion phase]
+//   -> FFT (real to complex; complex to complex with dispersion) -> log magnitude
+//   -> [mean power of repeated B-scans] -> u8 (dB range) -> flip of reversed lines
 //
-// CpuOctProcessor (FFTW) is the reference; a CUDA implementation (cuFFT) implements the same
-// interface and is tested against it.
+// CpuOctProcessor (FFTW) is the reference; CudaOctProcessor (cuFFT) implements the same
+// interface and is tested against it: the same u8 pixels to within 1 LSB on at least 99.9% of
+// them (the two differ only in their FFT's rounding; see README.md).
 #pragma once
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <span>
 #include <stdexcept>
+#include <string>
 #include <string_view>
 
 #include "ioct/gpu/background_removal.hpp"
 #include "ioct/gpu/db_scale.hpp"
+#include "ioct/gpu/dispersion.hpp"
 #include "ioct/gpu/fftw_r2c_plan.hpp"
 #include "ioct/gpu/processed_group.hpp"
+#include "ioct/gpu/resampling.hpp"
 #include "ioct/gpu/spectral_window.hpp"
 #include "ioct/shm/ring_geometry.hpp"
 #include "ioct/shm/ring_layout.hpp"
@@ -25,16 +31,24 @@ namespace ioct::gpu {
 
 struct OctProcessorConfig {
   BackgroundConfig background;
+  ResamplingConfig resampling;
   WindowConfig window;
+  DispersionConfig dispersion;
   FftConfig fft;
   DbScaleConfig scale;
-  // Threads that process a group's B-scans, the caller's included. One core processes about
-  // 140k A-scans/s of the default geometry, too little margin over the 100k/s acquisition on a
-  // shared machine; two halve the time per group.
+  // B-scans acquired at each position, one after the other in a group, averaged (in power, so
+  // speckle and noise average too) into one output B-scan. 1: no repeats. See repeats.hpp.
+  std::uint32_t repeats_per_position = 1;
+  // Threads that process a group's B-scans on the CPU, the caller's included. One core
+  // processes about 140k A-scans/s of the default geometry, too little margin over the 100k/s
+  // acquisition on a shared machine; two halve the time per group. Unused by CUDA.
   std::uint32_t threads = 2;
 
-  // Throws ConfigError naming the first bad key; threads in [1, 16].
+  // Throws ConfigError naming the first bad key; threads in [1, 16], repeats in [1, 16].
   void validate() const;
+  // Also checks what depends on the geometry: the resampling calibration over its sweep, and
+  // repeats dividing bscans_per_group and bscans_per_volume. Throws ConfigError.
+  void validate_for(const shm::RingGeometry& geometry) const;
 };
 
 // A group as read from the ring: its header and its spectra, u16 little-endian
@@ -48,25 +62,41 @@ class OctProcessor {
  public:
   virtual ~OctProcessor() = default;
 
-  // Sizes buffers and makes FFT plans for `geometry`; call again when it changes. Throws
-  // std::invalid_argument for a geometry the chain cannot process (see require_processable).
+  // Sizes buffers and makes FFT plans for `geometry`; call again when it changes. Forgets the
+  // background history. Throws std::invalid_argument for a geometry the chain cannot process
+  // (see require_processable) and ConfigError for a config that does not fit it
+  // (validate_for).
   virtual void prepare(const shm::RingGeometry& geometry) = 0;
 
   // Processes the group's active A-scans into `out` (resized; no allocation once its capacity
-  // has grown to a group). Throws std::invalid_argument for a group find_group_problem rejects
-  // and std::logic_error before prepare().
+  // has grown to a group). Groups must come in acquisition order: the rolling background
+  // remembers the last ones. Throws std::invalid_argument for a group find_group_problem
+  // rejects and std::logic_error before prepare().
   virtual void process(const RawGroup& group, ProcessedGroup& out) = 0;
 
   virtual std::string_view backend_name() const noexcept = 0;
 };
 
-enum class Backend { cpu, cuda };
+enum class Backend {
+  cpu,
+  cuda,
+  automatic,  // "auto": cuda when a usable device is present, else cpu
+};
 
 std::string_view to_string(Backend backend) noexcept;
 // Throws ConfigError("backend", ...) naming the accepted values.
 Backend parse_backend(std::string_view text);
 
-// Throws ConfigError for a bad config and BackendUnavailable for a backend this build lacks.
+// Why the cuda backend cannot run here ("built without CUDA", "no CUDA device", "compute
+// capability 7.5 is not supported by this build ..."), or nothing when it can.
+std::optional<std::string> cuda_unavailable_reason();
+
+// cpu or cuda for `requested`: automatic becomes cuda when cuda_unavailable_reason() is empty,
+// else cpu, and then `warning` (when given) says why.
+Backend resolve_backend(Backend requested, std::string* warning = nullptr);
+
+// Throws ConfigError for a bad config and BackendUnavailable for a backend this build or
+// machine lacks (naming why).
 std::unique_ptr<OctProcessor> make_oct_processor(Backend backend, const OctProcessorConfig& config);
 
 class BackendUnavailable : public std::runtime_error {

@@ -39,6 +39,7 @@ class Volume {
     return pixels_[(std::size_t{b} * ascans_ + a) * depth_ + d];
   }
   std::span<const std::uint8_t> pixels() const noexcept { return pixels_; }
+  std::span<std::uint8_t> pixels() noexcept { return pixels_; }
 
  private:
   std::uint32_t bscans_ = 0;

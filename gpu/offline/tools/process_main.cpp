@@ -1,0 +1,186 @@
+// ioct-process: raw spectra recorded to a file -> a volume (NRRD), through the same processing
+// chain (and, when asked, the same filters) as the live system.
+#include <CLI/CLI.hpp>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ioct/common/atomic_file.hpp"
+#include "ioct/common/config_error.hpp"
+#include "ioct/gpu/offline/calibration_file.hpp"
+#include "ioct/gpu/offline/input_file_error.hpp"
+#include "ioct/gpu/offline/nrrd_file.hpp"
+#include "ioct/gpu/offline/raw_processing.hpp"
+#include "ioct/gpu/png_file.hpp"
+#include "ioct/gpu/projections.hpp"
+#include "ioct/gpu/resampling.hpp"
+
+namespace {
+
+using namespace ioct::gpu;
+using namespace ioct::gpu::offline;
+
+// "0.0056,0.012,0.05" -> three spacings in mm.
+std::array<double, 3> parse_spacings(const std::string& text) {
+  std::vector<std::string> parts(1);
+  for (char c : text) {
+    if (c == ',') {
+      parts.emplace_back();
+    } else {
+      parts.back() += c;
+    }
+  }
+  std::array<double, 3> spacings{};
+  bool good = parts.size() == 3;
+  for (std::size_t i = 0; good && i < 3; ++i) {
+    char* end = nullptr;
+    spacings[i] = std::strtod(parts[i].c_str(), &end);
+    good = !parts[i].empty() && *end == '\0' && std::isfinite(spacings[i]) && spacings[i] > 0;
+  }
+  if (!good) {
+    throw ioct::ConfigError("spacing_mm", "'" + text + "'",
+                            "must be three positive numbers depth,ascan,bscan in mm");
+  }
+  return spacings;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  RawSpectraLayout layout;
+  RawProcessingSettings settings;
+  settings.processing.fft.rigor = FftRigor::estimate;  // one volume: planning time would dominate
+  std::string input, output, png, byte_order = "little", backend = "cpu";
+  std::string background = std::string(to_string(settings.processing.background.mode));
+  std::string window = std::string(to_string(settings.processing.window.kind));
+  std::string rigor = std::string(to_string(settings.processing.fft.rigor));
+  std::string resample, poly, calibration_file, filter = "none", spacing;
+  double sigma = ioct::gpu::filters::VolumeFilterConfig{}.gaussian_sigma;
+
+  CLI::App app{
+      "ioct-process: raw u16 spectra from a file -> u8 volume (NRRD) through the ioct processing "
+      "chain"};
+  app.option_defaults()->always_capture_default();
+  app.add_option("input", input, "raw spectra: u16 [bscan][ascan][sample], samples contiguous")
+      ->required();
+  app.add_option("--out", output, "volume to write (.nrrd)")->required();
+  app.add_option("--samples", layout.samples_per_ascan, "samples per A-scan (even)")->required();
+  app.add_option("--ascans", layout.ascans_per_bscan, "A-scans per B-scan")->required();
+  app.add_option("--bscans", layout.bscans, "B-scans in the file (one volume)")->required();
+  app.add_option("--byte-order", byte_order, "byte order of the samples: little or big");
+  app.add_option("--header-bytes", layout.header_bytes, "bytes to skip at the start of the file");
+  app.add_option("--bscans-per-group", settings.bscans_per_group,
+                 "B-scans per group, as the ring would carry them (1 to 64)");
+  app.add_flag("--bidirectional", settings.bidirectional,
+               "odd B-scans were acquired right to left (they are flipped)");
+  app.add_option("--backend", backend, "processing backend: cpu, cuda or auto");
+  app.add_option("--threads", settings.processing.threads, "CPU threads (1 to 16)");
+  app.add_option("--db-min", settings.processing.scale.db_min, "dB shown as black");
+  app.add_option("--db-max", settings.processing.scale.db_max, "dB shown as white");
+  app.add_option("--background", background, "background removal: rolling or none");
+  app.add_option("--window", window, "spectral window: hann or rectangular");
+  app.add_option("--dispersion-c2", settings.processing.dispersion.c2,
+                 "quadratic dispersion phase (rad at the sweep's ends)");
+  app.add_option("--dispersion-c3", settings.processing.dispersion.c3, "cubic dispersion phase");
+  app.add_option("--resample", resample,
+                 "lambda -> k resampling: none, linear or cubic (default: cubic when a "
+                 "calibration is given, else none)");
+  app.add_option("--resample-poly", poly,
+                 "calibration c0,c1,...: output sample j is read at raw position "
+                 "(N-1) * sum c_i (j/(N-1))^i");
+  app.add_option("--calibration-file", calibration_file,
+                 "the calibration coefficients from a file (commas, spaces or newlines)");
+  app.add_option("--fft-rigor", rigor, "FFTW planning: estimate, measure or patient");
+  app.add_option("--filter", filter, "after processing: none or median-gauss (the volume filters)");
+  app.add_option("--sigma", sigma, "Gaussian sigma (px) of --filter median-gauss");
+  app.add_option("--spacing-mm", spacing,
+                 "voxel spacing depth,ascan,bscan in mm for the NRRD header (default: 1 px)");
+  app.add_option("--png", png, "also write the centre B-scan as PNG");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    layout.byte_order = parse_byte_order(byte_order);
+    std::string warning;
+    settings.backend = resolve_backend(parse_backend(backend), &warning);
+    if (!warning.empty()) std::cerr << "ioct-process: warning: " << warning << "\n";
+    settings.processing.background.mode = parse_background_mode(background);
+    settings.processing.window.kind = parse_window_kind(window);
+    settings.processing.fft.rigor = parse_fft_rigor(rigor);
+    if (!poly.empty() && !calibration_file.empty()) {
+      throw ioct::ConfigError("calibration", "--resample-poly and --calibration-file",
+                              "give one of them, not both");
+    }
+    const bool calibrated = !poly.empty() || !calibration_file.empty();
+    if (calibrated) {
+      settings.processing.resampling.coefficients =
+          poly.empty() ? read_calibration_file(calibration_file) : parse_coefficients(poly);
+    }
+    settings.processing.resampling.interpolation =
+        parse_interpolation(resample.empty() ? (calibrated ? "cubic" : "none") : resample);
+    if (settings.processing.resampling.enabled() && !calibrated) {
+      throw ioct::ConfigError("resample", "'" + resample + "'",
+                              "needs a calibration (--resample-poly or --calibration-file)");
+    }
+    if (filter == "median-gauss") {
+      ioct::gpu::filters::VolumeFilterConfig config;
+      config.gaussian_sigma = sigma;
+      config.validate();
+      settings.filter = config;
+    } else if (filter != "none") {
+      throw ioct::ConfigError("filter", "'" + filter + "'", "must be none or median-gauss");
+    }
+    NrrdMetadata metadata;
+    if (!spacing.empty()) {
+      metadata.spacings = parse_spacings(spacing);
+      metadata.unit = "mm";
+    }
+
+    const RawSpectraFile file(input, layout);
+    ProgressBar progress(stderr, "ioct-process", "B-scans", layout.bscans,
+                         ProgressBar::stderr_is_terminal());
+    const RawProcessingResult result = process_raw_file(file, settings, &progress);
+    metadata.content = "OCT volume from " + std::filesystem::path(input).filename().string();
+    metadata.key_values = {
+        {"ioct_backend", result.processor_backend},
+        {"ioct_db_range", std::to_string(settings.processing.scale.db_min) + " " +
+                              std::to_string(settings.processing.scale.db_max)},
+        {"ioct_filter", result.filter_backend.empty() ? "none" : "median3x3x3+gauss5x5"}};
+
+    // Everything is written before anything is committed: on any failure no output is left.
+    ioct::AtomicFile volume_file(output);
+    write_nrrd(volume_file.stream(), result.volume, metadata);
+    if (!png.empty()) write_png_gray8(png, bscan_image(result.volume, layout.bscans / 2));
+    try {
+      volume_file.commit();
+    } catch (...) {
+      if (!png.empty()) std::filesystem::remove(png);
+      throw;
+    }
+    std::cout << "volume: " << output << " (" << result.volume.depth() << " x "
+              << result.volume.ascans() << " x " << result.volume.bscans()
+              << " depth x A-scans x B-scans, processed on " << result.processor_backend
+              << (result.filter_backend.empty() ? "" : ", filtered on " + result.filter_backend)
+              << ")\n";
+    if (!png.empty()) std::cout << "bscan:  " << png << "\n";
+    return EXIT_SUCCESS;
+  } catch (const ioct::ConfigError& e) {
+    std::cerr << "ioct-process: invalid option: " << e.what() << "\n";
+    return 2;
+  } catch (const BackendUnavailable& e) {
+    std::cerr << "ioct-process: " << e.what() << "\n";
+    return 2;
+  } catch (const InputFileError& e) {
+    std::cerr << "ioct-process: bad input: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "ioct-process: error: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,203 @@
+// ioct-dispersion: estimates the dispersion correction (c2, c3) of a raw group, read from a file
+// or live from the ring, by maximising the sharpness of its A-scans (dispersion_estimator.hpp).
+// Prints the ioct-gpu options that apply it.
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ioct/common/atomic_file.hpp"
+#include "ioct/common/config_error.hpp"
+#include "ioct/gpu/dispersion_estimator.hpp"
+#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/shm/ring_error.hpp"
+#include "ioct/shm/ring_reader.hpp"
+
+namespace {
+
+using namespace ioct::gpu;
+namespace shm = ioct::shm;
+
+struct Group {
+  shm::RingGeometry geometry;
+  shm::SlotHeader header{};
+  std::vector<std::uint16_t> spectra;
+  std::string source;
+};
+
+struct FileOptions {
+  std::string path;
+  std::uint32_t samples = 0;
+  std::uint32_t ascans_per_bscan = 512;
+  std::uint32_t active_begin = 0;
+  std::uint32_t active_end = 0;  // 0: all
+};
+
+// A raw group file: little-endian u16 samples [bscan][record][sample], as a ring slot holds them.
+Group read_group_file(const FileOptions& o) {
+  std::error_code ec;
+  const auto bytes = std::filesystem::file_size(o.path, ec);
+  if (ec) throw std::runtime_error("cannot read group file '" + o.path + "': " + ec.message());
+  ioct::require_integer_in_range("samples", o.samples, 8, 1u << 16);
+  ioct::require_integer_in_range("ascans_per_bscan", o.ascans_per_bscan, 1, 1u << 16);
+  const std::uint64_t bscan_bytes = std::uint64_t{o.samples} * o.ascans_per_bscan * 2;
+  if (bytes == 0 || bytes % bscan_bytes != 0 || bytes / bscan_bytes > shm::kMaxBscansPerGroup) {
+    throw ioct::ConfigError(
+        "group_file", "'" + o.path + "'",
+        "must hold 1 to 64 whole B-scans of " + std::to_string(o.ascans_per_bscan) + " x " +
+            std::to_string(o.samples) + " u16 samples (" + std::to_string(bscan_bytes) +
+            " bytes each); it has " + std::to_string(bytes) + " bytes");
+  }
+  Group g;
+  g.source = o.path;
+  g.geometry.samples_per_ascan = o.samples;
+  g.geometry.ascans_per_bscan = o.ascans_per_bscan;
+  g.geometry.bscans_per_group = static_cast<std::uint32_t>(bytes / bscan_bytes);
+  g.geometry.bscans_per_volume = g.geometry.bscans_per_group;
+  g.spectra.resize(bytes / 2);
+  std::ifstream in(o.path, std::ios::binary);
+  if (!in.read(reinterpret_cast<char*>(g.spectra.data()), static_cast<std::streamsize>(bytes))) {
+    throw std::runtime_error("cannot read group file '" + o.path + "'");
+  }
+  g.header.bscan_count = g.geometry.bscans_per_group;
+  g.header.payload_bytes = bytes;
+  g.header.active_ascan_begin = o.active_begin;
+  g.header.active_ascan_end = o.active_end == 0 ? o.ascans_per_bscan : o.active_end;
+  for (std::uint32_t b = 0; b < g.header.bscan_count; ++b) g.header.bscans[b].bscan_in_volume = b;
+  return g;
+}
+
+// The next group published on `ring`, waiting up to `wait_s` for the ring and the group.
+Group read_live_group(const std::string& ring, double wait_s) {
+  const std::uint64_t deadline = shm::monotonic_ns() + static_cast<std::uint64_t>(wait_s * 1e9);
+  for (;;) {
+    try {
+      shm::RingReader reader = shm::RingReader::attach(ring, {"ioct-dispersion"});
+      Group g;
+      g.source = "ring '" + ring + "'";
+      g.geometry = reader.geometry();
+      g.spectra.resize((reader.layout().group_payload_bytes + 1) / 2);
+      const std::span<std::byte> buffer(reinterpret_cast<std::byte*>(g.spectra.data()),
+                                        reader.layout().group_payload_bytes);
+      for (;;) {
+        const shm::PollStatus status = reader.read_next(buffer, g.header);
+        if (status == shm::PollStatus::ready) return g;
+        if (status == shm::PollStatus::producer_gone) break;
+        if (shm::monotonic_ns() >= deadline) {
+          throw std::runtime_error("no group arrived on ring '" + ring + "' within " +
+                                   ioct::format_value(wait_s) + " s");
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      }
+    } catch (const shm::RingError& e) {
+      if (e.code() != shm::RingErrc::not_found && e.code() != shm::RingErrc::not_ready &&
+          e.code() != shm::RingErrc::producer_gone) {
+        throw;
+      }
+      if (shm::monotonic_ns() >= deadline) throw;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+}
+
+void save_group(const Group& g, const std::string& path) {
+  ioct::AtomicFile file(path);
+  const std::size_t bytes = g.geometry.group_payload_bytes();
+  if (std::fwrite(g.spectra.data(), 1, bytes, file.stream()) != bytes) {
+    throw std::runtime_error("cannot write '" + path + "'");
+  }
+  file.commit();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  FileOptions file;
+  std::string ring;
+  double wait_s = 5.0;
+  std::string save_path;
+  std::string json_path;
+  OctProcessorConfig processing;
+  processing.background.groups = 1;
+  DispersionSearch search;
+  std::string background = "rolling";
+  std::string window = std::string(to_string(processing.window.kind));
+  std::string resampling = "none";
+  std::string coefficients = "0,1";
+
+  CLI::App app{
+      "ioct-dispersion: estimates the dispersion correction c2, c3 of a raw group (a file or "
+      "the next group on the ring) by maximising the sharpness of its A-scans"};
+  app.option_defaults()->always_capture_default();
+  auto* file_option = app.add_option("--group-file", file.path,
+                                     "raw group: little-endian u16 [bscan][record][sample]");
+  app.add_option("--samples", file.samples, "samples per A-scan in the group file");
+  app.add_option("--ascans-per-bscan", file.ascans_per_bscan, "records per B-scan in the file");
+  app.add_option("--active-begin", file.active_begin, "first active record of each B-scan");
+  app.add_option("--active-end", file.active_end, "end of the active records; 0: all");
+  auto* ring_option = app.add_option("--ring", ring, "read the next group from this ring");
+  app.add_option("--wait", wait_s, "seconds to wait for the ring and a group");
+  app.add_option("--save-group", save_path, "also save the group read from the ring to a file");
+  app.add_option("--background", background,
+                 "background removal: rolling (the group's mean) or none");
+  app.add_option("--resample", resampling, "lambda -> k resampling: none, linear or cubic");
+  app.add_option("--resample-poly", coefficients, "calibration c0,c1,... (see ioct-gpu)");
+  app.add_option("--window", window, "spectral window: hann or rectangular");
+  app.add_option("--c2-limit", search.c2_limit, "search c2 in [-limit, limit] rad");
+  app.add_option("--c3-limit", search.c3_limit, "search c3 in [-limit, limit] rad");
+  app.add_option("--ascans", search.ascans, "brightest A-scans used for the metric");
+  app.add_option("--json", json_path, "also write the result as JSON");
+  file_option->excludes(ring_option);
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    if (file.path.empty() == ring.empty()) {
+      throw ioct::ConfigError("source", "''", "give exactly one of --group-file or --ring");
+    }
+    processing.background.mode = parse_background_mode(background);
+    processing.window.kind = parse_window_kind(window);
+    processing.resampling.interpolation = parse_interpolation(resampling);
+    processing.resampling.coefficients = parse_coefficients(coefficients);
+    DispersionEstimator estimator(processing, search);
+    const Group group = ring.empty() ? read_group_file(file) : read_live_group(ring, wait_s);
+    if (!save_path.empty()) save_group(group, save_path);
+    estimator.load(group.geometry, RawGroup{group.header, group.spectra});
+    const DispersionEstimate e = estimator.estimate();
+    std::printf("source: %s (%u x %u x %u samples)\n", group.source.c_str(),
+                group.header.bscan_count, group.geometry.ascans_per_bscan,
+                group.geometry.samples_per_ascan);
+    std::printf("c2 = %.3f rad, c3 = %.3f rad\n", e.c2, e.c3);
+    std::printf(
+        "sharpness %.5g (uncompensated %.5g, x%.2f) over the %u brightest A-scans, %u "
+        "evaluations\n",
+        e.sharpness, e.sharpness_uncompensated,
+        e.sharpness_uncompensated > 0 ? e.sharpness / e.sharpness_uncompensated : 0.0,
+        e.ascans_used, e.evaluations);
+    std::printf("ioct-gpu options: --dispersion-c2 %.3f --dispersion-c3 %.3f\n", e.c2, e.c3);
+    if (!json_path.empty()) {
+      const nlohmann::json j = {{"source", group.source},
+                                {"c2", e.c2},
+                                {"c3", e.c3},
+                                {"sharpness", e.sharpness},
+                                {"sharpness_uncompensated", e.sharpness_uncompensated},
+                                {"ascans_used", e.ascans_used},
+                                {"evaluations", e.evaluations}};
+      ioct::write_text_file_atomically(json_path, j.dump(2) + "\n");
+    }
+    return EXIT_SUCCESS;
+  } catch (const ioct::ConfigError& e) {
+    std::cerr << "ioct-dispersion: invalid option: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "ioct-dispersion: error: " << e.what() << "\n";
+    return 1;
+  }
+}
