@@ -1,0 +1,343 @@
+// The arithmetic of one A-scan and of one step of the surface search, written once for the CPU
+// reference and the CUDA kernels (host_device.hpp). Evidence and search costs are integers, so
+// the two implementations choose the very same px; the sub-px refinements are the same float
+// expressions in the same order (no fused multiply-add on either side).
+//
+// Columns are u8 A-scans of `depth` px, depth increasing downwards; reads outside [0, depth)
+// repeat the edge px. `floor` is the B-scan's background level (u8).
+#pragma once
+
+#include <cstdint>
+
+#include "ioct/gpu/segmentation/host_device.hpp"
+#include "ioct/gpu/segmentation/segmentation_config.hpp"
+
+namespace ioct::gpu::segmentation::detail {
+
+// Larger than any path total (4096 A-scans x kOutsideCost); marks a state no path reaches.
+inline constexpr std::int32_t kUnreachable = 1 << 30;
+// Cost of a state outside the depth axis: any path inside it is preferred.
+inline constexpr std::int32_t kOutsideCost = 1 << 14;
+
+// RPE evidence: bright here, against the brightest px 4..6 px above and 5..16 px below (half of
+// each counts against). The RPE is a bright line between the dim outer segments and the choroid:
+// the IS/OS line about 10 px above it has the RPE beneath it, a bright patch of choroid has the
+// RPE above it.
+inline constexpr int kRpeAboveFirst = 4;
+inline constexpr int kRpeAboveLast = 6;
+inline constexpr int kRpeBelowFirst = 5;
+inline constexpr int kRpeBelowLast = 16;
+// ILM evidence: a rise into tissue between d - 1 and d (levels above the background), minus the
+// brightest px 4..14 px above (the vitreous must be dark; a deeper edge has retina above it). Half
+// the mean level 3..14 px below counts for it, up to kIlmBelowCap: the retina is thick, a membrane
+// detached from it (the posterior hyaloid, a lifted epiretinal membrane) is a thin line with the
+// dark gap beneath.
+inline constexpr int kIlmBelowFirst = 3;
+inline constexpr int kIlmBelowLast = 14;
+inline constexpr int kIlmBelowCap = 60;
+inline constexpr int kIlmAboveFirst = 4;
+inline constexpr int kIlmAboveLast = 14;
+// The tissue beneath the RPE (choroid) whose mean enters the confidence.
+inline constexpr int kChoroidFirst = 6;
+inline constexpr int kChoroidLast = 25;
+// Sub-px searches: the ILM reflex's peak lies within this many px below the steepest rise, the
+// vitreous level is the darkest px within this many px above it.
+inline constexpr int kIlmPeakReach = 6;
+inline constexpr int kIlmBaseReach = 8;
+inline constexpr int kRpePeakReach = 2;
+inline constexpr int kBmReach = 10;
+
+IOCT_SEG_HD int clamp_int(int v, int lo, int hi) {
+  return v < lo ? lo : (v > hi ? hi : v);
+}
+IOCT_SEG_HD int max_int(int a, int b) {
+  return a > b ? a : b;
+}
+IOCT_SEG_HD int min_int(int a, int b) {
+  return a < b ? a : b;
+}
+IOCT_SEG_HD int abs_int(int a) {
+  return a < 0 ? -a : a;
+}
+
+// Px `d` of a column, the edge px repeated outside it.
+IOCT_SEG_HD int px(const std::uint8_t* column, int depth, int d) {
+  return column[clamp_int(d, 0, depth - 1)];
+}
+// Level above the background.
+IOCT_SEG_HD int above_floor(int value, int floor) {
+  return value > floor ? value - floor : 0;
+}
+
+IOCT_SEG_HD int rpe_score(const std::uint8_t* column, int depth, int d, int floor) {
+  int above = 0;
+  for (int k = kRpeAboveFirst; k <= kRpeAboveLast; ++k) {
+    above = max_int(above, above_floor(px(column, depth, d - k), floor));
+  }
+  int below = 0;
+  for (int k = kRpeBelowFirst; k <= kRpeBelowLast; ++k) {
+    below = max_int(below, above_floor(px(column, depth, d + k), floor));
+  }
+  return 2 * above_floor(px(column, depth, d), floor) - above / 2 - below / 2;
+}
+
+IOCT_SEG_HD int ilm_score(const std::uint8_t* column, int depth, int d, int floor) {
+  // Levels above the background: a dark border (no data) above the vitreous is no edge.
+  const auto level = [&](int x) { return above_floor(px(column, depth, x), floor); };
+  const int rise =
+      level(d) + level(d + 1) + level(d + 2) - level(d - 1) - level(d - 2) - level(d - 3);
+  int above = 0;
+  for (int k = kIlmAboveFirst; k <= kIlmAboveLast; ++k) above += level(d - k);
+  int below = 0;
+  for (int k = kIlmBelowFirst; k <= kIlmBelowLast; ++k) below += level(d + k);
+  return rise / 3 - above / (kIlmAboveLast - kIlmAboveFirst + 1) +
+         min_int(below / (kIlmBelowLast - kIlmBelowFirst + 1), kIlmBelowCap) / 2;
+}
+
+// The coarse search works on cells of kCoarseCellPx px (a cell's level is its brightest px; the
+// coarse evidence is a difference of levels, so it needs no background level and runs while the
+// background is being measured) and on pairs of neighbouring A-scans (a pair's cost is its better
+// column's).
+// A cell's evidence: bright, against the cell above and the brightest of cells 2..4 below (half
+// of each counts against: the same windows as the px evidence below), plus the mean level of the
+// 6 cells above, capped at kAboveCap: the RPE has retina above it, the ILM's reflex the vitreous.
+inline constexpr int kAboveCells = 6;
+inline constexpr int kAboveCap = 40;
+
+IOCT_SEG_HD int cell_level(const std::uint8_t* column, int depth, int cell) {
+  int level = 0;
+  for (int k = 0; k < kCoarseCellPx; ++k) {
+    level = max_int(level, px(column, depth, cell * kCoarseCellPx + k));
+  }
+  return level;
+}
+
+// `levels` holds the cell levels of one column (`cells` of them); reads outside repeat the edge.
+IOCT_SEG_HD int coarse_score(const std::uint8_t* levels, int cells, int k) {
+  const auto at = [&](int i) { return static_cast<int>(levels[clamp_int(i, 0, cells - 1)]); };
+  const int below = max_int(at(k + 2), max_int(at(k + 3), at(k + 4)));
+  int above = 0;
+  for (int i = 1; i <= kAboveCells; ++i) above += at(k - i);
+  return 2 * at(k) - at(k - 1) / 2 - below / 2 + min_int(above / kAboveCells, kAboveCap);
+}
+
+// Fine RPE, `below_ilm` px below the ILM: the RPE evidence plus kDepthPriorWeight per px below
+// the ILM up to `depth_cap` px. A thickness prior: the inner retina's reflex has the dark vitreous
+// above it and can be as bright as the RPE, but the RPE lies deeper; where the retina is missing
+// (a macular hole) the RPE's evidence still wins against the dimmer choroid beneath it.
+inline constexpr int kDepthPriorWeight = 2;
+IOCT_SEG_HD std::int32_t rpe_cost(const std::uint8_t* column, int depth, int d, int below_ilm,
+                                  int depth_cap, int floor) {
+  if (d < 0 || d >= depth) return kOutsideCost;
+  return -(rpe_score(column, depth, d, floor) + kDepthPriorWeight * min_int(below_ilm, depth_cap));
+}
+IOCT_SEG_HD std::int32_t ilm_cost(const std::uint8_t* column, int depth, int d, int floor) {
+  if (d < 0 || d >= depth) return kOutsideCost;
+  return -clamp_int(ilm_score(column, depth, d, floor), -255, 255);
+}
+// The median of three coarse cells: the prior a B-scan takes from itself and its neighbours.
+IOCT_SEG_HD std::int32_t median3(std::int32_t a, std::int32_t b, std::int32_t c) {
+  const std::int32_t low = a < b ? a : b;
+  const std::int32_t high = a < b ? b : a;
+  return c < low ? low : (c > high ? high : c);
+}
+
+// Depth of state 0 of the ILM band above a coarse RPE cell: the band ends 4 px below the cell's
+// centre (in a macular hole the first tissue is the RPE itself).
+IOCT_SEG_HD std::int32_t ilm_band_origin(std::int32_t coarse_cell, std::int32_t band) {
+  return coarse_cell * kCoarseCellPx + kCoarseCellPx / 2 + 4 - band;
+}
+
+// One state of one step of the search along a B-scan. `previous` holds the neighbouring A-scan's
+// path totals over `states` states; this A-scan's band starts `shift` px deeper than the
+// neighbour's. Returns the best total reaching state `s` from it (kUnreachable if none) and the
+// step taken (this depth minus the neighbour's), trying steps in the order 0, -1, +1, -2, +2, ...
+// so that ties go the same way everywhere.
+//
+// kFixedStep > 0 fixes the bound at compile time: every candidate is read before any is compared
+// (the GPU issues the reads together); 0 takes it from `max_step`. Both give the same result.
+template <int kFixedStep>
+IOCT_SEG_HD std::int32_t best_step_of(const std::int32_t* previous, int states, int s, int shift,
+                                      int max_step, int penalty, int* step) {
+  constexpr int kCandidates = kFixedStep > 0 ? 2 * kFixedStep + 1 : 1;
+  const int candidates = kFixedStep > 0 ? kCandidates : 2 * max_step + 1;
+  std::int32_t best = kUnreachable;
+  int chosen = 0;
+  if constexpr (kFixedStep > 0) {
+    std::int32_t totals[kCandidates];
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+    for (int i = 0; i < kCandidates; ++i) {
+      const int j = (i & 1) != 0 ? -((i + 1) >> 1) : (i >> 1);
+      const int from = s + shift - j;
+      totals[i] = from >= 0 && from < states ? previous[from] : kUnreachable;
+    }
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+    for (int i = 0; i < kCandidates; ++i) {
+      const int j = (i & 1) != 0 ? -((i + 1) >> 1) : (i >> 1);
+      if (totals[i] >= kUnreachable) continue;
+      const std::int32_t candidate = totals[i] + penalty * abs_int(j);
+      if (candidate < best) {
+        best = candidate;
+        chosen = j;
+      }
+    }
+  } else {
+    for (int i = 0; i < candidates; ++i) {
+      const int j = (i & 1) != 0 ? -((i + 1) >> 1) : (i >> 1);
+      const int from = s + shift - j;
+      if (from < 0 || from >= states) continue;
+      const std::int32_t total = previous[from];
+      if (total >= kUnreachable) continue;
+      const std::int32_t candidate = total + penalty * abs_int(j);
+      if (candidate < best) {
+        best = candidate;
+        chosen = j;
+      }
+    }
+  }
+  *step = chosen;
+  return best;
+}
+
+IOCT_SEG_HD std::int32_t best_step(const std::int32_t* previous, int states, int s, int shift,
+                                   int max_step, int penalty, int* step) {
+  return best_step_of<0>(previous, states, s, shift, max_step, penalty, step);
+}
+
+// A path total plus a state's cost, staying at kUnreachable.
+IOCT_SEG_HD std::int32_t add_cost(std::int32_t total, std::int32_t cost) {
+  return total >= kUnreachable ? kUnreachable : total + cost;
+}
+
+// What the refinement of one A-scan found (px; NaN-free: the caller knows whether it applies).
+struct ColumnFit {
+  float ilm = 0.0f;
+  float rpe = 0.0f;
+  float bm = 0.0f;
+  int rpe_contrast = 0;  // RPE peak above the background, u8 levels
+  int ilm_contrast = 0;  // inner reflex peak above the vitreous level
+  int choroid = 0;       // mean level of the tissue beneath the RPE above the background
+};
+
+// The RPE centre: the brightest px within kRpePeakReach of `d` (the first of equals, nearest
+// first), and a parabola through it and its neighbours.
+IOCT_SEG_HD int rpe_peak_px(const std::uint8_t* column, int depth, int d) {
+  int best = clamp_int(d, 0, depth - 1);
+  int value = column[best];
+  for (int i = 1; i <= 2 * kRpePeakReach; ++i) {
+    const int k = (i & 1) != 0 ? -((i + 1) >> 1) : (i >> 1);
+    const int x = d + k;
+    if (x < 0 || x >= depth) continue;
+    if (column[x] > value) {
+      value = column[x];
+      best = x;
+    }
+  }
+  return best;
+}
+
+IOCT_SEG_HD float parabola_offset(int left, int centre, int right) {
+  const int curvature = left - 2 * centre + right;
+  if (curvature >= 0) return 0.0f;
+  float offset = 0.5f * static_cast<float>(left - right) / static_cast<float>(curvature);
+  offset = offset < -0.5f ? -0.5f : offset;
+  return offset > 0.5f ? 0.5f : offset;
+}
+
+// Refines the search's px (ILM at the steepest rise, RPE near its centre) of one A-scan.
+IOCT_SEG_HD ColumnFit fit_column(const std::uint8_t* column, int depth, int ilm_px, int rpe_px,
+                                 int floor, float ilm_level) {
+  ColumnFit fit;
+  // RPE centre.
+  const int r = rpe_peak_px(column, depth, rpe_px);
+  const int peak = column[r];
+  fit.rpe = static_cast<float>(r) +
+            parabola_offset(px(column, depth, r - 1), peak, px(column, depth, r + 1));
+  fit.rpe_contrast = above_floor(peak, floor);
+
+  // Outer boundary: half-way from the peak down to the darkest px within kBmReach below it.
+  int low = peak;
+  for (int k = 1; k <= kBmReach; ++k) low = min_int(low, px(column, depth, r + k));
+  const float bm_level = 0.5f * static_cast<float>(peak + low);
+  fit.bm = static_cast<float>(r);
+  for (int k = 0; k < kBmReach; ++k) {
+    const int upper = px(column, depth, r + k);
+    const int lower = px(column, depth, r + k + 1);
+    if (static_cast<float>(lower) <= bm_level) {
+      fit.bm = static_cast<float>(r + k) + (upper > lower ? (static_cast<float>(upper) - bm_level) /
+                                                                static_cast<float>(upper - lower)
+                                                          : 0.0f);
+      break;
+    }
+  }
+
+  // Tissue beneath the RPE.
+  int sum = 0;
+  for (int k = kChoroidFirst; k <= kChoroidLast; ++k) {
+    sum += above_floor(px(column, depth, r + k), floor);
+  }
+  fit.choroid = sum / (kChoroidLast - kChoroidFirst + 1);
+
+  // ILM: the inner reflex's peak below the steepest rise, the vitreous level above it, and where
+  // the rise crosses ilm_level of the way between them.
+  int p = ilm_px;
+  int top = px(column, depth, ilm_px);
+  for (int k = 1; k <= kIlmPeakReach; ++k) {  // the first local maximum (a plateau counts)
+    const int v = px(column, depth, ilm_px + k);
+    if (v < top) break;
+    if (v > top) {
+      top = v;
+      p = ilm_px + k;
+    }
+  }
+  int base = top;
+  for (int k = 1; k <= kIlmBaseReach; ++k) base = min_int(base, px(column, depth, ilm_px - k));
+  fit.ilm_contrast = top - base;
+  const float level = static_cast<float>(base) + ilm_level * static_cast<float>(top - base);
+  fit.ilm = static_cast<float>(p);
+  for (int x = p - 1; x >= ilm_px - kIlmBaseReach; --x) {
+    const int lower = px(column, depth, x);  // shallower px
+    if (static_cast<float>(lower) < level) {
+      const int upper = px(column, depth, x + 1);
+      fit.ilm = static_cast<float>(x) +
+                (level - static_cast<float>(lower)) / static_cast<float>(upper - lower);
+      break;
+    }
+  }
+  return fit;
+}
+
+// Confidence of one A-scan from its evidence against the B-scan's typical (median) contrasts:
+// each of the RPE peak and the inner reflex counts fully at half its typical contrast, the tissue
+// beneath the RPE (choroid) at kChoroidShare of the typical RPE contrast; the weakest one decides.
+// An instrument's reflection has the dark vitreous above and its shadow beneath: no choroid.
+inline constexpr float kChoroidShare = 0.05f;
+IOCT_SEG_HD float column_confidence(const ColumnFit& fit, int typical_rpe, int typical_ilm) {
+  const float rpe_ref = 0.5f * static_cast<float>(max_int(typical_rpe, 1));
+  const float ilm_ref = 0.5f * static_cast<float>(max_int(typical_ilm, 1));
+  const float choroid_ref = kChoroidShare * static_cast<float>(max_int(typical_rpe, 1));
+  float c = static_cast<float>(fit.rpe_contrast) / rpe_ref;
+  const float ilm = static_cast<float>(fit.ilm_contrast) / ilm_ref;
+  const float choroid = static_cast<float>(fit.choroid) / choroid_ref;
+  c = ilm < c ? ilm : c;
+  c = choroid < c ? choroid : c;
+  return c > 1.0f ? 1.0f : c;
+}
+
+// Whether a B-scan holds a retina: typical RPE and inner-reflex contrasts of at least
+// min_contrast, a typical (median) ILM-to-RPE distance of at least min_thickness px (the cornea's
+// epithelium and Bowman's layer look like an ILM over a thin RPE), and at least presence_fraction
+// of its A-scans confident (>= 0.5).
+IOCT_SEG_HD bool retina_present(int confident_ascans, int ascans, float presence_fraction,
+                                int typical_rpe, int typical_ilm, int min_contrast,
+                                int typical_thickness, int min_thickness) {
+  return typical_rpe >= min_contrast && typical_ilm >= min_contrast &&
+         typical_thickness >= min_thickness &&
+         static_cast<float>(confident_ascans) >= presence_fraction * static_cast<float>(ascans);
+}
+
+}  // namespace ioct::gpu::segmentation::detail

@@ -1,0 +1,47 @@
+// A B-scan with its surfaces drawn over it, as an RGB PNG: the offline command's picture of what
+// the segmentation found, and the tests' view of a failure.
+//
+// The B-scan in grey (depth down, A-scans across), the ILM in red, the RPE centre in green, the
+// Bruch's membrane side of the RPE in blue; bridged A-scans (instrument shadow) are drawn every
+// other A-scan, so their line shows dotted; a B-scan without a retina has no lines.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+#include "ioct/gpu/segmentation/surfaces.hpp"
+#include "ioct/gpu/volume.hpp"
+
+namespace ioct::gpu::segmentation {
+
+struct RgbImage {
+  std::uint32_t width = 0;
+  std::uint32_t height = 0;
+  std::vector<std::uint8_t> pixels;  // height rows of width x (r, g, b)
+
+  void set(std::uint32_t x, std::uint32_t y, std::uint8_t r, std::uint8_t g,
+           std::uint8_t b) noexcept {
+    std::uint8_t* p = pixels.data() + (std::size_t{y} * width + x) * 3;
+    p[0] = r;
+    p[1] = g;
+    p[2] = b;
+  }
+};
+
+// B-scan `bscan` of `volume` with its surfaces. Throws std::out_of_range for a B-scan outside the
+// volume and std::invalid_argument when the surfaces have other dimensions.
+RgbImage make_overlay(const Volume& volume, std::uint32_t bscan, const Surfaces& surfaces);
+
+// A mark at depth `depth_px` (rounded) of column `x`; nothing when it is NaN or off the image.
+void mark(RgbImage& image, std::uint32_t x, float depth_px, std::uint8_t r, std::uint8_t g,
+          std::uint8_t b) noexcept;
+
+// Rows [first_row, first_row + rows) of `image` (clipped to it).
+RgbImage crop_rows(const RgbImage& image, std::uint32_t first_row, std::uint32_t rows);
+
+// Writes an 8-bit RGB PNG that appears complete or not at all. Throws std::runtime_error naming
+// the path and the reason.
+void write_png_rgb8(const std::filesystem::path& path, const RgbImage& image);
+
+}  // namespace ioct::gpu::segmentation

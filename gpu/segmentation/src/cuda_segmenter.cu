@@ -1,0 +1,961 @@
+#include <algorithm>
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+#include <utility>
+#include <vector>
+
+#include "ioct/gpu/segmentation/column_math.hpp"
+#include "ioct/gpu/segmentation/cuda_segmenter.hpp"
+#include "ioct/gpu/segmentation/finishing.hpp"
+#include "ioct/gpu/segmentation/histogram.hpp"
+
+namespace ioct::gpu::segmentation {
+
+void check_cuda_status(cudaError_t status, const char* what) {
+  if (status != cudaSuccess) {
+    throw std::runtime_error(std::string("CUDA: ") + what + " failed: " + cudaGetErrorName(status) +
+                             " (" + cudaGetErrorString(status) + ")");
+  }
+}
+
+DeviceBuffer::DeviceBuffer(std::size_t bytes) : size_(bytes) {
+  if (bytes == 0) return;
+  check_cuda_status(cudaMalloc(&data_, bytes),
+                    ("cudaMalloc of " + std::to_string(bytes) + " bytes").c_str());
+}
+
+DeviceBuffer::DeviceBuffer(DeviceBuffer&& other) noexcept
+    : data_(std::exchange(other.data_, nullptr)), size_(std::exchange(other.size_, 0)) {}
+
+DeviceBuffer& DeviceBuffer::operator=(DeviceBuffer&& other) noexcept {
+  if (this != &other) {
+    if (data_ != nullptr) cudaFree(data_);
+    data_ = std::exchange(other.data_, nullptr);
+    size_ = std::exchange(other.size_, 0);
+  }
+  return *this;
+}
+
+DeviceBuffer::~DeviceBuffer() {
+  if (data_ != nullptr) cudaFree(data_);
+}
+
+namespace {
+
+using detail::kHistogramBins;
+using detail::kUnreachable;
+
+constexpr int kCostThreads = 256;
+constexpr int kPairsPerCostBlock = 8;
+constexpr int kColumnsPerCostBlock = 16;
+constexpr int kFinishThreads = 128;
+constexpr int kChunk = 16;  // search columns whose costs a thread loads at once
+// Shared memory a search may use for its step choices; more goes to global memory (slower trace
+// back, same result).
+constexpr std::size_t kSharedStepsLimit = 160 * 1024;
+
+// Copies n bytes from global to shared memory with the whole block, 16 at a time where both
+// sides allow it (the volume is cudaMalloc'd; columns of a multiple of 16 px stay aligned).
+__device__ void stage_bytes(std::uint8_t* shared, const std::uint8_t* global, std::size_t n) {
+  std::size_t done = 0;
+  if (((reinterpret_cast<std::uintptr_t>(global) | reinterpret_cast<std::uintptr_t>(shared)) &
+       15u) == 0) {
+    const std::size_t vectors = n / 16;
+    const uint4* from = reinterpret_cast<const uint4*>(global);
+    uint4* to = reinterpret_cast<uint4*>(shared);
+    for (std::size_t i = threadIdx.x; i < vectors; i += blockDim.x) to[i] = __ldg(from + i);
+    done = vectors * 16;
+  }
+  for (std::size_t i = done + threadIdx.x; i < n; i += blockDim.x) shared[i] = __ldg(global + i);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Coarse costs: per pair of A-scans and cell, the better column's negated cell evidence; and the
+// histogram of the background samples (histogram.hpp) of the block's columns, for the B-scan's
+// background level, which the coarse search sums.
+
+struct CoarseCostJob {
+  const std::uint8_t* volume;
+  std::uint32_t* histograms;  // [group][cost block][bins]
+  std::int32_t* cost;         // [group][coarse column][cell]
+  int first;
+  SegmentationParams p;
+};
+
+__global__ void coarse_cost_kernel(CoarseCostJob job) {
+  // [kPairsPerCostBlock * kCoarsePair][depth] px, then [same columns][cells] levels.
+  extern __shared__ __align__(16) std::uint8_t staged[];
+  __shared__ std::uint32_t bins[kHistogramBins];
+  const SegmentationParams& p = job.p;
+  const int g = blockIdx.y;
+  const int b = job.first + g;
+  const std::size_t bscan_px = static_cast<std::size_t>(p.ascans) * p.depth;
+  const int first_pair = blockIdx.x * kPairsPerCostBlock;
+  const int first_column = first_pair * kCoarsePair;
+  const int columns = min(kPairsPerCostBlock * kCoarsePair, p.ascans - first_column);
+  std::uint8_t* px = staged;
+  std::uint8_t* levels =
+      staged + static_cast<std::size_t>(kPairsPerCostBlock) * kCoarsePair * p.depth;
+  for (int i = threadIdx.x; i < kHistogramBins; i += blockDim.x) bins[i] = 0;
+  const std::size_t offset = static_cast<std::size_t>(first_column) * p.depth;
+  const std::size_t n = static_cast<std::size_t>(columns) * p.depth;
+  stage_bytes(px, job.volume + static_cast<std::size_t>(b) * bscan_px + offset, n);
+  __syncthreads();
+  // Background samples: the px whose index in the B-scan is a multiple of the stride.
+  const std::size_t stride = detail::kFloorSampleStride;
+  const std::size_t first_sample = (offset + stride - 1) / stride * stride - offset;
+  const std::size_t samples = first_sample < n ? (n - first_sample + stride - 1) / stride : 0;
+  for (std::size_t base = 0; base < samples; base += blockDim.x) {  // same trip count everywhere
+    const std::size_t i = base + threadIdx.x;
+    const unsigned value = i < samples ? px[first_sample + i * stride] : 256u;
+    const unsigned same = __match_any_sync(0xffffffffu, value);
+    if (value < 256u && (threadIdx.x & 31) == static_cast<unsigned>(__ffs(same) - 1)) {
+      atomicAdd(&bins[value], static_cast<std::uint32_t>(__popc(same)));
+    }
+  }
+  for (int i = threadIdx.x; i < columns * p.coarse_cells; i += blockDim.x) {
+    const int c = i % p.coarse_cells;
+    const int k = i / p.coarse_cells;
+    levels[i] = static_cast<std::uint8_t>(
+        detail::cell_level(px + static_cast<std::size_t>(k) * p.depth, p.depth, c));
+  }
+  __syncthreads();
+  std::uint32_t* histogram =
+      job.histograms + (static_cast<std::size_t>(g) * gridDim.x + blockIdx.x) * kHistogramBins;
+  for (int i = threadIdx.x; i < kHistogramBins; i += blockDim.x) histogram[i] = bins[i];
+  for (int i = threadIdx.x; i < kPairsPerCostBlock * p.coarse_cells; i += blockDim.x) {
+    const int c = i % p.coarse_cells;
+    const int pair = i / p.coarse_cells;
+    const int q = first_pair + pair;
+    if (q >= p.coarse_columns) continue;
+    std::int32_t cost = detail::kOutsideCost;
+    for (int k = 0; k < kCoarsePair; ++k) {
+      const int a = q * kCoarsePair + k;
+      if (a >= p.ascans) break;
+      const std::int32_t c_cost = -detail::coarse_score(
+          levels + (pair * kCoarsePair + k) * p.coarse_cells, p.coarse_cells, c);
+      cost = min(cost, c_cost);
+    }
+    job.cost[(static_cast<std::size_t>(g) * p.coarse_columns + q) * p.coarse_cells + c] = cost;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The search along a B-scan (see solve_path in cpu_segmenter.cpp): one block per B-scan, the
+// first half of the threads walks from the left to the middle column, the second from the right.
+// The coarse search also sums the background histogram and sets the B-scan's level; the RPE
+// search goes on to the sub-px fits, the typical contrasts, the confidences and the verdict.
+
+enum class PathStage { coarse, ilm, rpe };
+
+struct PathJob {
+  const std::int32_t* cost;    // [group][columns][states]
+  const std::int32_t* origin;  // [group][columns], or null for all 0
+  std::int32_t* path;          // [group][columns]: depth (or cell) per column
+  std::int8_t* global_steps;   // [group][columns][states] when they do not fit in shared memory
+  int first;
+  int columns;
+  int states;
+  int max_step;
+  int penalty;
+  int half_threads;  // threads per half, a multiple of 32, >= states
+  bool shared_steps;
+  PathStage stage;
+  SegmentationParams p;
+  // Coarse stage.
+  const std::uint32_t* histograms;  // [group][histogram blocks][bins]
+  int histogram_blocks;
+  std::int32_t* coarse;        // memory's [bscan][ascan] cells
+  std::uint8_t* coarse_valid;  // [bscan]
+  std::uint8_t* floors;        // [bscan]
+  // RPE stage: the fits.
+  const std::uint8_t* volume;
+  const std::int32_t* ilm_px;  // [group][ascan]
+  float* ilm;                  // memory [bscan][ascan]
+  float* rpe;
+  float* bm;
+  float* confidence;
+  std::uint8_t* verdict;    // [bscan]
+  std::uint8_t* contrasts;  // scratch [group][ascan][3]: rpe, ilm, choroid
+};
+
+__device__ __forceinline__ std::int32_t load_cost(const std::int32_t* cost, int columns, int states,
+                                                  int column, int s) {
+  if (column < 0 || column >= columns || s >= states) return 0;
+  return __ldg(cost + static_cast<std::size_t>(column) * states + s);
+}
+
+// The B-scan's background level from the coarse cost blocks' histograms.
+__device__ void sum_background(const PathJob& job, int g, int b) {
+  __shared__ std::uint32_t bins[kHistogramBins];
+  const std::uint32_t* partial =
+      job.histograms + static_cast<std::size_t>(g) * job.histogram_blocks * kHistogramBins;
+  for (int v = threadIdx.x; v < kHistogramBins; v += blockDim.x) {
+    std::uint32_t sum = 0;
+    for (int k = 0; k < job.histogram_blocks; ++k) sum += __ldg(partial + k * kHistogramBins + v);
+    bins[v] = sum;
+  }
+  __syncthreads();
+  if (threadIdx.x == 0) {
+    const std::size_t bscan_px = static_cast<std::size_t>(job.p.ascans) * job.p.depth;
+    const auto samples = static_cast<std::uint32_t>((bscan_px + detail::kFloorSampleStride - 1) /
+                                                    detail::kFloorSampleStride);
+    job.floors[b] = static_cast<std::uint8_t>(detail::histogram_quantile(
+        bins, samples, detail::kFloorNumerator, detail::kFloorDenominator));
+  }
+}
+
+// Sub-px fits of the B-scan's A-scans, its typical contrasts, confidences and verdict (after the
+// RPE search; `rpe_px` is this block's path).
+__device__ void fit_bscan(const PathJob& job, int g, int b, const std::int32_t* rpe_px) {
+  __shared__ std::uint32_t rpe_histogram[kHistogramBins];
+  __shared__ std::uint32_t ilm_histogram[kHistogramBins];
+  __shared__ std::uint32_t thickness_histogram[kHistogramBins];
+  __shared__ int typical[3];
+  __shared__ int confident;
+  const SegmentationParams& p = job.p;
+  for (int i = threadIdx.x; i < kHistogramBins; i += blockDim.x) {
+    rpe_histogram[i] = 0;
+    ilm_histogram[i] = 0;
+    thickness_histogram[i] = 0;
+  }
+  if (threadIdx.x == 0) confident = 0;
+  __syncthreads();
+  const int floor = job.floors[b];
+  const std::size_t row = static_cast<std::size_t>(b) * p.ascans;
+  const std::size_t group_row = static_cast<std::size_t>(g) * p.ascans;
+  for (int a = threadIdx.x; a < p.ascans; a += blockDim.x) {
+    const std::uint8_t* column = job.volume + (row + a) * p.depth;
+    const int ilm_px = job.ilm_px[group_row + a];
+    const int rpe = rpe_px[a];
+    const detail::ColumnFit fit =
+        detail::fit_column(column, p.depth, ilm_px, rpe, floor, p.ilm_level);
+    job.ilm[row + a] = fit.ilm;
+    job.rpe[row + a] = fit.rpe;
+    job.bm[row + a] = fit.bm;
+    const int rpe_contrast = detail::clamp_u8(fit.rpe_contrast);
+    const int ilm_contrast = detail::clamp_u8(fit.ilm_contrast);
+    std::uint8_t* c = job.contrasts + (group_row + a) * 3;
+    c[0] = static_cast<std::uint8_t>(rpe_contrast);
+    c[1] = static_cast<std::uint8_t>(ilm_contrast);
+    c[2] = static_cast<std::uint8_t>(detail::clamp_u8(fit.choroid));
+    atomicAdd(&rpe_histogram[rpe_contrast], 1u);
+    atomicAdd(&ilm_histogram[ilm_contrast], 1u);
+    atomicAdd(&thickness_histogram[detail::clamp_u8(rpe - ilm_px)], 1u);
+  }
+  __syncthreads();
+  const auto count = static_cast<std::uint32_t>(p.ascans);
+  // Three medians, by threads of different warps where there are enough.
+  const std::uint32_t* histograms[3] = {rpe_histogram, ilm_histogram, thickness_histogram};
+  for (int k = 0; k < 3; ++k) {
+    if (threadIdx.x == (32u * k) % blockDim.x) {
+      typical[k] = detail::histogram_quantile(histograms[k], count, 1, 2);
+    }
+  }
+  __syncthreads();
+  int mine = 0;
+  for (int a = threadIdx.x; a < p.ascans; a += blockDim.x) {
+    const std::uint8_t* c = job.contrasts + (group_row + a) * 3;
+    detail::ColumnFit fit;
+    fit.rpe_contrast = c[0];
+    fit.ilm_contrast = c[1];
+    fit.choroid = c[2];
+    const float confidence = detail::column_confidence(fit, typical[0], typical[1]);
+    job.confidence[row + a] = confidence;
+    mine += confidence >= 0.5f ? 1 : 0;
+  }
+  if (mine != 0) atomicAdd(&confident, mine);
+  __syncthreads();
+  if (threadIdx.x == 0) {
+    const bool retina =
+        detail::retina_present(confident, p.ascans, p.presence_fraction, typical[0], typical[1],
+                               p.min_contrast, typical[2], p.min_thickness);
+    job.verdict[b] =
+        static_cast<std::uint8_t>(retina ? BscanVerdict::retina : BscanVerdict::no_retina);
+  }
+}
+
+// Up to 1024 threads: the coarse search of a 2048 px axis has 512 cells per half.
+template <int kFixedStep>
+__global__ void __launch_bounds__(1024) path_kernel(PathJob job) {
+  extern __shared__ __align__(16) unsigned char shared[];
+  const int g = blockIdx.x;
+  const int b = job.first + g;
+  const int S = job.states;
+  const int N = job.columns;
+  // Shared memory: rows [2 halves][2 buffers][S] int32, origins [N] int32, keys [32] u64, steps.
+  std::int32_t* rows = reinterpret_cast<std::int32_t*>(shared);
+  std::int32_t* origin = rows + 4 * S;
+  unsigned long long* keys = reinterpret_cast<unsigned long long*>(origin + N + (N & 1));
+  std::int8_t* steps = job.shared_steps ? reinterpret_cast<std::int8_t*>(keys + 32)
+                                        : job.global_steps + static_cast<std::size_t>(g) * N * S;
+  const std::int32_t* cost = job.cost + static_cast<std::size_t>(g) * N * S;
+
+  if (job.stage == PathStage::coarse) sum_background(job, g, b);
+  for (int i = threadIdx.x; i < N; i += blockDim.x) {
+    origin[i] = job.origin != nullptr ? job.origin[static_cast<std::size_t>(g) * N + i] : 0;
+  }
+  const int half = threadIdx.x / job.half_threads;  // 0: from the left, 1: from the right
+  const int s = threadIdx.x % job.half_threads;
+  const bool active = s < S;
+  std::int32_t* buffer0 = rows + half * 2 * S;  // this half's two rows
+  std::int32_t* buffer1 = buffer0 + S;
+  const int middle = N / 2;
+  const int iterations = max(middle, N - 1 - middle);
+  // The column a half works on at iteration i (1-based), or -1 when it is done.
+  const auto column_at = [&](int i) {
+    if (half == 0) return i <= middle ? i : -1;
+    const int a = N - 1 - i;
+    return a >= middle ? a : -1;
+  };
+  if (active) buffer0[s] = load_cost(cost, N, S, half == 0 ? 0 : N - 1, s);
+  __syncthreads();
+
+  std::int32_t* previous = buffer0;  // this half's totals so far
+  std::int32_t* next = buffer1;
+  for (int base = 1; base <= iterations; base += kChunk) {
+    // The chunk's costs and band shifts, loaded together: one wait for memory per chunk, none
+    // between the barriers of its steps.
+    std::int32_t costs[kChunk];
+    int shifts[kChunk];
+#pragma unroll
+    for (int k = 0; k < kChunk; ++k) {
+      const int a = column_at(base + k);
+      costs[k] = active && a >= 0 ? load_cost(cost, N, S, a, s) : 0;
+    }
+#pragma unroll
+    for (int k = 0; k < kChunk; ++k) {
+      const int a = column_at(base + k);
+      shifts[k] = a >= 0 ? origin[a] - origin[half == 0 ? a - 1 : a + 1] : 0;
+    }
+#pragma unroll
+    for (int k = 0; k < kChunk; ++k) {
+      const int i = base + k;
+      if (i <= iterations) {  // the same for every thread: the barrier below is reached by all
+        const int a = column_at(i);
+        if (active && a >= 0) {
+          int step = 0;
+          // (A tree of minima over packed 64-bit keys instead of best_step_of's chain of
+          // comparisons measured slower on an H100: see docs/segmentation.md.)
+          const std::int32_t best = detail::best_step_of<kFixedStep>(
+              previous, S, s, shifts[k], job.max_step, job.penalty, &step);
+          next[s] = detail::add_cost(best, costs[k]);
+          // The step into column a from the left is kept at a; from the right, at a + 1 (so the
+          // middle column's two steps do not share a place).
+          steps[static_cast<std::size_t>(half == 0 ? a : a + 1) * S + s] =
+              static_cast<std::int8_t>(step);
+        }
+        __syncthreads();
+        if (a >= 0) {  // a half that is done keeps its last row where it is
+          std::int32_t* t = previous;
+          previous = next;
+          next = t;
+        }
+      }
+    }
+  }
+  __syncthreads();  // (no iteration at all for a single column)
+
+  // Join at the middle column: the state of least forward + backward - its cost, the first of
+  // equals (keys order by total, then state).
+  const int forward_rows = middle;
+  const int backward_rows = N - 1 - middle;
+  const std::int32_t* forward = rows + ((forward_rows & 1) != 0 ? S : 0);
+  const std::int32_t* backward = rows + 2 * S + ((backward_rows & 1) != 0 ? S : 0);
+  unsigned long long key = ~0ull;
+  if (half == 0 && active && forward[s] < kUnreachable && backward[s] < kUnreachable) {
+    const std::int32_t total = forward[s] + backward[s] - load_cost(cost, N, S, middle, s);
+    key = (static_cast<unsigned long long>(static_cast<std::uint32_t>(total) ^ 0x80000000u) << 32) |
+          static_cast<unsigned long long>(s);
+  }
+  for (int offset = 16; offset > 0; offset /= 2) {
+    const unsigned long long other = __shfl_down_sync(0xffffffffu, key, offset);
+    key = other < key ? other : key;
+  }
+  const int warp = threadIdx.x / 32;
+  const int warps = blockDim.x / 32;
+  if (threadIdx.x % 32 == 0) keys[warp] = key;
+  __syncthreads();
+  if (threadIdx.x == 0) {
+    unsigned long long best = ~0ull;
+    for (int w = 0; w < warps; ++w) best = keys[w] < best ? keys[w] : best;
+    keys[0] = best;
+  }
+  __syncthreads();
+  const int best_state = keys[0] == ~0ull ? 0 : static_cast<int>(keys[0] & 0xffffffffull);
+
+  // Back along the steps taken: one thread to the left end, one (another warp) to the right.
+  std::int32_t* path = job.path + static_cast<std::size_t>(g) * N;
+  if (threadIdx.x == 0) {
+    int state = best_state;
+    path[middle] = origin[middle] + state;
+    for (int a = middle; a >= 1; --a) {
+      state = state + (origin[a] - origin[a - 1]) - steps[static_cast<std::size_t>(a) * S + state];
+      path[a - 1] = origin[a - 1] + state;
+    }
+  } else if (threadIdx.x == job.half_threads) {
+    int state = best_state;
+    for (int a = middle; a <= N - 2; ++a) {
+      state =
+          state + (origin[a] - origin[a + 1]) - steps[static_cast<std::size_t>(a + 1) * S + state];
+      path[a + 1] = origin[a + 1] + state;
+    }
+  }
+  if (job.stage == PathStage::ilm) return;
+  __syncthreads();
+  if (job.stage == PathStage::rpe) {
+    fit_bscan(job, g, b, path);
+    return;
+  }
+  // The coarse cells of every A-scan, for this B-scan's and its neighbours' fine searches.
+  for (int a = threadIdx.x; a < job.p.ascans; a += blockDim.x) {
+    job.coarse[static_cast<std::size_t>(b) * job.p.ascans + a] = path[a / kCoarsePair];
+  }
+  if (threadIdx.x == 0) job.coarse_valid[b] = 1;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Fine costs: the ILM band above the neighbours' coarse RPE, or the RPE band below the ILM.
+
+struct BandCostJob {
+  const std::uint8_t* volume;
+  const std::uint8_t* floors;        // [bscan]
+  const std::int32_t* coarse;        // [bscan][ascan] (ILM band)
+  const std::uint8_t* coarse_valid;  // [bscan]
+  const std::int32_t* ilm_px;        // [group][ascan] (RPE band)
+  std::int32_t* origin;              // [group][ascan]
+  std::int32_t* cost;                // [group][ascan][band]
+  int first;
+  int bscans;
+  SegmentationParams p;
+  bool rpe;
+};
+
+__global__ void band_cost_kernel(BandCostJob job) {
+  extern __shared__ __align__(16) std::uint8_t columns[];  // [kColumnsPerCostBlock][depth]
+  __shared__ std::int32_t origins[kColumnsPerCostBlock];
+  const SegmentationParams& p = job.p;
+  const int g = blockIdx.y;
+  const int b = job.first + g;
+  const int first_column = blockIdx.x * kColumnsPerCostBlock;
+  const std::uint8_t* pixels = job.volume + static_cast<std::size_t>(b) * p.ascans * p.depth;
+  stage_bytes(
+      columns, pixels + static_cast<std::size_t>(first_column) * p.depth,
+      static_cast<std::size_t>(min(kColumnsPerCostBlock, p.ascans - first_column)) * p.depth);
+  if (threadIdx.x < kColumnsPerCostBlock) {
+    const int a = first_column + threadIdx.x;
+    std::int32_t o = 0;
+    if (a < p.ascans) {
+      if (job.rpe) {
+        o = job.ilm_px[static_cast<std::size_t>(g) * p.ascans + a];
+      } else {
+        const std::int32_t* own = job.coarse + static_cast<std::size_t>(b) * p.ascans;
+        const bool has_before = b > 0 && job.coarse_valid[b - 1] != 0;
+        const bool has_after = b + 1 < job.bscans && job.coarse_valid[b + 1] != 0;
+        const std::int32_t before = has_before ? own[a - p.ascans] : own[a];
+        const std::int32_t after = has_after ? own[a + p.ascans] : own[a];
+        o = detail::ilm_band_origin(detail::median3(before, own[a], after), p.band);
+      }
+      job.origin[static_cast<std::size_t>(g) * p.ascans + a] = o;
+    }
+    origins[threadIdx.x] = o;
+  }
+  __syncthreads();
+  const int floor = job.floors[b];
+  for (int i = threadIdx.x; i < kColumnsPerCostBlock * p.band; i += blockDim.x) {
+    const int k = i / p.band;
+    const int s = i % p.band;
+    const int a = first_column + k;
+    if (a >= p.ascans) continue;
+    const std::uint8_t* column = columns + k * p.depth;
+    const int d = origins[k] + s;
+    const std::int32_t c = job.rpe ? detail::rpe_cost(column, p.depth, d, s, p.rpe_depth_cap, floor)
+                                   : detail::ilm_cost(column, p.depth, d, floor);
+    job.cost[(static_cast<std::size_t>(g) * p.ascans + a) * p.band + s] = c;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Finishing: smoothing and bridging of every A-scan of the affected B-scans.
+
+struct FinishJob {
+  detail::RawFits raw;
+  detail::FinishSettings settings;
+  float* ilm;
+  float* rpe;
+  float* bm;
+  float* confidence;
+  SurfaceState* state;
+  BscanVerdict* verdict;
+  int first;        // first output B-scan
+  int group_first;  // the group's B-scans
+  int group_end;
+};
+
+__global__ void finish_kernel(FinishJob job) {
+  const int b = job.first + blockIdx.y;
+  const int a = blockIdx.x * blockDim.x + threadIdx.x;
+  if (a == 0) job.verdict[b] = static_cast<BscanVerdict>(job.raw.verdict[b]);
+  if (a >= job.raw.ascans) return;
+  // A measured A-scan is smoothed over the B-scans beside it only: beyond those of the group
+  // and their neighbours it cannot have changed (only bridges reach further).
+  if ((b < job.group_first - 1 || b > job.group_end) &&
+      detail::is_measured(job.raw, job.settings, b, a)) {
+    return;
+  }
+  const detail::FinishedAscan f = detail::finish_ascan(job.raw, job.settings, b, a);
+  const std::size_t k = static_cast<std::size_t>(b) * job.raw.ascans + a;
+  job.ilm[k] = f.ilm;
+  job.rpe[k] = f.rpe;
+  job.bm[k] = f.bm;
+  job.confidence[k] = f.confidence;
+  job.state[k] = f.state;
+}
+
+// The search kernels by step bound: [0] any bound, [k] a bound of k px (or cells).
+void (*const kPathKernels[])(PathJob) = {path_kernel<0>, path_kernel<1>, path_kernel<2>,
+                                         path_kernel<3>, path_kernel<4>, path_kernel<5>,
+                                         path_kernel<6>, path_kernel<7>, path_kernel<8>};
+constexpr int kFixedSteps = 8;
+
+// Why this build's kernels cannot run on the current device, or cudaSuccess.
+cudaError_t probe_kernels() {
+  cudaFuncAttributes attributes;
+  return cudaFuncGetAttributes(&attributes, path_kernel<0>);
+}
+
+}  // namespace
+
+struct CudaSegmenter::DeviceState {
+  std::uint32_t bscans = 0;
+  std::uint32_t ascans = 0;
+  std::uint32_t depth = 0;
+  SegmentationParams params;
+  std::size_t max_steps_shared = 0;
+  DeviceBuffer volume;  // host volumes are copied here
+  // Memory of the volume.
+  DeviceBuffer coarse, coarse_valid, floors, raw_ilm, raw_rpe, raw_bm, raw_confidence, raw_verdict;
+  // Surfaces.
+  DeviceBuffer ilm, rpe, bm, confidence, state, verdict;
+  // Scratch of one group (sized for a whole volume).
+  DeviceBuffer histograms, coarse_cost, coarse_path, band_origin, band_cost, ilm_px, rpe_px,
+      global_steps, contrasts;
+  int histogram_blocks = 0;  // coarse cost blocks per B-scan
+  // The groups' launches captured as CUDA graphs, by volume, group and stream.
+  std::map<std::tuple<const void*, std::uint32_t, std::uint32_t, cudaStream_t>, cudaGraphExec_t>
+      graphs;
+
+  void destroy_graphs() noexcept {
+    for (auto& [key, graph] : graphs) cudaGraphExecDestroy(graph);
+    graphs.clear();
+  }
+};
+
+namespace {
+
+template <class T>
+DeviceBuffer device_array(std::size_t count) {
+  return DeviceBuffer(std::max<std::size_t>(count, 1) * sizeof(T));
+}
+
+int round_up_warp(int n) {
+  return (n + 31) / 32 * 32;
+}
+
+// Shared memory of a search: rows, origins (padded to 8 bytes), 32 keys, and the steps if they fit.
+std::size_t path_shared_bytes(int columns, int states, bool steps) {
+  std::size_t bytes = 4 * static_cast<std::size_t>(states) * sizeof(std::int32_t) +
+                      static_cast<std::size_t>(columns + (columns & 1)) * sizeof(std::int32_t) +
+                      32 * sizeof(unsigned long long);
+  if (steps) bytes += static_cast<std::size_t>(columns) * states;
+  return bytes;
+}
+
+}  // namespace
+
+std::string cuda_segmentation_problem() {
+  int devices = 0;
+  if (const cudaError_t status = cudaGetDeviceCount(&devices); status != cudaSuccess) {
+    cudaGetLastError();
+    return std::string("no CUDA device: ") + cudaGetErrorName(status) + " (" +
+           cudaGetErrorString(status) + ")";
+  }
+  if (devices == 0) return "no CUDA device is present";
+  if (const cudaError_t status = probe_kernels(); status != cudaSuccess) {
+    cudaGetLastError();
+    return std::string("this build's kernels cannot run on device 0: ") + cudaGetErrorName(status) +
+           " (" + cudaGetErrorString(status) + ")";
+  }
+  return {};
+}
+
+CudaSegmenter::CudaSegmenter(const SegmentationConfig& config, const VolumeSampling& sampling)
+    : config_((config.validate(), config)), sampling_((sampling.validate(), sampling)) {
+  if (const std::string problem = cuda_segmentation_problem(); !problem.empty()) {
+    throw BackendUnavailable("backend cuda: " + problem);
+  }
+  check_cuda_status(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
+  int device = 0;
+  check_cuda_status(cudaGetDevice(&device), "cudaGetDevice");
+  int optin = 0;
+  check_cuda_status(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, device),
+                    "cudaDeviceGetAttribute(shared memory per block)");
+  std::size_t dynamic_limit = static_cast<std::size_t>(optin);
+  for (const auto kernel : kPathKernels) {
+    // What the kernel's own (static) shared memory leaves of the block's.
+    cudaFuncAttributes attributes{};
+    check_cuda_status(cudaFuncGetAttributes(&attributes, kernel), "cudaFuncGetAttributes");
+    const int dynamic = optin - static_cast<int>(attributes.sharedSizeBytes);
+    check_cuda_status(
+        cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, dynamic),
+        "cudaFuncSetAttribute(path_kernel)");
+    dynamic_limit = std::min(dynamic_limit, static_cast<std::size_t>(dynamic));
+  }
+  state_ = std::make_unique<DeviceState>();
+  // The steps go to shared memory when they fit beside the rows and origins (at most 4 x 256 +
+  // 4096 int32 and 32 keys: 20.8 kB).
+  state_->max_steps_shared = std::min<std::size_t>(dynamic_limit - 21 * 1024, kSharedStepsLimit);
+}
+
+CudaSegmenter::~CudaSegmenter() {
+  if (state_) state_->destroy_graphs();
+  state_.reset();
+  if (stream_ != nullptr) cudaStreamDestroy(stream_);
+}
+
+void CudaSegmenter::forget() {
+  DeviceState& d = *state_;
+  if (d.bscans == 0) return;
+  check_cuda_status(cudaMemsetAsync(d.coarse_valid.as<void>(), 0, d.bscans, stream_),
+                    "cudaMemsetAsync(coarse_valid)");
+  check_cuda_status(cudaMemsetAsync(d.raw_verdict.as<void>(), 0, d.bscans, stream_),
+                    "cudaMemsetAsync(verdict)");
+}
+
+void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uint32_t depth) {
+  DeviceState& d = *state_;
+  const SegmentationParams params = make_params(config_, sampling_, depth, ascans);
+  if (d.bscans == bscans && d.ascans == ascans && d.depth == depth) {
+    d.params = params;
+    return;
+  }
+  check_cuda_status(cudaStreamSynchronize(stream_), "cudaStreamSynchronize");
+  const std::size_t n = static_cast<std::size_t>(bscans) * ascans;
+  const std::size_t band_states = static_cast<std::size_t>(params.band);
+  const std::size_t max_steps_shared = d.max_steps_shared;
+  d.destroy_graphs();
+  d = DeviceState{};
+  d.max_steps_shared = max_steps_shared;
+  d.params = params;
+  d.volume = device_array<std::uint8_t>(n * depth);
+  d.coarse = device_array<std::int32_t>(n);
+  d.coarse_valid = device_array<std::uint8_t>(bscans);
+  d.floors = device_array<std::uint8_t>(bscans);
+  d.raw_ilm = device_array<float>(n);
+  d.raw_rpe = device_array<float>(n);
+  d.raw_bm = device_array<float>(n);
+  d.raw_confidence = device_array<float>(n);
+  d.raw_verdict = device_array<std::uint8_t>(bscans);
+  d.ilm = device_array<float>(n);
+  d.rpe = device_array<float>(n);
+  d.bm = device_array<float>(n);
+  d.confidence = device_array<float>(n);
+  d.state = device_array<std::uint8_t>(n);
+  d.verdict = device_array<std::uint8_t>(bscans);
+  d.histogram_blocks = (params.coarse_columns + kPairsPerCostBlock - 1) / kPairsPerCostBlock;
+  d.histograms = device_array<std::uint32_t>(static_cast<std::size_t>(bscans) * d.histogram_blocks *
+                                             kHistogramBins);
+  d.coarse_cost = device_array<std::int32_t>(static_cast<std::size_t>(bscans) *
+                                             params.coarse_columns * params.coarse_cells);
+  d.coarse_path =
+      device_array<std::int32_t>(static_cast<std::size_t>(bscans) * params.coarse_columns);
+  d.band_origin = device_array<std::int32_t>(n);
+  d.band_cost = device_array<std::int32_t>(n * band_states);
+  d.ilm_px = device_array<std::int32_t>(n);
+  d.rpe_px = device_array<std::int32_t>(n);
+  const std::size_t coarse_steps =
+      static_cast<std::size_t>(params.coarse_columns) * params.coarse_cells;
+  const std::size_t fine_steps = static_cast<std::size_t>(ascans) * band_states;
+  if (std::max(coarse_steps, fine_steps) > d.max_steps_shared) {
+    d.global_steps = device_array<std::int8_t>(static_cast<std::size_t>(bscans) *
+                                               std::max(coarse_steps, fine_steps));
+  }
+  d.contrasts = device_array<std::uint8_t>(3 * n);
+  check_cuda_status(cudaMemsetAsync(d.coarse_valid.as<void>(), 0, bscans, stream_),
+                    "cudaMemsetAsync");
+  check_cuda_status(cudaMemsetAsync(d.raw_verdict.as<void>(), 0, bscans, stream_),
+                    "cudaMemsetAsync");
+  check_cuda_status(cudaMemsetAsync(d.verdict.as<void>(), 0, bscans, stream_), "cudaMemsetAsync");
+  check_cuda_status(cudaMemsetAsync(d.state.as<void>(), 0, n, stream_), "cudaMemsetAsync");
+  check_cuda_status(cudaMemsetAsync(d.raw_confidence.as<void>(), 0, n * sizeof(float), stream_),
+                    "cudaMemsetAsync");
+  d.bscans = bscans;
+  d.ascans = ascans;
+  d.depth = depth;
+}
+
+namespace {
+
+void launch_path(const PathJob& job, int count, std::size_t max_steps_shared, cudaStream_t stream) {
+  PathJob j = job;
+  const std::size_t steps = static_cast<std::size_t>(j.columns) * j.states;
+  j.shared_steps = steps <= max_steps_shared;
+  j.half_threads = round_up_warp(j.states);
+  const std::size_t shared = path_shared_bytes(j.columns, j.states, j.shared_steps);
+  const auto kernel = kPathKernels[j.max_step <= kFixedSteps ? j.max_step : 0];
+  kernel<<<count, 2 * j.half_threads, shared, stream>>>(j);
+  check_cuda_status(cudaGetLastError(), "path_kernel launch");
+}
+
+}  // namespace
+
+BscanSpan CudaSegmenter::enqueue_group(const std::uint8_t* device_volume, BscanSpan group,
+                                       cudaStream_t stream) {
+  DeviceState& d = *state_;
+  check_group_span(group, d.bscans);
+  // The legacy default stream cannot be captured, a stream being captured by the caller is
+  // recorded into the caller's graph as it is, and stage events go around the graph.
+  cudaStreamCaptureStatus capturing = cudaStreamCaptureStatusNone;
+  if (stream != nullptr) {
+    check_cuda_status(cudaStreamIsCapturing(stream, &capturing), "cudaStreamIsCapturing");
+  }
+  if (!use_graphs_ || stage_events_ != nullptr || stream == nullptr ||
+      capturing != cudaStreamCaptureStatusNone) {
+    return enqueue_direct(device_volume, group, stream);
+  }
+  const auto key =
+      std::make_tuple(static_cast<const void*>(device_volume), group.first, group.count, stream);
+  auto found = d.graphs.find(key);
+  if (found == d.graphs.end()) {
+    cudaGraph_t graph = nullptr;
+    check_cuda_status(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal),
+                      "cudaStreamBeginCapture");
+    try {
+      enqueue_direct(device_volume, group, stream);
+    } catch (...) {
+      cudaStreamEndCapture(stream, &graph);
+      if (graph != nullptr) cudaGraphDestroy(graph);
+      throw;
+    }
+    check_cuda_status(cudaStreamEndCapture(stream, &graph), "cudaStreamEndCapture");
+    cudaGraphExec_t exec = nullptr;
+    const cudaError_t status = cudaGraphInstantiate(&exec, graph, 0);
+    cudaGraphDestroy(graph);
+    check_cuda_status(status, "cudaGraphInstantiate");
+    found = d.graphs.emplace(key, exec).first;
+  }
+  check_cuda_status(cudaGraphLaunch(found->second, stream), "cudaGraphLaunch");
+  return outputs_affected(group, d.bscans);
+}
+
+void CudaSegmenter::check_group_span(BscanSpan group, std::uint32_t bscans) {
+  if (group.count == 0 || group.first >= bscans || group.count > bscans - group.first) {
+    throw std::out_of_range("segmentation: B-scans [" + std::to_string(group.first) + ", " +
+                            std::to_string(std::uint64_t{group.first} + group.count) +
+                            ") are not a group of the volume of " + std::to_string(bscans) +
+                            " B-scans");
+  }
+}
+
+BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, BscanSpan group,
+                                        cudaStream_t stream) {
+  DeviceState& d = *state_;
+  if (group.count == 0 || group.first >= d.bscans || group.count > d.bscans - group.first) {
+    throw std::out_of_range("segmentation: B-scans [" + std::to_string(group.first) + ", " +
+                            std::to_string(std::uint64_t{group.first} + group.count) +
+                            ") are not a group of the volume of " + std::to_string(d.bscans) +
+                            " B-scans");
+  }
+  const SegmentationParams& p = d.params;
+  int stage = 0;
+  const auto stage_done = [&] {
+    if (stage_events_ != nullptr) {
+      check_cuda_status(cudaEventRecord(stage_events_[stage], stream), "cudaEventRecord");
+    }
+    ++stage;
+  };
+  const int count = static_cast<int>(group.count);
+  const int first = static_cast<int>(group.first);
+  {
+    const CoarseCostJob job{device_volume, d.histograms.as<std::uint32_t>(),
+                            d.coarse_cost.as<std::int32_t>(), first, p};
+    const dim3 grid(
+        static_cast<unsigned>((p.coarse_columns + kPairsPerCostBlock - 1) / kPairsPerCostBlock),
+        static_cast<unsigned>(count));
+    const std::size_t shared = static_cast<std::size_t>(kPairsPerCostBlock) * kCoarsePair *
+                               (static_cast<std::size_t>(p.depth) + p.coarse_cells);
+    coarse_cost_kernel<<<grid, kCostThreads, shared, stream>>>(job);
+    check_cuda_status(cudaGetLastError(), "coarse_cost_kernel launch");
+  }
+  stage_done();
+  {
+    PathJob job{};
+    job.cost = d.coarse_cost.as<std::int32_t>();
+    job.origin = nullptr;
+    job.path = d.coarse_path.as<std::int32_t>();
+    job.global_steps = d.global_steps.as<std::int8_t>();
+    job.histograms = d.histograms.as<std::uint32_t>();
+    job.histogram_blocks = d.histogram_blocks;
+    job.coarse = d.coarse.as<std::int32_t>();
+    job.coarse_valid = d.coarse_valid.as<std::uint8_t>();
+    job.floors = d.floors.as<std::uint8_t>();
+    job.first = first;
+    job.p = p;
+    job.columns = p.coarse_columns;
+    job.states = p.coarse_cells;
+    job.max_step = p.coarse_step;
+    job.penalty = p.coarse_step_penalty;
+    job.stage = PathStage::coarse;
+    launch_path(job, count, d.max_steps_shared, stream);
+  }
+  stage_done();
+  const dim3 band_grid(
+      static_cast<unsigned>((p.ascans + kColumnsPerCostBlock - 1) / kColumnsPerCostBlock),
+      static_cast<unsigned>(count));
+  const std::size_t band_shared = static_cast<std::size_t>(kColumnsPerCostBlock) * p.depth;
+  for (const bool rpe : {false, true}) {
+    const BandCostJob job{device_volume,
+                          d.floors.as<std::uint8_t>(),
+                          d.coarse.as<std::int32_t>(),
+                          d.coarse_valid.as<std::uint8_t>(),
+                          d.ilm_px.as<std::int32_t>(),
+                          d.band_origin.as<std::int32_t>(),
+                          d.band_cost.as<std::int32_t>(),
+                          first,
+                          static_cast<int>(d.bscans),
+                          p,
+                          rpe};
+    band_cost_kernel<<<band_grid, kCostThreads, band_shared, stream>>>(job);
+    check_cuda_status(cudaGetLastError(), "band_cost_kernel launch");
+    stage_done();
+    PathJob path{};
+    path.cost = d.band_cost.as<std::int32_t>();
+    path.origin = d.band_origin.as<std::int32_t>();
+    path.path = rpe ? d.rpe_px.as<std::int32_t>() : d.ilm_px.as<std::int32_t>();
+    path.global_steps = d.global_steps.as<std::int8_t>();
+    path.first = first;
+    path.p = p;
+    path.columns = p.ascans;
+    // The RPE search goes on to the fits.
+    path.floors = d.floors.as<std::uint8_t>();
+    path.volume = device_volume;
+    path.ilm_px = d.ilm_px.as<std::int32_t>();
+    path.ilm = d.raw_ilm.as<float>();
+    path.rpe = d.raw_rpe.as<float>();
+    path.bm = d.raw_bm.as<float>();
+    path.confidence = d.raw_confidence.as<float>();
+    path.verdict = d.raw_verdict.as<std::uint8_t>();
+    path.contrasts = d.contrasts.as<std::uint8_t>();
+    path.states = p.band;
+    path.max_step = p.max_step;
+    path.penalty = p.step_penalty;
+    path.stage = rpe ? PathStage::rpe : PathStage::ilm;
+    launch_path(path, count, d.max_steps_shared, stream);
+    stage_done();
+  }
+  const BscanSpan outputs = outputs_affected(group, d.bscans);
+  {
+    FinishJob job{};
+    job.raw = detail::RawFits{d.raw_ilm.as<float>(),
+                              d.raw_rpe.as<float>(),
+                              d.raw_bm.as<float>(),
+                              d.raw_confidence.as<float>(),
+                              d.raw_verdict.as<std::uint8_t>(),
+                              static_cast<int>(d.bscans),
+                              static_cast<int>(d.ascans)};
+    job.settings = detail::FinishSettings{p.min_confidence,
+                                          p.smooth_tolerance_px,
+                                          static_cast<float>(sampling_.ascan_spacing_um),
+                                          static_cast<float>(sampling_.bscan_spacing_um),
+                                          p.bridge_bscans,
+                                          p.smooth};
+    job.ilm = d.ilm.as<float>();
+    job.rpe = d.rpe.as<float>();
+    job.bm = d.bm.as<float>();
+    job.confidence = d.confidence.as<float>();
+    job.state = d.state.as<SurfaceState>();
+    job.verdict = d.verdict.as<BscanVerdict>();
+    job.first = static_cast<int>(outputs.first);
+    job.group_first = first;
+    job.group_end = first + count;
+    const dim3 grid(static_cast<unsigned>((p.ascans + kFinishThreads - 1) / kFinishThreads),
+                    outputs.count);
+    finish_kernel<<<grid, kFinishThreads, 0, stream>>>(job);
+    check_cuda_status(cudaGetLastError(), "finish_kernel launch");
+  }
+  stage_done();
+  return outputs;
+}
+
+DeviceSurfaceView CudaSegmenter::device_surfaces() const noexcept {
+  const DeviceState& d = *state_;
+  return {d.ilm.as<float>(),
+          d.rpe.as<float>(),
+          d.bm.as<float>(),
+          d.confidence.as<float>(),
+          d.state.as<SurfaceState>(),
+          d.verdict.as<BscanVerdict>(),
+          d.bscans,
+          d.ascans};
+}
+
+BscanSpan CudaSegmenter::segment_group(const Volume& volume, BscanSpan group, Surfaces& surfaces) {
+  check_group_request(volume, group);
+  const DeviceState& d = *state_;
+  const bool fresh = d.bscans != volume.bscans() || d.ascans != volume.ascans() ||
+                     d.depth != volume.depth() || surfaces.bscans != volume.bscans() ||
+                     surfaces.ascans != volume.ascans() || surfaces.depth != volume.depth();
+  prepare(volume.bscans(), volume.ascans(), volume.depth());
+  if (fresh) {
+    forget();
+    surfaces.reset(volume.bscans(), volume.ascans(), volume.depth());
+  }
+  const std::size_t bscan_px = volume.bscan_pixels();
+  check_cuda_status(cudaMemcpyAsync(d.volume.as<std::uint8_t>() + group.first * bscan_px,
+                                    volume.bscan(group.first).data(), group.count * bscan_px,
+                                    cudaMemcpyHostToDevice, stream_),
+                    "cudaMemcpyAsync(group to device)");
+  const BscanSpan outputs = enqueue_group(d.volume.as<std::uint8_t>(), group, stream_);
+  const std::size_t offset = surfaces.index(outputs.first, 0);
+  const std::size_t n = static_cast<std::size_t>(outputs.count) * volume.ascans();
+  const auto copy_back = [&](void* host, const DeviceBuffer& device, std::size_t element) {
+    check_cuda_status(cudaMemcpyAsync(host, device.as<std::uint8_t>() + offset * element,
+                                      n * element, cudaMemcpyDeviceToHost, stream_),
+                      "cudaMemcpyAsync(surfaces to host)");
+  };
+  copy_back(surfaces.ilm.data() + offset, d.ilm, sizeof(float));
+  copy_back(surfaces.rpe.data() + offset, d.rpe, sizeof(float));
+  copy_back(surfaces.bm.data() + offset, d.bm, sizeof(float));
+  copy_back(surfaces.confidence.data() + offset, d.confidence, sizeof(float));
+  copy_back(surfaces.state.data() + offset, d.state, 1);
+  check_cuda_status(cudaMemcpyAsync(surfaces.verdict.data() + outputs.first,
+                                    d.verdict.as<std::uint8_t>() + outputs.first, outputs.count,
+                                    cudaMemcpyDeviceToHost, stream_),
+                    "cudaMemcpyAsync(verdicts to host)");
+  check_cuda_status(cudaStreamSynchronize(stream_), "cudaStreamSynchronize");
+  return outputs;
+}
+
+void CudaSegmenter::download_memory(VolumeMemory& memory) {
+  const DeviceState& d = *state_;
+  memory.reset(d.bscans, d.ascans, d.depth);
+  const std::size_t n = static_cast<std::size_t>(d.bscans) * d.ascans;
+  const auto copy = [&](void* host, const DeviceBuffer& device, std::size_t bytes) {
+    check_cuda_status(
+        cudaMemcpyAsync(host, device.as<void>(), bytes, cudaMemcpyDeviceToHost, stream_),
+        "cudaMemcpyAsync(memory to host)");
+  };
+  copy(memory.coarse.data(), d.coarse, n * sizeof(std::int32_t));
+  copy(memory.coarse_valid.data(), d.coarse_valid, d.bscans);
+  copy(memory.floor.data(), d.floors, d.bscans);
+  copy(memory.ilm.data(), d.raw_ilm, n * sizeof(float));
+  copy(memory.rpe.data(), d.raw_rpe, n * sizeof(float));
+  copy(memory.bm.data(), d.raw_bm, n * sizeof(float));
+  copy(memory.confidence.data(), d.raw_confidence, n * sizeof(float));
+  copy(memory.verdict.data(), d.raw_verdict, d.bscans);
+  check_cuda_status(cudaStreamSynchronize(stream_), "cudaStreamSynchronize");
+}
+
+}  // namespace ioct::gpu::segmentation

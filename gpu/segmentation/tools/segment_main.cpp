@@ -1,0 +1,245 @@
+// ioct-segment: the ILM and RPE of a volume file (NRRD as ioct-process and ioct-vol-import write
+// it, or a Heidelberg .vol export), with the same segmentation as the live system. Writes the
+// surfaces as CSV (one row per A-scan, px and um) and overlay PNGs of B-scans.
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ioct/common/atomic_file.hpp"
+#include "ioct/common/config_error.hpp"
+#include "ioct/gpu/filters/volume_filter.hpp"
+#include "ioct/gpu/offline/heidelberg_vol.hpp"
+#include "ioct/gpu/offline/input_file_error.hpp"
+#include "ioct/gpu/offline/nrrd_file.hpp"
+#include "ioct/gpu/segmentation/overlay_image.hpp"
+#include "ioct/gpu/segmentation/segmenter.hpp"
+#include "ioct/gpu/segmentation/surfaces_csv.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace ioct::gpu;
+using namespace ioct::gpu::segmentation;
+
+struct LoadedVolume {
+  Volume volume;
+  VolumeSampling sampling;
+  bool sampling_known = false;
+  bool already_filtered = false;
+  std::string kind;
+};
+
+bool has_extension(const fs::path& path, std::string_view extension) {
+  std::string e = path.extension().string();
+  for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return e == extension;
+}
+
+LoadedVolume load(const fs::path& input) {
+  LoadedVolume loaded;
+  if (has_extension(input, ".vol")) {
+    const offline::HeidelbergVol vol = offline::read_heidelberg_vol(input);
+    loaded.volume = offline::to_volume(vol);
+    loaded.sampling.axial_um_per_px = vol.header.depth_spacing_mm * 1000.0;
+    loaded.sampling.ascan_spacing_um = vol.header.ascan_spacing_mm * 1000.0;
+    // A single line or circle has no distance between B-scans: any valid value serves.
+    loaded.sampling.bscan_spacing_um = vol.header.bscan_distance_mm > 0.0
+                                           ? vol.header.bscan_distance_mm * 1000.0
+                                           : loaded.sampling.ascan_spacing_um;
+    loaded.sampling_known = true;
+    loaded.kind = "Heidelberg .vol (" +
+                  std::string(offline::scan_pattern_name(vol.header.scan_pattern)) + ")";
+    return loaded;
+  }
+  if (has_extension(input, ".nrrd") || has_extension(input, ".nhdr")) {
+    offline::NrrdVolume nrrd = offline::read_nrrd_file(input);
+    loaded.volume = std::move(nrrd.volume);
+    const auto& m = nrrd.metadata;
+    double to_um = 0.0;
+    if (m.unit == "mm") to_um = 1000.0;
+    if (m.unit == "um" || m.unit == "\u00b5m" || m.unit == "micron") to_um = 1.0;
+    const bool spacings_known = to_um > 0.0 && std::isfinite(m.spacings[0]) &&
+                                std::isfinite(m.spacings[1]) && std::isfinite(m.spacings[2]);
+    if (spacings_known) {
+      loaded.sampling.axial_um_per_px = m.spacings[0] * to_um;
+      loaded.sampling.ascan_spacing_um = m.spacings[1] * to_um;
+      loaded.sampling.bscan_spacing_um = m.spacings[2] * to_um;
+      loaded.sampling_known = true;
+    }
+    for (const auto& [key, value] : m.key_values) {
+      if (key == "ioct_filter" && value != "none") loaded.already_filtered = true;
+    }
+    loaded.kind = "NRRD";
+    return loaded;
+  }
+  throw offline::InputFileError(input, "not a volume file this command reads: use .nrrd or .vol");
+}
+
+std::vector<std::uint32_t> overlay_bscans(const std::string& which, const Surfaces& surfaces) {
+  std::vector<std::uint32_t> list;
+  if (surfaces.bscans == 0) return list;
+  if (which == "centre" || which == "center") {
+    list.push_back(surfaces.bscans / 2);
+  } else if (which == "all") {
+    for (std::uint32_t b = 0; b < surfaces.bscans; ++b) list.push_back(b);
+  } else if (which != "none") {
+    char* end = nullptr;
+    const unsigned long b = std::strtoul(which.c_str(), &end, 10);
+    if (which.empty() || *end != '\0' || b >= surfaces.bscans) {
+      throw ioct::ConfigError(
+          "overlay", "'" + which + "'",
+          "must be centre, all, none or a B-scan index below " + std::to_string(surfaces.bscans));
+    }
+    list.push_back(static_cast<std::uint32_t>(b));
+  }
+  return list;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string input;
+  std::string out = ".";
+  std::string backend_text = "auto";
+  std::string filter = "auto";
+  std::string overlay = "centre";
+  std::optional<double> axial_um;
+  std::optional<double> ascan_um;
+  std::optional<double> bscan_um;
+  unsigned threads = 2;
+  SegmentationConfig config;
+
+  CLI::App app{
+      "ioct-segment: ILM and RPE of a volume file (.nrrd or Heidelberg .vol) as CSV and "
+      "overlay PNGs"};
+  app.add_option("input", input, "volume file: .nrrd (ioct-process, ioct-vol-import) or .vol")
+      ->required();
+  app.add_option("--out", out, "directory for surfaces.csv, overlay_bscan<N>.png, summary.json");
+  app.add_option("--backend", backend_text, "cpu, cuda or auto (cuda when a device is usable)");
+  app.add_option("--filter", filter,
+                 "median 3x3x3 + Gaussian 5x5 before segmenting: auto (unless the NRRD says it "
+                 "was filtered), yes or no");
+  app.add_option("--overlay", overlay, "B-scans drawn: centre, all, none or an index");
+  app.add_option("--axial-um", axial_um, "depth px spacing, um (default: from the file)");
+  app.add_option("--ascan-um", ascan_um, "A-scan spacing, um (default: from the file)");
+  app.add_option("--bscan-um", bscan_um, "B-scan spacing, um (default: from the file)");
+  app.add_option("--threads", threads, "CPU threads (cpu backend and filters)");
+  app.add_option("--max-thickness-um", config.retina_max_thickness_um,
+                 "largest ILM-to-RPE distance searched");
+  app.add_option("--max-slope", config.max_slope, "largest surface slope, um depth per um");
+  app.add_option("--ilm-level", config.ilm_level, "ILM at this share of the rise to its reflex");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+
+  try {
+    const Backend backend = parse_backend(backend_text);
+    if (filter != "auto" && filter != "yes" && filter != "no") {
+      throw ioct::ConfigError("filter", "'" + filter + "'", "must be auto, yes or no");
+    }
+    if (threads < 1 || threads > 64) {
+      throw ioct::ConfigError("threads", ioct::format_value(std::uint64_t{threads}),
+                              "must be in [1, 64]");
+    }
+    config.validate();
+
+    LoadedVolume loaded = load(input);
+    if (axial_um) loaded.sampling.axial_um_per_px = *axial_um;
+    if (ascan_um) loaded.sampling.ascan_spacing_um = *ascan_um;
+    if (bscan_um) loaded.sampling.bscan_spacing_um = *bscan_um;
+    if (!loaded.sampling_known && !(axial_um && ascan_um && bscan_um)) {
+      std::cerr << "ioct-segment: " << input
+                << ": the file states no spacings in mm or um; using the default geometry's ("
+                << loaded.sampling.axial_um_per_px << " um/px, " << loaded.sampling.ascan_spacing_um
+                << " um, " << loaded.sampling.bscan_spacing_um
+                << " um); give --axial-um, --ascan-um and --bscan-um\n";
+    }
+    loaded.sampling.validate();
+
+    const auto start = std::chrono::steady_clock::now();
+    const bool do_filter = filter == "yes" || (filter == "auto" && !loaded.already_filtered);
+    Volume filtered;
+    if (do_filter && loaded.volume.bscans() > 0) {
+      filters::make_volume_filter(backend, {}, threads)->filter_volume(loaded.volume, filtered);
+    }
+    const Volume& volume = do_filter && loaded.volume.bscans() > 0 ? filtered : loaded.volume;
+    const std::unique_ptr<Segmenter> segmenter =
+        make_segmenter(backend, config, loaded.sampling, threads);
+    Surfaces surfaces;
+    segmenter->segment_volume(volume, surfaces);
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+    fs::create_directories(out);
+    const fs::path csv = fs::path(out) / "surfaces.csv";
+    {
+      ioct::AtomicFile file(csv);
+      write_surfaces_csv(file.stream(), surfaces, loaded.sampling.axial_um_per_px);
+      file.commit();
+    }
+    std::vector<std::string> pngs;
+    for (const std::uint32_t b : overlay_bscans(overlay, surfaces)) {
+      char name[64];
+      std::snprintf(name, sizeof name, "overlay_bscan%03u.png", b);
+      write_png_rgb8(fs::path(out) / name, make_overlay(volume, b, surfaces));
+      pngs.emplace_back(name);
+    }
+    std::size_t counts[3] = {0, 0, 0};
+    for (const SurfaceState s : surfaces.state) ++counts[static_cast<int>(s)];
+    std::size_t retina = 0;
+    for (const BscanVerdict v : surfaces.verdict) retina += v == BscanVerdict::retina ? 1 : 0;
+    const nlohmann::json summary = {
+        {"input", fs::path(input).filename().string()},
+        {"kind", loaded.kind},
+        {"backend", std::string(segmenter->backend_name())},
+        {"filtered", do_filter},
+        {"bscans", volume.bscans()},
+        {"ascans", volume.ascans()},
+        {"depth", volume.depth()},
+        {"sampling_um",
+         {{"axial_per_px", loaded.sampling.axial_um_per_px},
+          {"ascan_spacing", loaded.sampling.ascan_spacing_um},
+          {"bscan_spacing", loaded.sampling.bscan_spacing_um}}},
+        {"bscans_with_retina", retina},
+        {"ascans_measured", counts[static_cast<int>(SurfaceState::measured)]},
+        {"ascans_bridged", counts[static_cast<int>(SurfaceState::bridged)]},
+        {"ascans_none", counts[static_cast<int>(SurfaceState::none)]},
+        {"seconds", seconds},
+        {"csv", csv.filename().string()},
+        {"overlays", pngs}};
+    ioct::write_text_file_atomically(fs::path(out) / "summary.json", summary.dump(2) + "\n");
+    std::cout << "ioct-segment: " << input << " (" << loaded.kind << ", " << volume.bscans()
+              << " x " << volume.ascans() << " x " << volume.depth() << "): " << retina << " of "
+              << volume.bscans() << " B-scans with a retina; A-scans measured "
+              << counts[static_cast<int>(SurfaceState::measured)] << ", bridged "
+              << counts[static_cast<int>(SurfaceState::bridged)] << ", none "
+              << counts[static_cast<int>(SurfaceState::none)] << "; " << segmenter->backend_name()
+              << ", " << seconds << " s -> " << csv.string() << "\n";
+    return 0;
+  } catch (const ioct::ConfigError& e) {
+    std::cerr << "ioct-segment: " << e.what() << "\n";
+    return 2;
+  } catch (const BackendUnavailable& e) {
+    std::cerr << "ioct-segment: " << e.what() << "\n";
+    return 2;
+  } catch (const offline::InputFileError& e) {
+    std::cerr << "ioct-segment: " << e.what() << "\n";
+    return 1;
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "ioct-segment: " << input << ": " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "ioct-segment: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,184 @@
+// Accuracy against the simulator's ground truth: simulated groups through the CPU processing
+// chain and the volume filters, as the live system sees them, segmented on the CPU. For every
+// case the ILM and the RPE (centre of the RPE band, where the simulator draws its RPE line) must
+// lie within a mean absolute error of 1 px and a 99th percentile of 3 px of the truth, over every
+// A-scan where the truth exists, shadowed A-scans included; and scans without a retina must say
+// so. The figures are printed ("[ figures ]") for docs/segmentation.md.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <string>
+
+#include "ioct/gpu/segmentation/segmenter.hpp"
+#include "simulated_volume.hpp"
+#include "surface_errors.hpp"
+
+namespace ioct::seg_test {
+namespace {
+
+using gpu::segmentation::BscanVerdict;
+using gpu::segmentation::Segmenter;
+using gpu::segmentation::Surfaces;
+using gpu::segmentation::SurfaceState;
+using gpu::segmentation::VolumeSampling;
+
+constexpr double kMaxMeanError = 1.0;
+constexpr double kMaxP99 = 3.0;
+
+// 32 B-scans of 512 A-scans spaced like the default 128 x 512 raster of the +-3 mm field: a
+// quarter of its height, about the scan centre.
+SimulatedVolumeSpec raster_spec(float center_y = 0.0f) {
+  SimulatedVolumeSpec spec;
+  spec.ascans = 512;
+  spec.bscans = 32;
+  spec.simulation.scan.extent_y = 0.25f;
+  spec.simulation.scan.center_y = center_y;
+  return spec;
+}
+
+VolumeSampling sampling_of(const SimulatedVolumeSpec& spec, const SimulatedVolume& v) {
+  const double field_um = 2000.0 * spec.simulation.field_half_width_mm();
+  VolumeSampling s;
+  s.axial_um_per_px = v.axial_um_per_px;
+  s.ascan_spacing_um = field_um * spec.simulation.scan.extent_x / (spec.ascans - 1);
+  s.bscan_spacing_um = field_um * spec.simulation.scan.extent_y / (spec.bscans - 1);
+  return s;
+}
+
+struct Segmented {
+  SimulatedVolume volume;
+  Surfaces surfaces;
+};
+
+Segmented segment(const SimulatedVolumeSpec& spec) {
+  Segmented s{make_simulated_volume(spec), {}};
+  const auto segmenter =
+      gpu::segmentation::make_segmenter(gpu::Backend::cpu, {}, sampling_of(spec, s.volume), 2);
+  segmenter->segment_volume(s.volume.volume, s.surfaces);
+  return s;
+}
+
+struct RetinaCase {
+  std::string name;
+  std::function<void(SimulatedVolumeSpec&)> configure;
+};
+
+std::ostream& operator<<(std::ostream& out, const RetinaCase& c) {
+  return out << c.name;
+}
+
+class RetinaAccuracy : public ::testing::TestWithParam<RetinaCase> {};
+
+TEST_P(RetinaAccuracy, IlmAndRpeWithinOnePxMeanAndThreePxP99) {
+  SimulatedVolumeSpec spec = raster_spec();
+  GetParam().configure(spec);
+  const Segmented s = segment(spec);
+  const Surfaces& out = s.surfaces;
+
+  std::size_t measured = 0;
+  std::size_t bridged = 0;
+  for (const SurfaceState state : out.state) {
+    measured += state == SurfaceState::measured ? 1 : 0;
+    bridged += state == SurfaceState::bridged ? 1 : 0;
+  }
+  for (std::uint32_t b = 0; b < out.bscans; ++b) {
+    EXPECT_EQ(out.verdict[b], BscanVerdict::retina) << "B-scan " << b;
+  }
+  const SurfaceErrors ilm = surface_errors(out.ilm, s.volume.ilm_truth);
+  const SurfaceErrors rpe = surface_errors(out.rpe, s.volume.rpe_truth);
+  std::printf("[ figures  ] %s: measured %zu, bridged %zu A-scans\n", GetParam().name.c_str(),
+              measured, bridged);
+  std::printf("[ figures  ] %s ILM: %s\n", GetParam().name.c_str(), ilm.describe().c_str());
+  std::printf("[ figures  ] %s RPE: %s\n", GetParam().name.c_str(), rpe.describe().c_str());
+  RecordProperty("ilm_mean_px", std::to_string(ilm.mean_absolute));
+  RecordProperty("ilm_p99_px", std::to_string(ilm.p99));
+  RecordProperty("rpe_mean_px", std::to_string(rpe.mean_absolute));
+  RecordProperty("rpe_p99_px", std::to_string(rpe.p99));
+  EXPECT_GT(ilm.compared, out.size() / 2);
+  EXPECT_EQ(ilm.missing, 0u);
+  EXPECT_EQ(rpe.missing, 0u);
+  EXPECT_LE(ilm.mean_absolute, kMaxMeanError);
+  EXPECT_LE(ilm.p99, kMaxP99);
+  EXPECT_LE(rpe.mean_absolute, kMaxMeanError);
+  EXPECT_LE(rpe.p99, kMaxP99);
+}
+
+sim::InstrumentConfig instrument(sim::InstrumentKind kind, float x, float y, float depth, float yaw,
+                                 float jaws = 0.0f) {
+  sim::InstrumentConfig t;
+  t.kind = kind;
+  t.pose.tip_x = x;
+  t.pose.tip_y = y;
+  t.pose.tip_depth_fraction = depth;
+  t.pose.yaw_deg = yaw;
+  t.pose.jaw_opening_deg = jaws;
+  return t;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Simulated, RetinaAccuracy,
+    ::testing::Values(
+        RetinaCase{"fovea", [](SimulatedVolumeSpec&) {}},
+        RetinaCase{"periphery", [](SimulatedVolumeSpec& s) { s.simulation.scan.center_y = 0.6f; }},
+        // Forceps above the retina near the fovea: its shadow covers a quarter of a dozen
+        // B-scans, up to their edge.
+        RetinaCase{"forceps_shadow",
+                   [](SimulatedVolumeSpec& s) {
+                     s.simulation.instruments.push_back(
+                         instrument(sim::InstrumentKind::forceps, 0.2f, 0.0f, 0.45f, 0.0f));
+                   }},
+        // Open forceps touching the retina, shadowing the last B-scans of the volume.
+        RetinaCase{"forceps_touching",
+                   [](SimulatedVolumeSpec& s) {
+                     s.simulation.instruments.push_back(instrument(
+                         sim::InstrumentKind::forceps, -0.3f, 0.05f, 0.47f, 160.0f, 20.0f));
+                   }},
+        // A needle and a translucent scraper in the vitreous.
+        RetinaCase{"needle_and_scraper",
+                   [](SimulatedVolumeSpec& s) {
+                     s.simulation.instruments.push_back(
+                         instrument(sim::InstrumentKind::needle, -0.4f, 0.1f, 0.45f, 120.0f));
+                     s.simulation.instruments.push_back(
+                         instrument(sim::InstrumentKind::scraper, -0.2f, -0.15f, 0.42f, 200.0f));
+                   }},
+        RetinaCase{"macular_hole",
+                   [](SimulatedVolumeSpec& s) { s.simulation.retina.macular_hole.enabled = true; }},
+        // The sample's fringes 7.6 dB weaker than by default: the inner retina a few u8 levels
+        // above the display's black (with the default 0..40 dB window).
+        RetinaCase{"weak_signal_minus_8dB",
+                   [](SimulatedVolumeSpec& s) { s.simulation.detector.fringe_counts = 25.0; }},
+        // Four times the detector's read and shot noise.
+        RetinaCase{"noise_x4",
+                   [](SimulatedVolumeSpec& s) {
+                     s.simulation.detector.read_noise_counts *= 4.0;
+                     s.simulation.detector.shot_noise_counts *= 4.0;
+                   }}),
+    [](const ::testing::TestParamInfo<RetinaCase>& info) { return info.param.name; });
+
+void expect_no_retina(const Surfaces& out) {
+  for (std::uint32_t b = 0; b < out.bscans; ++b) {
+    EXPECT_EQ(out.verdict[b], BscanVerdict::no_retina) << "B-scan " << b;
+  }
+  for (std::size_t k = 0; k < out.size(); ++k) {
+    ASSERT_EQ(out.state[k], SurfaceState::none) << "A-scan " << k;
+    ASSERT_TRUE(std::isnan(out.ilm[k]) && std::isnan(out.rpe[k]) && std::isnan(out.bm[k]));
+    ASSERT_EQ(out.confidence[k], 0.0f);
+  }
+}
+
+TEST(NoRetina, AnteriorSegmentSaysSo) {
+  SimulatedVolumeSpec spec = raster_spec();
+  spec.simulation.preset = sim::SamplePreset::anterior_segment;
+  expect_no_retina(segment(spec).surfaces);
+}
+
+TEST(NoRetina, CalibrationMirrorSaysSo) {
+  SimulatedVolumeSpec spec = raster_spec();
+  spec.simulation.preset = sim::SamplePreset::mirror;
+  expect_no_retina(segment(spec).surfaces);
+}
+
+}  // namespace
+}  // namespace ioct::seg_test

@@ -1,0 +1,219 @@
+// The CUDA segmentation against the CPU reference: the same coarse cells, background levels,
+// verdicts and states, and the same surfaces and confidences. The searches are integer, so they
+// must choose the very same px; the sub-px fits and the finishing are the same float expressions
+// without fused multiply-add on either side, so they are expected bit-identical, and the stated
+// tolerance is 1e-3 px (the figures print how many differ at all). Skipped, saying why, where the
+// CUDA segmentation cannot run.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "ioct/gpu/filters/volume_filter.hpp"
+#include "ioct/gpu/offline/heidelberg_vol.hpp"
+#include "ioct/gpu/segmentation/cpu_segmenter.hpp"
+#include "simulated_volume.hpp"
+#include "test_paths.hpp"
+#if IOCT_SEGMENTATION_HAVE_CUDA
+#include "ioct/gpu/segmentation/cuda_segmenter.hpp"
+#endif
+
+namespace ioct::gpu::segmentation {
+namespace {
+
+constexpr float kTolerancePx = 1e-3f;
+
+std::optional<std::string> cuda_problem() {
+#if IOCT_SEGMENTATION_HAVE_CUDA
+  const std::string problem = cuda_segmentation_problem();
+  if (problem.empty()) return std::nullopt;
+  return problem;
+#else
+  return std::string("this build has no CUDA (IOCT_HAVE_CUDA off)");
+#endif
+}
+
+class CudaVsCpu : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (const auto problem = cuda_problem()) {
+      GTEST_SKIP() << "CUDA segmentation not tested: " << *problem;
+    }
+  }
+};
+
+struct FloatAgreement {
+  std::size_t values = 0;
+  std::size_t different = 0;
+  float max_difference = 0.0f;
+};
+
+void compare_floats(const std::vector<float>& cpu, const std::vector<float>& cuda,
+                    FloatAgreement& agreement, const char* what) {
+  ASSERT_EQ(cpu.size(), cuda.size()) << what;
+  for (std::size_t i = 0; i < cpu.size(); ++i) {
+    ++agreement.values;
+    if (std::isnan(cpu[i]) || std::isnan(cuda[i])) {
+      ASSERT_EQ(std::isnan(cpu[i]), std::isnan(cuda[i])) << what << " [" << i << "]";
+      continue;
+    }
+    if (std::memcmp(&cpu[i], &cuda[i], sizeof(float)) != 0) ++agreement.different;
+    const float d = std::fabs(cpu[i] - cuda[i]);
+    agreement.max_difference = std::max(agreement.max_difference, d);
+    ASSERT_LE(d, kTolerancePx) << what << " [" << i << "]: cpu " << cpu[i] << ", cuda " << cuda[i];
+  }
+}
+
+void expect_same_surfaces(const Surfaces& cpu, const Surfaces& cuda, FloatAgreement& agreement) {
+  ASSERT_EQ(cpu.bscans, cuda.bscans);
+  ASSERT_EQ(cpu.ascans, cuda.ascans);
+  ASSERT_EQ(cpu.verdict, cuda.verdict);
+  ASSERT_EQ(cpu.state, cuda.state);
+  compare_floats(cpu.ilm, cuda.ilm, agreement, "ilm");
+  compare_floats(cpu.rpe, cuda.rpe, agreement, "rpe");
+  compare_floats(cpu.bm, cuda.bm, agreement, "bm");
+  compare_floats(cpu.confidence, cuda.confidence, agreement, "confidence");
+}
+
+#if IOCT_SEGMENTATION_HAVE_CUDA
+// The memory of B-scans [0, bscans) (later ones may not be segmented yet).
+void expect_same_memory(const VolumeMemory& cpu, const VolumeMemory& cuda, std::uint32_t bscans,
+                        FloatAgreement& agreement) {
+  const std::size_t n = static_cast<std::size_t>(bscans) * cpu.ascans;
+  const auto first_difference = [](const auto& a, const auto& b, std::size_t count) {
+    for (std::size_t i = 0; i < count; ++i) {
+      if (a[i] != b[i]) {
+        return "[" + std::to_string(i) + "]: cpu " + std::to_string(a[i]) + ", cuda " +
+               std::to_string(b[i]);
+      }
+    }
+    return std::string();
+  };
+  ASSERT_EQ(first_difference(cpu.coarse, cuda.coarse, n), "") << "coarse cells";
+  ASSERT_EQ(first_difference(cpu.floor, cuda.floor, bscans), "") << "background levels";
+  ASSERT_EQ(first_difference(cpu.verdict, cuda.verdict, bscans), "") << "verdicts";
+  const auto part = [n](const std::vector<float>& v) {
+    return std::vector<float>(v.begin(), v.begin() + n);
+  };
+  compare_floats(part(cpu.ilm), part(cuda.ilm), agreement, "raw ilm");
+  compare_floats(part(cpu.rpe), part(cuda.rpe), agreement, "raw rpe");
+  compare_floats(part(cpu.bm), part(cuda.bm), agreement, "raw bm");
+  compare_floats(part(cpu.confidence), part(cuda.confidence), agreement, "raw confidence");
+}
+#endif
+
+void report(const char* name, const FloatAgreement& a) {
+  std::printf("[ figures  ] %s: %zu values, %zu not bit-identical, max difference %g px\n", name,
+              a.values, a.different, static_cast<double>(a.max_difference));
+}
+
+// Segments `volume` group by group on both backends, comparing after every group.
+void compare_group_by_group(const Volume& volume, const VolumeSampling& sampling,
+                            std::uint32_t group, const char* name) {
+#if IOCT_SEGMENTATION_HAVE_CUDA
+  CpuSegmenter cpu({}, sampling, 2);
+  CudaSegmenter cuda({}, sampling);
+  Surfaces cpu_surfaces;
+  Surfaces cuda_surfaces;
+  FloatAgreement agreement;
+  for (std::uint32_t first = 0; first < volume.bscans(); first += group) {
+    const BscanSpan span{first, std::min(group, volume.bscans() - first)};
+    const BscanSpan a = cpu.segment_group(volume, span, cpu_surfaces);
+    const BscanSpan b = cuda.segment_group(volume, span, cuda_surfaces);
+    ASSERT_EQ(a, b);
+    SCOPED_TRACE("after group " + std::to_string(first));
+    expect_same_surfaces(cpu_surfaces, cuda_surfaces, agreement);
+    VolumeMemory cuda_memory;
+    cuda.download_memory(cuda_memory);
+    expect_same_memory(cpu.memory(), cuda_memory, span.end(), agreement);
+  }
+  report(name, agreement);
+#else
+  (void)volume;
+  (void)sampling;
+  (void)group;
+  (void)name;
+#endif
+}
+
+VolumeSampling raster_sampling(double axial_um) {
+  VolumeSampling s;
+  s.axial_um_per_px = axial_um;
+  s.ascan_spacing_um = 6000.0 / 511;
+  s.bscan_spacing_um = 1500.0 / 31;
+  return s;
+}
+
+seg_test::SimulatedVolumeSpec raster_spec() {
+  seg_test::SimulatedVolumeSpec spec;
+  spec.ascans = 512;
+  spec.bscans = 32;
+  spec.simulation.scan.extent_y = 0.25f;
+  return spec;
+}
+
+TEST_F(CudaVsCpu, SimulatedRetinaInGroupsOfSixteen) {
+  const seg_test::SimulatedVolume v = seg_test::make_simulated_volume(raster_spec());
+  compare_group_by_group(v.volume, raster_sampling(v.axial_um_per_px), 16, "retina");
+}
+
+TEST_F(CudaVsCpu, SimulatedRetinaWithInstrumentsInGroupsOfEight) {
+  seg_test::SimulatedVolumeSpec spec = raster_spec();
+  sim::InstrumentConfig forceps;
+  forceps.pose.tip_x = 0.2f;
+  forceps.pose.tip_depth_fraction = 0.45f;
+  spec.simulation.instruments.push_back(forceps);
+  sim::InstrumentConfig scraper;
+  scraper.kind = sim::InstrumentKind::scraper;
+  scraper.pose.tip_x = -0.2f;
+  scraper.pose.tip_y = -0.15f;
+  scraper.pose.tip_depth_fraction = 0.42f;
+  scraper.pose.yaw_deg = 200.0f;
+  spec.simulation.instruments.push_back(scraper);
+  const seg_test::SimulatedVolume v = seg_test::make_simulated_volume(spec);
+  compare_group_by_group(v.volume, raster_sampling(v.axial_um_per_px), 8, "instruments");
+}
+
+TEST_F(CudaVsCpu, BlackSaturatedAndOddSizedVolumes) {
+  VolumeSampling sampling;
+  for (const std::uint8_t value : {std::uint8_t{0}, std::uint8_t{255}}) {
+    Volume v(3, 37, 101);
+    std::fill(v.pixels().begin(), v.pixels().end(), value);
+    compare_group_by_group(v, sampling, 2, value == 0 ? "black" : "saturated");
+  }
+  // One A-scan per B-scan, and an odd number of A-scans (pairs, the middle column).
+  Volume one(2, 1, 64);
+  std::fill(one.pixels().begin(), one.pixels().end(), 9);
+  compare_group_by_group(one, sampling, 1, "single A-scan");
+}
+
+TEST_F(CudaVsCpu, SpectralisBscanAndAWideOneWhoseStepsGoToGlobalMemory) {
+  const std::filesystem::path spectralis = seg_test::spectralis_file();
+  if (!std::filesystem::exists(spectralis)) {
+    FAIL() << "test data missing: " << spectralis;
+  }
+  const offline::HeidelbergVol vol = offline::read_heidelberg_vol(spectralis);
+  Volume filtered;
+  filters::make_volume_filter(Backend::cpu, {}, 1)
+      ->filter_volume(offline::to_volume(vol), filtered);
+  VolumeSampling sampling;
+  sampling.axial_um_per_px = vol.header.depth_spacing_mm * 1000.0;
+  sampling.ascan_spacing_um = vol.header.ascan_spacing_mm * 1000.0;
+  sampling.bscan_spacing_um = sampling.ascan_spacing_um;
+  compare_group_by_group(filtered, sampling, 1, "spectralis");
+  // Three copies side by side: 2304 A-scans x 181 states of step choices, more than fit in
+  // shared memory.
+  Volume wide(1, 3 * filtered.ascans(), filtered.depth());
+  for (std::uint32_t k = 0; k < 3; ++k) {
+    std::copy(filtered.pixels().begin(), filtered.pixels().end(),
+              wide.pixels().begin() + static_cast<std::ptrdiff_t>(k) * filtered.pixels().size());
+  }
+  compare_group_by_group(wide, sampling, 1, "spectralis x3");
+}
+
+}  // namespace
+}  // namespace ioct::gpu::segmentation

@@ -1,0 +1,27 @@
+// How far segmented surfaces lie from a reference, per A-scan: mean absolute error, percentiles
+// and how many reference A-scans got no surface at all.
+#pragma once
+
+#include <cstddef>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace ioct::seg_test {
+
+struct SurfaceErrors {
+  std::size_t compared = 0;  // A-scans where both are finite
+  std::size_t missing = 0;   // reference finite, surface NaN
+  double mean_absolute = 0.0;
+  double p99 = 0.0;
+  double max = 0.0;
+  double median = 0.0;
+
+  std::string describe() const;
+};
+
+// Over the A-scans where `reference` is finite (and `include`, when given, is true).
+SurfaceErrors surface_errors(std::span<const float> surface, std::span<const float> reference,
+                             const std::vector<bool>* include = nullptr);
+
+}  // namespace ioct::seg_test
