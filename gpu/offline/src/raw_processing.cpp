@@ -39,7 +39,7 @@ void describe_group(shm::SlotHeader& header, std::uint64_t group_index, std::uin
 
 }  // namespace
 
-RawProcessingResult process_raw_file(const RawSpectraFile& file,
+RawProcessingResult process_raw_file(const SpectraSource& file,
                                      const RawProcessingSettings& settings, ProgressBar* progress) {
   const RawSpectraLayout& layout = file.layout();
   require_integer_in_range("bscans_per_group", settings.bscans_per_group, 1,

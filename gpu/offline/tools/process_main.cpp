@@ -1,5 +1,7 @@
 // ioct-process: raw spectra recorded to a file -> a volume (NRRD), through the same processing
-// chain (and, when asked, the same filters) as the live system.
+// chain (and, when asked, the same filters) as the live system. The input is either a plain u16
+// file whose dimensions the options give, or a raw recording (STEM.json + STEM.raw, see
+// docs/recording-format.md), whose metadata gives the dimensions and how to process it.
 #include <CLI/CLI.hpp>
 
 #include <array>
@@ -8,6 +10,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -18,6 +21,7 @@
 #include "ioct/gpu/offline/input_file_error.hpp"
 #include "ioct/gpu/offline/nrrd_file.hpp"
 #include "ioct/gpu/offline/raw_processing.hpp"
+#include "ioct/gpu/offline/recording_volume.hpp"
 #include "ioct/gpu/png_file.hpp"
 #include "ioct/gpu/projections.hpp"
 #include "ioct/gpu/resampling.hpp"
@@ -51,6 +55,16 @@ std::array<double, 3> parse_spacings(const std::string& text) {
   return spacings;
 }
 
+// A recording when the input names its metadata (STEM.json), or when no dimensions are given and
+// STEM.json lies beside it; a plain u16 file otherwise.
+bool is_recording(const std::filesystem::path& input, bool dimensions_given) {
+  if (input.extension() == ".json") return true;
+  if (dimensions_given) return false;
+  std::filesystem::path json = input;
+  json.replace_extension(".json");
+  return std::filesystem::exists(json);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -63,32 +77,42 @@ int main(int argc, char** argv) {
   std::string rigor = std::string(to_string(settings.processing.fft.rigor));
   std::string resample, poly, calibration_file, filter = "none", spacing;
   double sigma = ioct::gpu::filters::VolumeFilterConfig{}.gaussian_sigma;
+  std::uint64_t volume_index = 0;
 
   CLI::App app{
       "ioct-process: raw u16 spectra from a file -> u8 volume (NRRD) through the ioct processing "
       "chain"};
   app.option_defaults()->always_capture_default();
-  app.add_option("input", input, "raw spectra: u16 [bscan][ascan][sample], samples contiguous")
+  app.add_option("input", input,
+                 "raw spectra: u16 [bscan][ascan][sample], samples contiguous; or a raw "
+                 "recording (STEM.json, or STEM with STEM.json beside it)")
       ->required();
   app.add_option("--out", output, "volume to write (.nrrd)")->required();
-  app.add_option("--samples", layout.samples_per_ascan, "samples per A-scan (even)")->required();
-  app.add_option("--ascans", layout.ascans_per_bscan, "A-scans per B-scan")->required();
-  app.add_option("--bscans", layout.bscans, "B-scans in the file (one volume)")->required();
+  auto* samples_option = app.add_option("--samples", layout.samples_per_ascan,
+                                        "samples per A-scan (even; raw files only)");
+  auto* ascans_option =
+      app.add_option("--ascans", layout.ascans_per_bscan, "A-scans per B-scan (raw files only)");
+  auto* bscans_option =
+      app.add_option("--bscans", layout.bscans, "B-scans in the file, one volume (raw files only)");
+  auto* volume_option = app.add_option("--volume", volume_index,
+                                       "which volume of a recording, 0 first (recordings only)");
   app.add_option("--byte-order", byte_order, "byte order of the samples: little or big");
   app.add_option("--header-bytes", layout.header_bytes, "bytes to skip at the start of the file");
-  app.add_option("--bscans-per-group", settings.bscans_per_group,
-                 "B-scans per group, as the ring would carry them (1 to 64)");
-  app.add_flag("--bidirectional", settings.bidirectional,
-               "odd B-scans were acquired right to left (they are flipped)");
+  auto* group_option = app.add_option("--bscans-per-group", settings.bscans_per_group,
+                                      "B-scans per group, as the ring would carry them (1 to 64)");
+  auto* bidirectional_option =
+      app.add_flag("--bidirectional", settings.bidirectional,
+                   "odd B-scans were acquired right to left (they are flipped)");
   app.add_option("--backend", backend, "processing backend: cpu, cuda or auto");
   app.add_option("--threads", settings.processing.threads, "CPU threads (1 to 16)");
   app.add_option("--db-min", settings.processing.scale.db_min, "dB shown as black");
   app.add_option("--db-max", settings.processing.scale.db_max, "dB shown as white");
   app.add_option("--background", background, "background removal: rolling or none");
   app.add_option("--window", window, "spectral window: hann or rectangular");
-  app.add_option("--dispersion-c2", settings.processing.dispersion.c2,
-                 "quadratic dispersion phase (rad at the sweep's ends)");
-  app.add_option("--dispersion-c3", settings.processing.dispersion.c3, "cubic dispersion phase");
+  auto* c2_option = app.add_option("--dispersion-c2", settings.processing.dispersion.c2,
+                                   "quadratic dispersion phase (rad at the sweep's ends)");
+  auto* c3_option = app.add_option("--dispersion-c3", settings.processing.dispersion.c3,
+                                   "cubic dispersion phase");
   app.add_option("--resample", resample,
                  "lambda -> k resampling: none, linear or cubic (default: cubic when a "
                  "calibration is given, else none)");
@@ -117,10 +141,51 @@ int main(int argc, char** argv) {
       throw ioct::ConfigError("calibration", "--resample-poly and --calibration-file",
                               "give one of them, not both");
     }
-    const bool calibrated = !poly.empty() || !calibration_file.empty();
-    if (calibrated) {
+    // The source first: a recording's metadata supplies what the options leave out.
+    const bool dimensions_given =
+        samples_option->count() + ascans_option->count() + bscans_option->count() > 0;
+    std::unique_ptr<SpectraSource> source;
+    const RecordingVolume* recording = nullptr;
+    std::vector<double> recording_calibration;
+    if (is_recording(input, dimensions_given)) {
+      if (dimensions_given) {
+        throw ioct::ConfigError("samples/ascans/bscans", input,
+                                "a recording's metadata gives its dimensions; leave them out");
+      }
+      auto volume = std::make_unique<RecordingVolume>(input, volume_index);
+      const RecordingProcessingHints hints = volume->processing_hints();
+      if (group_option->count() == 0) settings.bscans_per_group = hints.bscans_per_group;
+      if (bidirectional_option->count() == 0) settings.bidirectional = hints.bidirectional;
+      if (c2_option->count() == 0) settings.processing.dispersion.c2 = hints.dispersion_c2;
+      if (c3_option->count() == 0) settings.processing.dispersion.c3 = hints.dispersion_c3;
+      if (hints.resampling_coefficients != std::vector<double>{0.0, 1.0}) {
+        recording_calibration = hints.resampling_coefficients;
+      }
+      recording = volume.get();
+      source = std::move(volume);
+    } else {
+      if (volume_option->count() > 0) {
+        throw ioct::ConfigError("volume", std::to_string(volume_index),
+                                "only a recording holds several volumes");
+      }
+      if (samples_option->count() == 0 || ascans_option->count() == 0 ||
+          bscans_option->count() == 0) {
+        throw ioct::ConfigError(
+            "samples/ascans/bscans", input,
+            "a raw u16 file needs --samples, --ascans and --bscans (no "
+            "recording metadata " +
+                std::filesystem::path(input).replace_extension(".json").string() + " beside it)");
+      }
+      source = std::make_unique<RawSpectraFile>(input, layout);
+    }
+
+    const bool calibrated =
+        !poly.empty() || !calibration_file.empty() || !recording_calibration.empty();
+    if (!poly.empty() || !calibration_file.empty()) {
       settings.processing.resampling.coefficients =
           poly.empty() ? read_calibration_file(calibration_file) : parse_coefficients(poly);
+    } else if (!recording_calibration.empty()) {
+      settings.processing.resampling.coefficients = recording_calibration;
     }
     settings.processing.resampling.interpolation =
         parse_interpolation(resample.empty() ? (calibrated ? "cubic" : "none") : resample);
@@ -142,11 +207,17 @@ int main(int argc, char** argv) {
       metadata.unit = "mm";
     }
 
-    const RawSpectraFile file(input, layout);
-    ProgressBar progress(stderr, "ioct-process", "B-scans", layout.bscans,
+    const std::uint32_t bscans = source->layout().bscans;
+    ProgressBar progress(stderr, "ioct-process", "B-scans", bscans,
                          ProgressBar::stderr_is_terminal());
-    const RawProcessingResult result = process_raw_file(file, settings, &progress);
-    metadata.content = "OCT volume from " + std::filesystem::path(input).filename().string();
+    const RawProcessingResult result = process_raw_file(*source, settings, &progress);
+    if (recording != nullptr && recording->status_seen() != 0) {
+      std::cerr << "ioct-process: warning: " << recording->describe()
+                << " was acquired with faults (status bits 0x" << std::hex
+                << recording->status_seen() << std::dec
+                << ": overrun 1, clock fault 2, missed triggers 4, timeout 8, device lost 16)\n";
+    }
+    metadata.content = "OCT volume from " + source->describe();
     metadata.key_values = {
         {"ioct_backend", result.processor_backend},
         {"ioct_db_range", std::to_string(settings.processing.scale.db_min) + " " +
@@ -156,7 +227,7 @@ int main(int argc, char** argv) {
     // Everything is written before anything is committed: on any failure no output is left.
     ioct::AtomicFile volume_file(output);
     write_nrrd(volume_file.stream(), result.volume, metadata);
-    if (!png.empty()) write_png_gray8(png, bscan_image(result.volume, layout.bscans / 2));
+    if (!png.empty()) write_png_gray8(png, bscan_image(result.volume, bscans / 2));
     try {
       volume_file.commit();
     } catch (...) {
@@ -176,6 +247,9 @@ int main(int argc, char** argv) {
   } catch (const BackendUnavailable& e) {
     std::cerr << "ioct-process: " << e.what() << "\n";
     return 2;
+  } catch (const ioct::recording::RecordingError& e) {
+    std::cerr << "ioct-process: bad input: " << e.what() << "\n";
+    return 1;
   } catch (const InputFileError& e) {
     std::cerr << "ioct-process: bad input: " << e.what() << "\n";
     return 1;

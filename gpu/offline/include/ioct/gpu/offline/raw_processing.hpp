@@ -1,5 +1,5 @@
-// Raw spectra from a file through the same processing chain as the live system: the file's
-// B-scans are cut into groups as the ring would carry them, each with the slot header and
+// Raw spectra from a file or a recording through the same processing chain as the live system: the
+// file's B-scans are cut into groups as the ring would carry them, each with the slot header and
 // markers the producer would write, processed by the OctProcessor of the chosen backend and
 // placed by the VolumeAssembler; the volume filters follow when asked for.
 #pragma once
@@ -12,6 +12,7 @@
 #include "ioct/gpu/oct_processor.hpp"
 #include "ioct/gpu/offline/progress_bar.hpp"
 #include "ioct/gpu/offline/raw_spectra_file.hpp"
+#include "ioct/gpu/offline/spectra_source.hpp"
 #include "ioct/gpu/volume.hpp"
 
 namespace ioct::gpu::offline {
@@ -33,7 +34,7 @@ struct RawProcessingResult {
 // Throws ConfigError for settings the chain refuses (naming the key), BackendUnavailable,
 // InputFileError for read failures, and std::runtime_error when the chain places fewer B-scans
 // than the file holds.
-RawProcessingResult process_raw_file(const RawSpectraFile& file,
+RawProcessingResult process_raw_file(const SpectraSource& file,
                                      const RawProcessingSettings& settings,
                                      ProgressBar* progress = nullptr);
 

@@ -7,7 +7,10 @@
 #include <cstdint>
 #include <filesystem>
 #include <span>
+#include <string>
 #include <string_view>
+
+#include "ioct/gpu/offline/spectra_source.hpp"
 
 namespace ioct::gpu::offline {
 
@@ -34,7 +37,7 @@ struct RawSpectraLayout {
   std::uint64_t file_bytes() const noexcept { return header_bytes + bscans * bscan_bytes(); }
 };
 
-class RawSpectraFile {
+class RawSpectraFile final : public SpectraSource {
  public:
   // Opens the file and checks its size against the layout (validated here). Throws ConfigError
   // for a bad layout and InputFileError for a file that cannot be opened, is not a regular file,
@@ -42,15 +45,17 @@ class RawSpectraFile {
   RawSpectraFile(std::filesystem::path path, const RawSpectraLayout& layout);
   RawSpectraFile(const RawSpectraFile&) = delete;
   RawSpectraFile& operator=(const RawSpectraFile&) = delete;
-  ~RawSpectraFile();
+  ~RawSpectraFile() override;
 
-  const RawSpectraLayout& layout() const noexcept { return layout_; }
+  const RawSpectraLayout& layout() const noexcept override { return layout_; }
   const std::filesystem::path& path() const noexcept { return path_; }
 
   // Reads B-scans [first, first + count) into `out` (count x ascans x samples values, in the
   // host's byte order). Throws std::out_of_range for a bad range or size and InputFileError when
   // the read fails (the file shrank since it was opened).
-  void read_bscans(std::uint32_t first, std::uint32_t count, std::span<std::uint16_t> out) const;
+  void read_bscans(std::uint32_t first, std::uint32_t count,
+                   std::span<std::uint16_t> out) const override;
+  std::string describe() const override { return path_.filename().string(); }
 
  private:
   std::filesystem::path path_;
