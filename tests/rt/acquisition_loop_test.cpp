@@ -238,7 +238,12 @@ TEST(AcquisitionLoop, SteadyStateIterationsNeitherAllocateNorFault) {
   EXPECT_EQ(digitizer.allocations[last] - digitizer.allocations[first], 0u)
       << test_support::allocation_counting_method();
   EXPECT_EQ(digitizer.page_faults[last] - digitizer.page_faults[first], 0u);
+#if !defined(__SANITIZE_THREAD__)
+  // The loop's own counter starts after the first lap. ThreadSanitizer maps the shadow of the
+  // ring's memory lazily and keeps faulting it in well into the second lap, so under it only the
+  // probe window above (which still holds) says the loop is fault-free.
   EXPECT_EQ(rig.loop->counters().page_faults_steady, 0u);
+#endif
 }
 
 TEST(AcquisitionLoop, PublishesTroubleWithItsFlagsAndPostsFaults) {
