@@ -330,6 +330,7 @@ struct CudaLivePipeline::Impl {
   std::uint32_t volume_ascans = 0;
   HostVolumePool host_volumes;
   std::optional<std::uint32_t> sealed;  // the host volume seal_partial() returned
+  cuda::Stream readback_stream;  // copy_bscans()
   cuda::Event reads_done;
   bool reads_pending = false;
   std::uint64_t version = 0;
@@ -404,6 +405,20 @@ void CudaLivePipeline::read_volume(
       DeviceVolumeView{m.volume.data(), m.book.positions(), m.volume_ascans, m.depth, m.version});
   IOCT_CUDA_CHECK(cudaEventRecord(m.reads_done.get(), stream));
   m.reads_pending = true;
+}
+
+void CudaLivePipeline::copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) {
+  Impl& m = *impl_;
+  const std::uint32_t ascans = m.volume_ascans;
+  prepare_bscan_copy(ascans == 0 ? 0 : m.book.positions(), ascans, m.depth, first, count, out);
+  if (count == 0) return;
+  cudaStream_t stream = m.readback_stream.get();
+  read_volume(stream, [&](const DeviceVolumeView& view) {
+    const std::size_t stride = std::size_t{view.ascans} * view.depth;
+    IOCT_CUDA_CHECK(cudaMemcpyAsync(out.bscan(first).data(), view.pixels + first * stride,
+                                    count * stride, cudaMemcpyDeviceToHost, stream));
+  });
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
 }
 
 }  // namespace ioct::gpu

@@ -1,5 +1,7 @@
 #include "ioct/gpu/host_live_pipeline.hpp"
 
+#include <algorithm>
+
 #include "ioct/gpu/group_check.hpp"
 
 namespace ioct::gpu {
@@ -44,6 +46,14 @@ std::optional<VolumeInfo> HostLivePipeline::seal_partial(const Volume*& volume) 
   const std::optional<VolumeInfo> info = assembler_.seal_partial();
   volume = info ? &assembler_.volume() : nullptr;
   return info;
+}
+
+void HostLivePipeline::copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) {
+  const Volume& live = assembler_.volume();
+  prepare_bscan_copy(live.bscans(), live.ascans(), live.depth(), first, count, out);
+  if (count == 0) return;
+  std::ranges::copy(live.pixels().subspan(first * live.bscan_pixels(), count * live.bscan_pixels()),
+                    out.bscan(first).begin());
 }
 
 }  // namespace ioct::gpu

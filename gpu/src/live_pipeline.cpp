@@ -1,11 +1,26 @@
 #include "ioct/gpu/live_pipeline.hpp"
 
+#include <stdexcept>
+#include <string>
+
 #include "ioct/gpu/host_live_pipeline.hpp"
 #if IOCT_GPU_WITH_CUDA
 #include "ioct/gpu/cuda_live_pipeline.hpp"
 #endif
 
 namespace ioct::gpu {
+
+void prepare_bscan_copy(std::uint32_t bscans, std::uint32_t ascans, std::uint32_t depth,
+                        std::uint32_t first, std::uint32_t count, Volume& out) {
+  if (count != 0 && (first >= bscans || count > bscans - first)) {
+    throw std::out_of_range("B-scans [" + std::to_string(first) + ", " +
+                            std::to_string(std::uint64_t{first} + count) +
+                            ") outside the live volume's " + std::to_string(bscans));
+  }
+  if (out.bscans() != bscans || out.ascans() != ascans || out.depth() != depth) {
+    out.reshape(bscans, ascans, depth);
+  }
+}
 
 std::unique_ptr<LivePipeline> make_live_pipeline(Backend backend, const OctProcessorConfig& config,
                                                  shm::RingReader reader,

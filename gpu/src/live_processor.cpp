@@ -126,6 +126,7 @@ class LiveProcessor::Session final : public LiveEvents {
     }
     if (config_.status_interval_s > 0) print_status(now);
     RunSummary summary;
+    if (owner_.stage_ != nullptr) summary.stages = owner_.stage_->finish(config_.out_dir);
     summary.stop_reason = reason;
     summary.geometry = geometry_;
     summary.seconds = static_cast<double>(now - started_ns_) / kNsPerS;
@@ -141,7 +142,10 @@ class LiveProcessor::Session final : public LiveEvents {
   void on_volume(const Volume& volume, const VolumeInfo& info) override {
     const std::uint64_t begin = shm::monotonic_ns();
     ++counters_.volumes_completed;
-    if (!info.complete()) ++counters_.volumes_with_gaps;
+    if (!info.complete()) {
+      ++counters_.volumes_with_gaps;
+      stage_needs_whole_volume_ = true;  // its gaps were zeroed
+    }
     if (owner_.observer_) owner_.observer_(volume, info);
     prepare_images(volume, info);
     completion_ns_ += shm::monotonic_ns() - begin;
@@ -161,6 +165,7 @@ class LiveProcessor::Session final : public LiveEvents {
     counters_.bscans_rejected += placed.bscans_rejected;
     counters_.volumes_abandoned += placed.volumes_abandoned;
     write_pending_images();
+    hand_to_stage(placed);
   }
 
   void on_rejected(const shm::SlotHeader& header, const std::string& problem) override {
@@ -179,6 +184,26 @@ class LiveProcessor::Session final : public LiveEvents {
     GrayImage enface;
     ImageSet set;
   };
+
+  // The B-scans the group wrote (or the whole volume after gaps were zeroed) to the stage.
+  void hand_to_stage(const PlacementResult& placed) {
+    LiveStage* stage = owner_.stage_;
+    if (stage == nullptr) return;
+    std::uint32_t first = placed.first_position;
+    std::uint32_t end = placed.end_position;
+    if (stage_needs_whole_volume_) {
+      first = 0;
+      end = geometry_.bscans_per_volume / config_.processing.repeats_per_position;
+      stage_needs_whole_volume_ = false;
+    }
+    if (end <= first) return;
+    try {
+      stage->on_bscans(*pipeline_, first, end - first);
+    } catch (const std::exception& e) {
+      ++counters_.stage_errors;
+      note_problem(std::string("live stage: ") + e.what());
+    }
+  }
 
   LiveCounters counters() const {
     LiveCounters c = counters_;
@@ -249,7 +274,9 @@ class LiveProcessor::Session final : public LiveEvents {
                           << ", behind " << c.dropped_behind << "), rejected " << c.groups_rejected
                           << ", volumes " << c.volumes_completed << ", latency p50 "
                           << format_ms(latency_interval_, 0.5) << " p99 "
-                          << format_ms(latency_interval_, 0.99) << std::endl;
+                          << format_ms(latency_interval_, 0.99)
+                          << (owner_.stage_ != nullptr ? "; " + owner_.stage_->status() : "")
+                          << std::endl;
     }
     latency_interval_.reset();
   }
@@ -263,6 +290,7 @@ class LiveProcessor::Session final : public LiveEvents {
   LatencyHistogram latency_total_;
   LatencyHistogram latency_interval_;
   std::uint64_t completion_ns_ = 0;
+  bool stage_needs_whole_volume_ = false;
   std::optional<PendingImages> pending_;
   std::optional<ImageSet> images_;
   std::uint32_t status_flags_seen_ = 0;

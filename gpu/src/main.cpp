@@ -1,13 +1,16 @@
-// ioct-gpu: reads raw B-scan groups from the ring, processes them into volumes and writes the
-// latest centre B-scan and en face projection as PNG files.
+// ioct-gpu: reads raw B-scan groups from the ring, processes them into the live volume, filters,
+// segments and renders it group by group, and writes the latest centre B-scan, en face
+// projection, surfaces and renders as files.
 #include <CLI/CLI.hpp>
 
 #include <csignal>
 #include <cstdlib>
 #include <iostream>
+#include <memory>
 #include <string>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/gpu/live/volume_stages.hpp"
 #include "ioct/gpu/live_processor.hpp"
 #include "ioct/shm/ring_error.hpp"
 
@@ -77,6 +80,25 @@ int main(int argc, char** argv) {
   app.add_option("--fft-wisdom", config.processing.fft.wisdom_path,
                  "FFTW wisdom file, read before planning and updated after");
   app.add_option("--enface", enface, "en face projection: mean or max");
+  live::VolumeStagesConfig stages;
+  bool no_stages = false;
+  std::string render_mode = std::string(render::to_string(stages.render.mode));
+  app.add_flag("--no-stages", no_stages,
+               "only process: no filters, segmentation or rendering of the live volume");
+  app.add_option("--stage-threads", stages.cpu_threads,
+                 "threads of each CPU stage (filters, segmentation, rendering)");
+  app.add_option("--render-mode", render_mode,
+                 "live view: basic, enhanced, layer_aware, axial_colorization, la_mip_composite, "
+                 "bscan_slice or en_face_slice");
+  app.add_option("--render-width", stages.render.view.output_width, "live view width, px");
+  app.add_option("--render-height", stages.render.view.output_height, "live view height, px");
+  app.add_option("--cpu-render-interval", stages.cpu_render_interval_s,
+                 "seconds between live renders on the CPU (the GPU renders every new group)");
+  app.add_option("--axial-um", stages.sampling.axial_um_per_px, "depth pixel size, um");
+  app.add_option("--ascan-spacing-um", stages.sampling.ascan_spacing_um,
+                 "distance between neighbouring A-scans, um");
+  app.add_option("--bscan-spacing-um", stages.sampling.bscan_spacing_um,
+                 "distance between neighbouring B-scans, um");
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -94,6 +116,16 @@ int main(int argc, char** argv) {
     }
     // "auto" is resolved once the ring is attached (LiveProcessor), with one warning when it
     // falls back to the CPU.
+    std::unique_ptr<live::VolumeStages> volume_stages;
+    if (!no_stages) {
+      stages.backend = config.backend;
+      stages.render.mode = render::parse_render_mode(render_mode);
+      stages.render.spacing = {stages.sampling.ascan_spacing_um, stages.sampling.bscan_spacing_um,
+                               stages.sampling.axial_um_per_px};
+      stages.live_image = config.out_dir / "render.png";
+      volume_stages = std::make_unique<live::VolumeStages>(stages);
+      processor.set_stage(volume_stages.get());
+    }
     processor.set_status_stream(&std::cerr);
     g_processor = &processor;
     install_stop_handlers();

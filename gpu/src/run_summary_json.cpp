@@ -79,7 +79,9 @@ nlohmann::json to_json(const RunSummary& s) {
   j["images_written"] = c.images_written;
   j["image_errors"] = c.image_errors;
   j["status_flags_seen"] = status_flag_names(s.status_flags_seen);
+  j["stage_errors"] = c.stage_errors;
   j["last_problem"] = s.last_problem;
+  j["stages"] = s.stages;
   return j;
 }
 

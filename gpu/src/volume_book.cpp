@@ -41,6 +41,10 @@ PlacementResult VolumeBook::place(std::span<const shm::BscanMarker> markers, std
       continue;
     }
     pixels.place(b, marker.bscan_in_volume);
+    if (result.bscans_placed == 0 || marker.bscan_in_volume < result.first_position) {
+      result.first_position = marker.bscan_in_volume;
+    }
+    result.end_position = std::max(result.end_position, marker.bscan_in_volume + 1);
     if (!placed_[marker.bscan_in_volume]) {
       placed_[marker.bscan_in_volume] = true;
       ++progress_->bscans_placed;

@@ -93,6 +93,42 @@ class SimulatedAppliance : public ::testing::Test {
   std::filesystem::path out_;
 };
 
+struct SurfaceErrors {
+  std::size_t ascans = 0;  // rows with both surfaces
+  double ilm_mean = 0.0;   // mean |found - truth|, px
+  double rpe_mean = 0.0;
+};
+
+// surfaces.csv (bscan,ascan,state,confidence,ilm_px,rpe_px,bm_px,...) against the truth.
+SurfaceErrors surface_errors(const std::filesystem::path& csv,
+                             const sim::SimulatedDigitizer& truth) {
+  std::ifstream in(csv);
+  if (!in) throw std::runtime_error("cannot open " + csv.string());
+  std::string line;
+  std::getline(in, line);  // header
+  SurfaceErrors e;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::size_t start = 0;
+    for (std::size_t comma; (comma = line.find(',', start)) != std::string::npos;
+         start = comma + 1) {
+      cells.push_back(line.substr(start, comma - start));
+    }
+    cells.push_back(line.substr(start));
+    if (cells.size() < 6 || cells[4].empty() || cells[5].empty()) continue;
+    const sim::LayerTruth t = truth.truth_at(static_cast<std::uint32_t>(std::stoul(cells[0])),
+                                             static_cast<std::uint32_t>(std::stoul(cells[1])));
+    e.ilm_mean += std::abs(std::stod(cells[4]) - t.ilm_px);
+    e.rpe_mean += std::abs(std::stod(cells[5]) - t.rpe_px);
+    ++e.ascans;
+  }
+  if (e.ascans > 0) {
+    e.ilm_mean /= static_cast<double>(e.ascans);
+    e.rpe_mean /= static_cast<double>(e.ascans);
+  }
+  return e;
+}
+
 TEST_F(SimulatedAppliance, BooksBalanceAndTheImageShowsTheRetinaWhereTheTruthIs) {
   const test_support::ScopedShmName ring("e2e");
   const rt::RtOptions options = small_raster(ring.str());
@@ -100,7 +136,8 @@ TEST_F(SimulatedAppliance, BooksBalanceAndTheImageShowsTheRetinaWhereTheTruthIs)
 
   ChildProcess gpu = ChildProcess::spawn(
       test_support::sibling_executable("ioct-gpu"),
-      {"--ring", ring.str(), "--out", out_.string(), "--wait", "20", "--status-interval", "1"});
+      {"--ring", ring.str(), "--out", out_.string(), "--wait", "20", "--status-interval", "1",
+       "--render-width", "320", "--render-height", "240"});
   ChildProcess rt = ChildProcess::spawn(test_support::sibling_executable("ioct-rt"),
                                         rt_arguments(options, rt_summary.string()));
   ASSERT_EQ(wait_exit(rt, 60s), 0);
@@ -159,6 +196,28 @@ TEST_F(SimulatedAppliance, BooksBalanceAndTheImageShowsTheRetinaWhereTheTruthIs)
   }
   EXPECT_GE(ilm_hits, bscan.width * 95 / 100) << "columns whose ILM is within 2 px of the truth";
   EXPECT_GE(rpe_hits, bscan.width * 95 / 100) << "columns bright within 2 px of the true RPE";
+
+  // The live stages took every processed group (folded or not), segmented the whole live volume
+  // where the truth puts the surfaces, and rendered it.
+  const nlohmann::json& stages = consumed.at("stages");
+  ASSERT_TRUE(stages.is_object()) << consumed.dump(2);
+  EXPECT_EQ(stages.at("problem"), "");
+  EXPECT_EQ(stages.at("groups").get<std::uint64_t>(), got);
+  EXPECT_GE(stages.at("passes").get<std::uint64_t>(), 1u);
+  EXPECT_GE(stages.at("renders").get<std::uint64_t>(), 1u);
+  EXPECT_EQ(stages.at("surfaces").at("bscans_with_retina").get<std::uint32_t>(),
+            options.bscans_per_volume);
+  const SurfaceErrors errors =
+      surface_errors(stages.at("files").at("surfaces").get<std::string>(), truth);
+  std::printf("[ stats    ] live surfaces: %zu A-scans, ILM mean error %.2f px, RPE %.2f px\n",
+              errors.ascans, errors.ilm_mean, errors.rpe_mean);
+  EXPECT_EQ(errors.ascans, std::size_t{options.bscans_per_volume} * options.ascans);
+  EXPECT_LE(errors.ilm_mean, 1.0) << "px, against the simulator's truth";
+  EXPECT_LE(errors.rpe_mean, 1.0) << "px, against the simulator's truth";
+  for (const char* file : {"render", "layer-aware", "la-mip", "bscan_overlay"}) {
+    const std::filesystem::path png = stages.at("files").at(file).get<std::string>();
+    EXPECT_GT(std::filesystem::file_size(png), 1000u) << png;
+  }
 }
 
 TEST_F(SimulatedAppliance, GpuProcessWaitsForTheRingAndFailsClearlyWhenItNeverComes) {

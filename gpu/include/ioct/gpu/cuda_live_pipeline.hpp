@@ -58,6 +58,8 @@ class CudaLivePipeline final : public LivePipeline {
   shm::PollStatus poll(LiveEvents& events) override;
   void drain(LiveEvents& events) override;
   std::optional<VolumeInfo> seal_partial(const Volume*& volume) override;
+  // Through read_volume() on a stream of its own, synchronously.
+  void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) override;
   const shm::RingReader& reader() const noexcept override;
   std::string_view backend_name() const noexcept override { return "cuda"; }
 

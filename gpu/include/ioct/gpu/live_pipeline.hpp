@@ -14,6 +14,7 @@
 #include <string>
 #include <string_view>
 
+#include "ioct/gpu/live_stage.hpp"
 #include "ioct/gpu/oct_processor.hpp"
 #include "ioct/gpu/volume.hpp"
 #include "ioct/gpu/volume_book.hpp"
@@ -37,9 +38,8 @@ class LiveEvents {
   virtual void on_restart(bool volume_abandoned) = 0;
 };
 
-class LivePipeline {
+class LivePipeline : public LiveVolumeSource {
  public:
-  virtual ~LivePipeline() = default;
 
   // Moves work along without waiting long: reads what the ring has ready, finishes what the
   // processing has done. Returns ready when anything is under way or happened (call again soon),

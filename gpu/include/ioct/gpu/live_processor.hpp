@@ -16,7 +16,10 @@
 #include <string>
 #include <string_view>
 
+#include <nlohmann/json.hpp>
+
 #include "ioct/gpu/latency_histogram.hpp"
+#include "ioct/gpu/live_stage.hpp"
 #include "ioct/gpu/oct_processor.hpp"
 #include "ioct/gpu/projections.hpp"
 #include "ioct/gpu/volume_assembler.hpp"
@@ -54,6 +57,7 @@ struct LiveCounters {
   std::uint64_t volumes_abandoned = 0;  // their end never arrived
   std::uint64_t images_written = 0;     // PNG files
   std::uint64_t image_errors = 0;
+  std::uint64_t stage_errors = 0;  // hand-overs to the live stage that failed
   std::uint64_t dropped() const noexcept { return dropped_lapped + dropped_behind; }
 };
 
@@ -88,6 +92,7 @@ struct RunSummary {
   std::optional<ImageSet> images;
   std::uint32_t status_flags_seen = 0;  // SlotHeader::status_flags, OR of all groups
   std::string last_problem;             // the last rejection or image error, if any
+  nlohmann::json stages;                // the live stage's part (filters, surfaces, renders)
   std::filesystem::path summary_json;
 };
 
@@ -102,6 +107,9 @@ class LiveProcessor {
   // Status lines go here (nullptr: nowhere). Set before run().
   void set_status_stream(std::ostream* out) { status_out_ = out; }
   void set_volume_observer(VolumeObserver observer) { observer_ = std::move(observer); }
+  // The stage run on each new group of the live volume (not owned; nullptr: none). Set before
+  // run(); its finish() is called at the end of run() and its part goes into summary.json.
+  void set_stage(LiveStage* stage) { stage_ = stage; }
 
   // Runs the loop on the calling thread. Throws shm::RingError when the ring does not appear
   // within wait_s or cannot be read, BackendUnavailable, std::invalid_argument for a geometry the
@@ -127,6 +135,7 @@ class LiveProcessor {
   LiveConfig config_;
   std::ostream* status_out_ = nullptr;
   VolumeObserver observer_;
+  LiveStage* stage_ = nullptr;
   std::atomic<bool> stop_{false};
   std::atomic<bool> attached_{false};
   std::atomic<std::uint64_t> groups_consumed_{0};

@@ -33,6 +33,10 @@ struct PlacementResult {
   std::uint32_t bscans_rejected = 0;  // a width that does not match the volume's, or a repeat
   std::uint32_t volumes_completed = 0;
   std::uint32_t volumes_abandoned = 0;
+  // Positions written, [first_position, end_position): what a later stage has to look at again
+  // (empty when nothing was placed). Gaps zeroed at a completion are not included.
+  std::uint32_t first_position = 0;
+  std::uint32_t end_position = 0;
 };
 
 class VolumeBook {

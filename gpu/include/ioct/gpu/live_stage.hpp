@@ -1,0 +1,47 @@
+// What runs on the live volume after processing: the filters, the segmentation and the renderers
+// live in libraries above this one (gpu/live puts them together), so the live loop sees them
+// through this interface. The loop calls on_bscans() after every group it placed; a stage copies
+// what it needs and does its work on its own thread, so a slow stage (the CPU reference on two
+// cores) folds groups together instead of holding up the ring.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "ioct/gpu/volume.hpp"
+
+namespace ioct::gpu {
+
+// The live volume as a stage may read it: positions x active A-scans x depth.
+class LiveVolumeSource {
+ public:
+  virtual ~LiveVolumeSource() = default;
+  // Copies B-scans [first, first + count) of the live volume, as of the last group reported,
+  // into the same B-scans of `out`. `out` is first reshaped to the live volume's dimensions when
+  // they differ (its other B-scans are then unspecified). Throws std::out_of_range for B-scans
+  // outside the volume; nothing is copied before a volume has begun (count must then be 0).
+  virtual void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) = 0;
+};
+
+// For implementations: reshapes `out` to `bscans x ascans x depth` when it differs and checks
+// that [first, first + count) lies inside; throws std::out_of_range naming the range.
+void prepare_bscan_copy(std::uint32_t bscans, std::uint32_t ascans, std::uint32_t depth,
+                        std::uint32_t first, std::uint32_t count, Volume& out);
+
+class LiveStage {
+ public:
+  virtual ~LiveStage() = default;
+  // B-scans [first, first + count) of the live volume are new. Called on the live loop's thread
+  // after each group; returns after copying them.
+  virtual void on_bscans(LiveVolumeSource& source, std::uint32_t first, std::uint32_t count) = 0;
+  // A few words for the live loop's status line ("stages 12 passes, 3 groups folded").
+  virtual std::string status() const = 0;
+  // End of the run: finishes what was handed over, writes the stage's files into `out_dir` and
+  // returns its part of summary.json. Failures are reported in that part, not thrown.
+  virtual nlohmann::json finish(const std::filesystem::path& out_dir) = 0;
+};
+
+}  // namespace ioct::gpu

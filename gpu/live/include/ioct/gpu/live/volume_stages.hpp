@@ -1,0 +1,145 @@
+// The live volume's stages after processing, on a thread of their own: each new group's B-scans
+// are filtered (median 3x3x3, then Gaussian, with the halo from their neighbours), the ILM and the
+// RPE segmented on the filtered B-scans, the renderer given both, and the live view rendered.
+//
+// The live loop hands over the B-scans of each group (on_bscans copies them and returns). When the
+// stages are still busy with an earlier pass, the new B-scans wait in a pending copy of the live
+// volume and the next pass takes everything pending at once ("folding"): with CUDA every group gets
+// its own pass; the CPU reference on two cores folds several groups into one pass rather than hold
+// up the ring, and says how many it folded. Nothing is skipped: every B-scan handed over is
+// filtered, segmented and rendered by some pass.
+//
+// At the end: surfaces.csv, bscan-overlay.png (the centre filtered B-scan with its surfaces),
+// render.png (the live view) and one PNG per further mode, and the figures for summary.json.
+#pragma once
+
+#include <condition_variable>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ioct/gpu/filters/filter_config.hpp"
+#include "ioct/gpu/latency_histogram.hpp"
+#include "ioct/gpu/live_stage.hpp"
+#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/render/render_config.hpp"
+#include "ioct/gpu/render/rgba_image.hpp"
+#include "ioct/gpu/segmentation/segmentation_config.hpp"
+#include "ioct/gpu/segmentation/surfaces.hpp"
+#include "ioct/gpu/volume.hpp"
+
+namespace ioct::gpu::filters {
+class VolumeFilter;
+}
+namespace ioct::gpu::segmentation {
+class Segmenter;
+}
+namespace ioct::gpu::render {
+class Renderer;
+}
+
+namespace ioct::gpu::live {
+
+struct VolumeStagesConfig {
+  Backend backend = Backend::automatic;  // of all three stages
+  unsigned cpu_threads = 2;              // of each CPU stage
+  filters::VolumeFilterConfig filter;
+  segmentation::SegmentationConfig segmentation;
+  segmentation::VolumeSampling sampling;  // also the renderer's voxel spacing
+  render::RenderConfig render;            // the live view; its azimuth turns at rotation_deg_per_s
+  // Modes rendered once more at the end, each to render-<mode>.png, at the live view.
+  std::vector<render::RenderMode> final_modes{render::RenderMode::enhanced,
+                                              render::RenderMode::layer_aware,
+                                              render::RenderMode::la_mip_composite};
+  // The CUDA renderer renders the live view after every pass. The CPU reference takes a large
+  // share of both cores for a 1024x768 frame, so it renders after a pass only when this long has
+  // passed since its last render (0: after every pass too).
+  double cpu_render_interval_s = 2.0;
+  // The live view as a PNG, rewritten at most every image_interval_s while running (empty path
+  // or 0 s: only at the end, by finish()).
+  std::filesystem::path live_image;
+  double image_interval_s = 1.0;
+  // Lower scheduling priority (nice) of the stages' threads, so the processing of the ring always
+  // wins the CPU over them.
+  int nice = 10;
+
+  // Throws ConfigError naming the first bad key.
+  void validate() const;
+};
+
+class VolumeStages final : public LiveStage {
+ public:
+  // Validates the config. The backends are made on the stages' thread, which starts here; a
+  // backend that cannot be made (e.g. --backend cuda without a GPU) is reported by finish() and
+  // status(), and the stages then take nothing.
+  explicit VolumeStages(VolumeStagesConfig config);
+  ~VolumeStages() override;
+  VolumeStages(const VolumeStages&) = delete;
+  VolumeStages& operator=(const VolumeStages&) = delete;
+
+  void on_bscans(LiveVolumeSource& source, std::uint32_t first, std::uint32_t count) override;
+  std::string status() const override;
+  nlohmann::json finish(const std::filesystem::path& out_dir) override;
+
+  // The state after finish() (tests).
+  const Volume& filtered() const noexcept { return filtered_; }
+  const segmentation::Surfaces& surfaces() const noexcept { return surfaces_; }
+
+ private:
+  struct Figures {
+    std::uint64_t passes = 0;
+    std::uint64_t groups = 0;         // hand-overs taken by the passes
+    std::uint64_t groups_folded = 0;  // hand-overs that shared a pass with a later one
+    std::uint64_t largest_fold = 0;   // most hand-overs in one pass
+    std::uint64_t bscans = 0;         // B-scans taken (sum over passes)
+    std::uint64_t renders = 0;
+    std::uint64_t images_written = 0;
+    LatencyHistogram pass;     // take -> rendered
+    LatencyHistogram filter;   // per pass
+    LatencyHistogram segment;  // per pass
+    LatencyHistogram render;   // per render
+    std::string problem;       // the first failure; the stages stop at it
+  };
+
+  void work();
+  bool make_backends();
+  void run_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups);
+  render::RenderConfig live_view() const;
+  void write_live_image(std::uint64_t now_ns);
+  void fail(const std::string& what);
+  nlohmann::json write_outputs(const std::filesystem::path& out_dir);
+
+  const VolumeStagesConfig config_;
+
+  // Handed over by the live loop, guarded by mutex_.
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  Volume pending_;
+  std::uint32_t dirty_first_ = 0;
+  std::uint32_t dirty_end_ = 0;
+  std::uint64_t dirty_groups_ = 0;
+  bool stop_ = false;
+  bool accepting_ = true;  // false once a stage failed
+  Figures figures_;
+  std::string backends_;  // "filter cuda, segmentation cuda, render cuda"
+
+  // The stages' own, touched only by their thread (and by finish() after it ended).
+  std::unique_ptr<filters::VolumeFilter> filter_;
+  std::unique_ptr<segmentation::Segmenter> segmenter_;
+  std::unique_ptr<render::Renderer> renderer_;
+  Volume input_;
+  Volume filtered_;
+  segmentation::Surfaces surfaces_;
+  render::RgbaImage image_;
+  std::uint64_t started_ns_ = 0;
+  std::uint64_t last_render_ns_ = 0;
+  std::uint64_t last_image_ns_ = 0;
+
+  std::thread thread_;
+};
+
+}  // namespace ioct::gpu::live

@@ -1,0 +1,355 @@
+#include "ioct/gpu/live/volume_stages.hpp"
+
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "ioct/common/atomic_file.hpp"
+#include "ioct/common/config_error.hpp"
+#include "ioct/gpu/filters/volume_filter.hpp"
+#include "ioct/gpu/render/png_rgba.hpp"
+#include "ioct/gpu/render/renderer.hpp"
+#include "ioct/gpu/segmentation/overlay_image.hpp"
+#include "ioct/gpu/segmentation/segmenter.hpp"
+#include "ioct/gpu/segmentation/surfaces_csv.hpp"
+#include "ioct/shm/monotonic_clock.hpp"
+
+namespace ioct::gpu::live {
+namespace {
+
+double ms(std::uint64_t ns) {
+  return static_cast<double>(ns) * 1e-6;
+}
+
+nlohmann::json percentiles(const LatencyHistogram& h) {
+  if (h.count() == 0) return nullptr;
+  return {{"count", h.count()},
+          {"p50", ms(h.quantile(0.5))},
+          {"p99", ms(h.quantile(0.99))},
+          {"max", ms(h.max())}};
+}
+
+// The surfaces in a few numbers: how much of the volume has a retina, and where.
+nlohmann::json describe(const segmentation::Surfaces& s) {
+  std::uint64_t with_retina = 0;
+  for (const segmentation::BscanVerdict v : s.verdict) {
+    if (v == segmentation::BscanVerdict::retina) ++with_retina;
+  }
+  std::uint64_t measured = 0;
+  std::uint64_t bridged = 0;
+  double ilm_sum = 0.0;
+  double rpe_sum = 0.0;
+  std::uint64_t both = 0;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s.state[i] == segmentation::SurfaceState::measured) ++measured;
+    if (s.state[i] == segmentation::SurfaceState::bridged) ++bridged;
+    if (std::isfinite(s.ilm[i]) && std::isfinite(s.rpe[i])) {
+      ilm_sum += s.ilm[i];
+      rpe_sum += s.rpe[i];
+      ++both;
+    }
+  }
+  nlohmann::json j = {{"bscans", s.bscans},
+                      {"ascans_per_bscan", s.ascans},
+                      {"bscans_with_retina", with_retina},
+                      {"ascans_measured", measured},
+                      {"ascans_bridged", bridged}};
+  j["ilm_mean_px"] = both > 0 ? nlohmann::json(ilm_sum / static_cast<double>(both)) : nullptr;
+  j["rpe_mean_px"] = both > 0 ? nlohmann::json(rpe_sum / static_cast<double>(both)) : nullptr;
+  return j;
+}
+
+std::string mode_file(render::RenderMode mode) {
+  std::string name(render::to_string(mode));
+  std::ranges::replace(name, '_', '-');
+  return "render-" + name + ".png";
+}
+
+}  // namespace
+
+void VolumeStagesConfig::validate() const {
+  require_integer_in_range("stages.threads", cpu_threads, 1, 64);
+  filter.validate();
+  segmentation.validate();
+  sampling.validate();
+  render.validate();
+  require_real_in_range("stages.cpu_render_interval", cpu_render_interval_s, 0.0, 3600.0);
+  require_real_in_range("stages.image_interval", image_interval_s, 0.0, 3600.0);
+  if (nice < 0 || nice > 19) {
+    throw ConfigError("stages.nice", format_value(std::int64_t{nice}), "must be in [0, 19]");
+  }
+}
+
+VolumeStages::VolumeStages(VolumeStagesConfig config) : config_(std::move(config)) {
+  config_.validate();
+  started_ns_ = shm::monotonic_ns();
+  thread_ = std::thread([this] { work(); });
+}
+
+VolumeStages::~VolumeStages() {
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+void VolumeStages::on_bscans(LiveVolumeSource& source, std::uint32_t first, std::uint32_t count) {
+  if (count == 0) return;
+  std::unique_lock lock(mutex_);
+  if (!accepting_) return;
+  const std::uint32_t bscans_before = pending_.bscans();
+  const std::uint32_t ascans_before = pending_.ascans();
+  const std::uint32_t depth_before = pending_.depth();
+  source.copy_bscans(first, count, pending_);
+  if (pending_.bscans() != bscans_before || pending_.ascans() != ascans_before ||
+      pending_.depth() != depth_before) {
+    // A new geometry: the rest of the copy is unspecified until its B-scans arrive, so the next
+    // pass starts over with what has arrived (the others are zero).
+    std::ranges::fill(pending_.pixels(), std::uint8_t{0});
+    source.copy_bscans(first, count, pending_);
+    dirty_first_ = 0;
+    dirty_end_ = pending_.bscans();
+  } else if (dirty_groups_ == 0) {
+    dirty_first_ = first;
+    dirty_end_ = first + count;
+  } else {
+    dirty_first_ = std::min(dirty_first_, first);
+    dirty_end_ = std::max(dirty_end_, first + count);
+  }
+  ++dirty_groups_;
+  lock.unlock();
+  wake_.notify_one();
+}
+
+void VolumeStages::work() {
+  // Below the processing: on Linux a thread's nice value is its own, and the stages' worker
+  // threads made from here inherit it.
+  (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), config_.nice);
+  if (!make_backends()) return;
+  for (;;) {
+    std::uint32_t first = 0;
+    std::uint32_t count = 0;
+    std::uint64_t groups = 0;
+    {
+      std::unique_lock lock(mutex_);
+      wake_.wait(lock, [&] { return stop_ || dirty_groups_ > 0; });
+      if (dirty_groups_ == 0) return;  // stopped with nothing pending
+      if (input_.bscans() != pending_.bscans() || input_.ascans() != pending_.ascans() ||
+          input_.depth() != pending_.depth()) {
+        input_ = pending_;
+        first = 0;
+        count = pending_.bscans();
+      } else {
+        first = dirty_first_;
+        count = dirty_end_ - dirty_first_;
+        const std::size_t n = input_.bscan_pixels();
+        std::copy_n(pending_.bscan(first).data(), count * n, input_.bscan(first).data());
+      }
+      groups = dirty_groups_;
+      dirty_groups_ = 0;
+    }
+    try {
+      run_pass(first, count, groups);
+    } catch (const std::exception& e) {
+      fail(e.what());
+      return;
+    }
+  }
+}
+
+bool VolumeStages::make_backends() {
+  try {
+    std::string warning;
+    const Backend backend = resolve_backend(config_.backend, &warning);
+    filter_ = filters::make_volume_filter(backend, config_.filter, config_.cpu_threads);
+    segmenter_ = segmentation::make_segmenter(backend, config_.segmentation, config_.sampling,
+                                              config_.cpu_threads);
+    renderer_ = render::make_renderer(backend, config_.cpu_threads);
+    std::lock_guard lock(mutex_);
+    backends_ = "filter " + std::string(filter_->backend_name()) + ", segmentation " +
+                std::string(segmenter_->backend_name()) + ", render " +
+                std::string(renderer_->backend_name());
+    return true;
+  } catch (const std::exception& e) {
+    fail(std::string("cannot start the stages: ") + e.what());
+    return false;
+  }
+}
+
+void VolumeStages::fail(const std::string& what) {
+  std::lock_guard lock(mutex_);
+  if (figures_.problem.empty()) figures_.problem = what;
+  accepting_ = false;
+  dirty_groups_ = 0;
+}
+
+render::RenderConfig VolumeStages::live_view() const {
+  render::RenderConfig view = config_.render;
+  // The automatic rotation the surgeons asked for, from the start of the run.
+  const double seconds = static_cast<double>(shm::monotonic_ns() - started_ns_) * 1e-9;
+  view.view.azimuth_deg =
+      std::fmod(view.view.azimuth_deg + view.view.rotation_deg_per_s * seconds, 360.0);
+  return view;
+}
+
+void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups) {
+  const std::uint64_t t0 = shm::monotonic_ns();
+  filters::BscanRange outputs{0, input_.bscans()};
+  if (filtered_.bscans() != input_.bscans() || filtered_.ascans() != input_.ascans() ||
+      filtered_.depth() != input_.depth()) {
+    filter_->filter_volume(input_, filtered_);
+  } else {
+    outputs = filter_->filter_group(input_, filtered_, first, count);
+  }
+  const std::uint64_t t1 = shm::monotonic_ns();
+  const segmentation::BscanSpan affected =
+      segmenter_->segment_group(filtered_, {outputs.first, outputs.count}, surfaces_);
+  const std::uint64_t t2 = shm::monotonic_ns();
+  renderer_->update_bscans(filtered_, affected.first, affected.count, &surfaces_);
+  const bool render_now =
+      renderer_->backend_name() != "cpu" || last_render_ns_ == 0 ||
+      static_cast<double>(t2 - last_render_ns_) * 1e-9 >= config_.cpu_render_interval_s;
+  std::uint64_t t3 = t2;
+  if (render_now) {
+    renderer_->render(live_view(), image_);
+    t3 = shm::monotonic_ns();
+    last_render_ns_ = t3;
+  }
+
+  {
+    std::lock_guard lock(mutex_);
+    Figures& f = figures_;
+    ++f.passes;
+    f.groups += groups;
+    f.groups_folded += groups - 1;
+    f.largest_fold = std::max(f.largest_fold, groups);
+    f.bscans += count;
+    f.filter.record(t1 - t0);
+    f.segment.record(t2 - t1);
+    if (render_now) {
+      ++f.renders;
+      f.render.record(t3 - t2);
+    }
+    f.pass.record(t3 - t0);
+  }
+  if (render_now) write_live_image(t3);
+}
+
+void VolumeStages::write_live_image(std::uint64_t now_ns) {
+  if (config_.live_image.empty() || config_.image_interval_s <= 0.0 || image_.width == 0) return;
+  if (last_image_ns_ != 0 &&
+      static_cast<double>(now_ns - last_image_ns_) * 1e-9 < config_.image_interval_s) {
+    return;
+  }
+  last_image_ns_ = now_ns;
+  render::write_png(config_.live_image, image_);
+  std::lock_guard lock(mutex_);
+  ++figures_.images_written;
+}
+
+std::string VolumeStages::status() const {
+  std::lock_guard lock(mutex_);
+  const Figures& f = figures_;
+  if (!f.problem.empty()) return "stages stopped: " + f.problem;
+  char text[160];
+  std::snprintf(text, sizeof text, "stages %llu passes (%llu groups folded), pass p50 %.1f ms",
+                static_cast<unsigned long long>(f.passes),
+                static_cast<unsigned long long>(f.groups_folded),
+                f.pass.count() > 0 ? ms(f.pass.quantile(0.5)) : 0.0);
+  return text;
+}
+
+nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();  // after the pending B-scans' pass
+
+  nlohmann::json files = nlohmann::json::object();
+  std::string problem;
+  {
+    std::lock_guard lock(mutex_);
+    problem = figures_.problem;
+  }
+  if (problem.empty() && filtered_.bscans() > 0) {
+    try {
+      files = write_outputs(out_dir);
+    } catch (const std::exception& e) {
+      problem = std::string("writing the stages' files: ") + e.what();
+    }
+  }
+
+  std::lock_guard lock(mutex_);
+  const Figures& f = figures_;
+  nlohmann::json j;
+  j["backends"] = backends_;
+  j["passes"] = f.passes;
+  j["groups"] = f.groups;
+  j["groups_folded"] = f.groups_folded;
+  j["largest_fold"] = f.largest_fold;
+  j["bscans"] = f.bscans;
+  j["renders"] = f.renders;
+  j["live_images_written"] = f.images_written;
+  j["pass_ms"] = percentiles(f.pass);
+  j["filter_ms"] = percentiles(f.filter);
+  j["segment_ms"] = percentiles(f.segment);
+  j["render_ms"] = percentiles(f.render);
+  j["surfaces"] = surfaces_.bscans > 0 ? describe(surfaces_) : nlohmann::json(nullptr);
+  j["files"] = files;
+  j["problem"] = problem;
+  return j;
+}
+
+nlohmann::json VolumeStages::write_outputs(const std::filesystem::path& out_dir) {
+  nlohmann::json files = nlohmann::json::object();
+  const auto path = [&](const std::string& name) {
+    return std::filesystem::absolute(out_dir / name);
+  };
+
+  const std::filesystem::path csv = path("surfaces.csv");
+  {
+    AtomicFile file(csv);
+    segmentation::write_surfaces_csv(file.stream(), surfaces_, config_.sampling.axial_um_per_px);
+    file.commit();
+  }
+  files["surfaces"] = csv.string();
+
+  const std::uint32_t centre = filtered_.bscans() / 2;
+  const std::filesystem::path overlay = path("bscan-overlay.png");
+  segmentation::write_png_rgb8(overlay, segmentation::make_overlay(filtered_, centre, surfaces_));
+  files["bscan_overlay"] = overlay.string();
+  files["bscan_overlay_index"] = centre;
+
+  const render::RenderConfig view = live_view();
+  renderer_->render(view, image_);
+  const std::filesystem::path live = path("render.png");
+  render::write_png(live, image_);
+  files["render"] = live.string();
+  files["render_mode"] = std::string(render::to_string(view.mode));
+  files["render_azimuth_deg"] = view.view.azimuth_deg;
+  for (const render::RenderMode mode : config_.final_modes) {
+    if (mode == view.mode) {  // the live view itself: the same image under its mode's name
+      std::filesystem::copy_file(live, path(mode_file(mode)),
+                                 std::filesystem::copy_options::overwrite_existing);
+      files[std::string(render::to_string(mode))] = path(mode_file(mode)).string();
+      continue;
+    }
+    render::RenderConfig c = view;
+    c.mode = mode;
+    renderer_->render(c, image_);
+    const std::filesystem::path file = path(mode_file(mode));
+    render::write_png(file, image_);
+    files[std::string(render::to_string(mode))] = file.string();
+  }
+  return files;
+}
+
+}  // namespace ioct::gpu::live

@@ -1,0 +1,36 @@
+// A RenderConfig turned into what the pixel code reads, for one volume's dimensions: the camera
+// of each eye, the coefficients, the image geometry of the planar modes. The tables' pointers are
+// left for the renderer to set (host or device copies).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "ioct/gpu/render/layer_reference.hpp"
+#include "ioct/gpu/render/render_config.hpp"
+#include "ioct/gpu/render/render_params.hpp"
+
+namespace ioct::gpu::render {
+
+struct VolumeDims {
+  std::uint32_t bscans = 0, ascans = 0, depth = 0;
+};
+
+// Throws ConfigError for a bad config; std::invalid_argument for an empty volume.
+RenderParams bake_params(const RenderConfig& config, VolumeDims dims,
+                         const LayerReference& reference);
+
+// d_rpe in px: the configured one, else the reference's mean thickness, else 250 um of depth.
+float d_rpe_px(const RenderConfig& config, const LayerReference& reference);
+
+// Output image size: one eye's width times the eyes, by the height.
+std::uint32_t output_width(const RenderParams& params);
+
+// The tables a config needs (transfer function; L*a*b* map, plain or colourised by mode).
+struct RenderTables {
+  std::vector<float> transfer_lut;
+  std::vector<float> lab_lut;
+};
+RenderTables bake_tables(const RenderConfig& config);
+
+}  // namespace ioct::gpu::render

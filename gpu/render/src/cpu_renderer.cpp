@@ -1,0 +1,115 @@
+#include "ioct/gpu/render/cpu_renderer.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <stdexcept>
+#include <thread>
+
+#include "ioct/gpu/render/frame_setup.hpp"
+#include "ioct/gpu/render/pixel_shader.hpp"
+
+namespace ioct::gpu::render {
+
+namespace {
+
+CentreOfMassSums total(const std::vector<CentreOfMassSums>& per_bscan) {
+  CentreOfMassSums sum;
+  for (const auto& s : per_bscan) {
+    sum.weighted_depth += s.weighted_depth;
+    sum.weight += s.weight;
+  }
+  return sum;
+}
+
+}  // namespace
+
+CpuRenderer::CpuRenderer(unsigned threads)
+    : threads_(threads == 0 ? std::max(1u, std::thread::hardware_concurrency()) : threads) {}
+
+void CpuRenderer::set_volume(const Volume& volume, const segmentation::Surfaces* surfaces) {
+  if (volume.bscans() == 0 || volume.ascans() == 0 || volume.depth() == 0) {
+    throw std::invalid_argument("cannot render an empty volume");
+  }
+  volume_ = volume;
+  sums_per_bscan_.assign(volume.bscans(), {});
+  for (std::uint32_t b = 0; b < volume.bscans(); ++b) {
+    sums_per_bscan_[b] = centre_of_mass_sums(volume, b, 1);
+  }
+  reference_ = make_layer_reference(volume.bscans(), volume.ascans(), volume.depth(), surfaces,
+                                    total(sums_per_bscan_));
+  has_volume_ = true;
+}
+
+void CpuRenderer::update_bscans(const Volume& volume, std::uint32_t first, std::uint32_t count,
+                                const segmentation::Surfaces* surfaces) {
+  if (!has_volume_ || volume.bscans() != volume_.bscans() || volume.ascans() != volume_.ascans() ||
+      volume.depth() != volume_.depth()) {
+    set_volume(volume, surfaces);
+    return;
+  }
+  if (count == 0 || first >= volume.bscans() || count > volume.bscans() - first) {
+    throw std::out_of_range("B-scans [" + std::to_string(first) + ", " +
+                            std::to_string(std::uint64_t{first} + count) + ") outside the volume's " +
+                            std::to_string(volume.bscans()));
+  }
+  for (std::uint32_t b = first; b < first + count; ++b) {
+    const auto src = volume.bscan(b);
+    std::copy(src.begin(), src.end(), volume_.bscan(b).begin());
+    sums_per_bscan_[b] = centre_of_mass_sums(volume, b, 1);
+  }
+  reference_ = make_layer_reference(volume.bscans(), volume.ascans(), volume.depth(), surfaces,
+                                    total(sums_per_bscan_));
+}
+
+void CpuRenderer::render(const RenderConfig& config, RgbaImage& image) {
+  if (!has_volume_) throw std::logic_error("render() before set_volume()");
+  const VolumeDims dims{volume_.bscans(), volume_.ascans(), volume_.depth()};
+  RenderParams params = bake_params(config, dims, reference_);
+  const RenderTables tables = bake_tables(config);
+  params.transfer_lut = tables.transfer_lut.data();
+  params.lab_lut = tables.lab_lut.data();
+  params.reference_px = config.mode == RenderMode::axial_colorization
+                            ? reference_.axial_plane_px.data()
+                            : reference_.rpe_px.data();
+  const CpuSampler sampler{volume_.pixels().data(), static_cast<int>(dims.ascans),
+                           static_cast<int>(dims.bscans), static_cast<int>(dims.depth)};
+  const std::uint32_t width = output_width(params);
+  const std::uint32_t height = static_cast<std::uint32_t>(params.height);
+  image.resize(width, height);
+  const bool volume_mode = is_volume_mode(config.mode);
+
+  std::atomic<std::uint32_t> next_row{0};
+  const auto work = [&] {
+    for (std::uint32_t y = next_row++; y < height; y = next_row++) {
+      for (std::uint32_t x = 0; x < width; ++x) {
+        const int eye = static_cast<int>(x) / params.width;
+        const int ex = static_cast<int>(x) % params.width;
+        const Rgba c = volume_mode
+                           ? render_ray(params, sampler, NoSkip{}, ex, static_cast<int>(y), eye)
+                           : render_plane(params, sampler, ex, static_cast<int>(y));
+        std::uint8_t* out = image.rgba.data() + (std::size_t{y} * width + x) * 4;
+        out[0] = to_u8(c.r);
+        out[1] = to_u8(c.g);
+        out[2] = to_u8(c.b);
+        out[3] = to_u8(c.a);
+      }
+    }
+  };
+  const unsigned threads =
+      std::min<unsigned>(config.cpu_threads == 0 ? threads_ : config.cpu_threads, height);
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+}
+
+RgbaImage render_volume(const Volume& volume, const segmentation::Surfaces* surfaces,
+                 const RenderConfig& config) {
+  CpuRenderer renderer(config.cpu_threads);
+  renderer.set_volume(volume, surfaces);
+  RgbaImage image;
+  renderer.render(config, image);
+  return image;
+}
+
+}  // namespace ioct::gpu::render

@@ -1,0 +1,417 @@
+#include <cuda_runtime.h>
+
+#include <algorithm>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "ioct/gpu/render/cuda_renderer.hpp"
+#include "ioct/gpu/render/frame_setup.hpp"
+#include "ioct/gpu/render/layer_reference.hpp"
+#include "ioct/gpu/render/pixel_shader.hpp"
+
+namespace ioct::gpu::render {
+
+namespace {
+
+void check(cudaError_t status, const char* what) {
+  if (status != cudaSuccess) {
+    throw std::runtime_error(std::string(what) + " failed: " + cudaGetErrorName(status) + " (" +
+                             cudaGetErrorString(status) + ")");
+  }
+}
+#define IOCT_RENDER_CUDA(call) check((call), #call)
+
+constexpr int kBrick = 8;
+constexpr int kBrickApron = 2;  // trilinear footprint plus the gradient's central differences
+
+template <class T>
+struct DeviceBuffer {
+  T* data = nullptr;
+  std::size_t count = 0;
+  void resize(std::size_t n) {
+    if (n == count) return;
+    release();
+    if (n > 0) IOCT_RENDER_CUDA(cudaMalloc(&data, n * sizeof(T)));
+    count = n;
+  }
+  void release() {
+    if (data != nullptr) cudaFree(data);
+    data = nullptr;
+    count = 0;
+  }
+  ~DeviceBuffer() { release(); }
+};
+
+// Trilinear samples from the 3D texture (x: depth, y: A-scan, z: B-scan; unnormalised, centres at
+// +0.5). Device only: the host instantiation is never called.
+struct TextureSampler {
+  cudaTextureObject_t texture;
+  __host__ __device__ float operator()(float x, float y, float z) const {
+#if defined(__CUDA_ARCH__)
+    return tex3D<float>(texture, z + 0.5f, x + 0.5f, y + 0.5f);
+#else
+    (void)x;
+    (void)y;
+    (void)z;
+    return 0.0f;
+#endif
+  }
+};
+
+// Jumps over bricks whose largest voxel is below `level` (u8): no sample there can contribute.
+// The next sample taken is the first of the ray's regular positions past the brick, so the
+// samples that remain are those the CPU reference takes.
+struct BrickSkipper {
+  const uchar2* bricks;  // (min, max) per brick, [bz][by][bx] with x the A-scan axis
+  int nx, ny, nz;
+  float level;
+  __host__ __device__ int next_sample(Vec3 v, Vec3 dir, float t0, float dt, int k) const {
+    const int bx = min(max(static_cast<int>(floorf((v.x + 0.5f) / kBrick)), 0), nx - 1);
+    const int by = min(max(static_cast<int>(floorf((v.y + 0.5f) / kBrick)), 0), ny - 1);
+    const int bz = min(max(static_cast<int>(floorf((v.z + 0.5f) / kBrick)), 0), nz - 1);
+    if (static_cast<float>(bricks[(bz * ny + by) * nx + bx].y) >= level) return k;
+    const float lo[3] = {bx * kBrick - 0.5f, by * kBrick - 0.5f, bz * kBrick - 0.5f};
+    const float pos[3] = {v.x, v.y, v.z};
+    const float d[3] = {dir.x, dir.y, dir.z};
+    float exit = 1e30f;
+    for (int i = 0; i < 3; ++i) {
+      if (fabsf(d[i]) < 1e-12f) continue;
+      const float bound = d[i] > 0.0f ? lo[i] + kBrick : lo[i];
+      exit = fminf(exit, (bound - pos[i]) / d[i]);
+    }
+    const float t = t0 + (static_cast<float>(k) + 0.5f) * dt;
+    const int next = static_cast<int>(ceilf((t + fmaxf(exit, 0.0f) - t0) / dt - 0.5f));
+    return next > k ? next : k + 1;
+  }
+};
+
+__global__ void volume_kernel(RenderParams p, TextureSampler sampler, BrickSkipper skipper,
+                              bool skip, uchar4* out) {
+  const int x = blockIdx.x * blockDim.x + threadIdx.x;
+  const int y = blockIdx.y * blockDim.y + threadIdx.y;
+  const int eye = blockIdx.z;
+  if (x >= p.width || y >= p.height) return;
+  const Rgba c = skip ? render_ray(p, sampler, skipper, x, y, eye)
+                      : render_ray(p, sampler, NoSkip{}, x, y, eye);
+  out[y * p.width * p.eyes + eye * p.width + x] =
+      make_uchar4(to_u8(c.r), to_u8(c.g), to_u8(c.b), to_u8(c.a));
+}
+
+__global__ void plane_kernel(RenderParams p, TextureSampler sampler, uchar4* out) {
+  const int x = blockIdx.x * blockDim.x + threadIdx.x;
+  const int y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x >= p.width || y >= p.height) return;
+  const Rgba c = render_plane(p, sampler, x, y);
+  out[y * p.width + x] = make_uchar4(to_u8(c.r), to_u8(c.g), to_u8(c.b), to_u8(c.a));
+}
+
+// Min and max of each brick of brick rows [by0, by1) (B-scan direction), over its voxels and an
+// apron of kBrickApron on every side.
+__global__ void brick_kernel(const std::uint8_t* volume, int ascans, int bscans, int depth,
+                             int nx, int ny, int nz, int by0, int by1, uchar2* bricks) {
+  const int bx = blockIdx.x * blockDim.x + threadIdx.x;
+  const int by = by0 + blockIdx.y;
+  const int bz = blockIdx.z * blockDim.z + threadIdx.z;
+  if (bx >= nx || by >= by1 || bz >= nz) return;
+  const int a0 = max(bx * kBrick - kBrickApron, 0), a1 = min(bx * kBrick + kBrick + kBrickApron, ascans);
+  const int b0 = max(by * kBrick - kBrickApron, 0), b1 = min(by * kBrick + kBrick + kBrickApron, bscans);
+  const int d0 = max(bz * kBrick - kBrickApron, 0), d1 = min(bz * kBrick + kBrick + kBrickApron, depth);
+  unsigned lo = 255, hi = 0;
+  for (int b = b0; b < b1; ++b) {
+    for (int a = a0; a < a1; ++a) {
+      const std::uint8_t* column = volume + (static_cast<std::size_t>(b) * ascans + a) * depth;
+      for (int d = d0; d < d1; ++d) {
+        const unsigned v = column[d];
+        lo = min(lo, v);
+        hi = max(hi, v);
+      }
+    }
+  }
+  bricks[(bz * ny + by) * nx + bx] = make_uchar2(static_cast<unsigned char>(lo),
+                                                 static_cast<unsigned char>(hi));
+}
+
+// Integer centre-of-mass sums per B-scan (exactly those of centre_of_mass_sums()).
+__global__ void centre_of_mass_kernel(const std::uint8_t* volume, int ascans, int depth,
+                                      int first, unsigned long long* sums) {
+  const int a = blockIdx.x * blockDim.x + threadIdx.x;
+  const int b = first + blockIdx.y;
+  if (a >= ascans) return;
+  const std::uint8_t* column = volume + (static_cast<std::size_t>(b) * ascans + a) * depth;
+  unsigned long long weighted = 0, weight = 0;
+  for (int d = 0; d < depth; ++d) {
+    const unsigned v = column[d];
+    if (v < kCentreOfMassLevel) continue;
+    weighted += static_cast<unsigned long long>(v) * d;
+    weight += v;
+  }
+  atomicAdd(&sums[2 * b], weighted);
+  atomicAdd(&sums[2 * b + 1], weight);
+}
+
+bool same_transfer(const TransferFunctions& a, const TransferFunctions& b) {
+  if (a.color.size() != b.color.size() || a.opacity.size() != b.opacity.size()) return false;
+  for (std::size_t i = 0; i < a.color.size(); ++i) {
+    if (a.color[i].intensity != b.color[i].intensity || a.color[i].rgb != b.color[i].rgb) return false;
+  }
+  for (std::size_t i = 0; i < a.opacity.size(); ++i) {
+    if (a.opacity[i].intensity != b.opacity[i].intensity || a.opacity[i].alpha != b.opacity[i].alpha)
+      return false;
+  }
+  return true;
+}
+
+bool same_colors(const LabColorMap& a, const LabColorMap& b) {
+  return a.c0 == b.c0 && a.c1 == b.c1 && a.ab_scale == b.ab_scale &&
+         a.chroma_curve == b.chroma_curve;
+}
+
+}  // namespace
+
+struct CudaRenderer::State {
+  cudaStream_t stream = nullptr;
+  cudaArray_t array = nullptr;
+  cudaTextureObject_t texture = 0;
+  VolumeDims dims;
+  DeviceBuffer<std::uint8_t> linear;  // the volume once more, for bricks and sums
+  DeviceBuffer<uchar2> bricks;
+  int nx = 0, ny = 0, nz = 0;
+  DeviceBuffer<unsigned long long> sums;
+  std::vector<unsigned long long> host_sums;
+  DeviceBuffer<float> rpe, axial;
+  LayerReference reference;
+  bool has_volume = false;
+  // Tables, re-made when their part of the config changes.
+  DeviceBuffer<float> transfer_lut, lab_lut;
+  std::vector<float> host_transfer_lut;
+  bool tables_valid = false;
+  TransferFunctions table_transfer;
+  LabColorMap table_colors;
+  bool table_colorize = true;
+  DeviceBuffer<uchar4> image;
+  std::uint32_t width = 0, height = 0;
+
+  void free_volume() {
+    if (texture != 0) cudaDestroyTextureObject(texture);
+    if (array != nullptr) cudaFreeArray(array);
+    texture = 0;
+    array = nullptr;
+  }
+
+  void allocate(VolumeDims d) {
+    if (d.bscans == 0 || d.ascans == 0 || d.depth == 0) {
+      throw std::invalid_argument("cannot render an empty volume");
+    }
+    free_volume();
+    dims = d;
+    const cudaChannelFormatDesc format = cudaCreateChannelDesc<unsigned char>();
+    IOCT_RENDER_CUDA(cudaMalloc3DArray(&array, &format, make_cudaExtent(d.depth, d.ascans, d.bscans)));
+    cudaResourceDesc resource{};
+    resource.resType = cudaResourceTypeArray;
+    resource.res.array.array = array;
+    cudaTextureDesc tex{};
+    tex.addressMode[0] = tex.addressMode[1] = tex.addressMode[2] = cudaAddressModeClamp;
+    tex.filterMode = cudaFilterModeLinear;
+    tex.readMode = cudaReadModeNormalizedFloat;
+    tex.normalizedCoords = 0;
+    IOCT_RENDER_CUDA(cudaCreateTextureObject(&texture, &resource, &tex, nullptr));
+    linear.resize(std::size_t{d.bscans} * d.ascans * d.depth);
+    nx = static_cast<int>((d.ascans + kBrick - 1) / kBrick);
+    ny = static_cast<int>((d.bscans + kBrick - 1) / kBrick);
+    nz = static_cast<int>((d.depth + kBrick - 1) / kBrick);
+    bricks.resize(std::size_t(nx) * ny * nz);
+    sums.resize(std::size_t{d.bscans} * 2);
+    IOCT_RENDER_CUDA(cudaMemsetAsync(sums.data, 0, sums.count * sizeof(unsigned long long), stream));
+    host_sums.assign(sums.count, 0);
+    rpe.resize(std::size_t{d.bscans} * d.ascans);
+    axial.resize(std::size_t{d.bscans} * d.ascans);
+    has_volume = true;
+  }
+
+  // Copies B-scans [first, first + count) from `pixels` (host or device) and refreshes what
+  // depends on them.
+  void upload(const std::uint8_t* pixels, cudaMemcpyKind kind, std::uint32_t first,
+              std::uint32_t count, const segmentation::Surfaces* surfaces) {
+    const std::size_t bscan_bytes = std::size_t{dims.ascans} * dims.depth;
+    cudaMemcpy3DParms copy{};
+    copy.srcPtr = make_cudaPitchedPtr(const_cast<std::uint8_t*>(pixels + first * bscan_bytes),
+                                      dims.depth, dims.depth, dims.ascans);
+    copy.dstArray = array;
+    copy.dstPos = make_cudaPos(0, 0, first);
+    copy.extent = make_cudaExtent(dims.depth, dims.ascans, count);
+    copy.kind = kind;
+    IOCT_RENDER_CUDA(cudaMemcpy3DAsync(&copy, stream));
+    IOCT_RENDER_CUDA(cudaMemcpyAsync(linear.data + first * bscan_bytes, pixels + first * bscan_bytes,
+                                     count * bscan_bytes, kind, stream));
+    // Bricks whose voxels or apron reach into the changed B-scans.
+    const int by0 = std::max(0, (static_cast<int>(first) - kBrickApron) / kBrick);
+    const int by1 = std::min(ny, (static_cast<int>(first + count) + kBrickApron + kBrick - 1) / kBrick);
+    const dim3 block(32, 1, 4);
+    const dim3 grid((nx + 31) / 32, by1 - by0, (nz + 3) / 4);
+    brick_kernel<<<grid, block, 0, stream>>>(linear.data, dims.ascans, dims.bscans, dims.depth,
+                                             nx, ny, nz, by0, by1, bricks.data);
+    IOCT_RENDER_CUDA(cudaGetLastError());
+    IOCT_RENDER_CUDA(cudaMemsetAsync(sums.data + 2 * first, 0,
+                                     2 * count * sizeof(unsigned long long), stream));
+    centre_of_mass_kernel<<<dim3((dims.ascans + 127) / 128, count), 128, 0, stream>>>(
+        linear.data, dims.ascans, dims.depth, first, sums.data);
+    IOCT_RENDER_CUDA(cudaGetLastError());
+    IOCT_RENDER_CUDA(cudaMemcpyAsync(host_sums.data(), sums.data,
+                                     sums.count * sizeof(unsigned long long),
+                                     cudaMemcpyDeviceToHost, stream));
+    IOCT_RENDER_CUDA(cudaStreamSynchronize(stream));
+    CentreOfMassSums total;
+    for (std::uint32_t b = 0; b < dims.bscans; ++b) {
+      total.weighted_depth += host_sums[2 * b];
+      total.weight += host_sums[2 * b + 1];
+    }
+    reference = make_layer_reference(dims.bscans, dims.ascans, dims.depth, surfaces, total);
+    IOCT_RENDER_CUDA(cudaMemcpyAsync(rpe.data, reference.rpe_px.data(), rpe.count * sizeof(float),
+                                     cudaMemcpyHostToDevice, stream));
+    IOCT_RENDER_CUDA(cudaMemcpyAsync(axial.data, reference.axial_plane_px.data(),
+                                     axial.count * sizeof(float), cudaMemcpyHostToDevice, stream));
+    IOCT_RENDER_CUDA(cudaStreamSynchronize(stream));
+  }
+
+  void prepare_tables(const RenderConfig& config) {
+    const bool colorize = config.mode != RenderMode::layer_aware || config.layer_aware.colorize;
+    if (tables_valid && same_transfer(table_transfer, config.enhanced.transfer) &&
+        same_colors(table_colors, config.layer_aware.colors) && table_colorize == colorize) {
+      return;
+    }
+    const RenderTables tables = bake_tables(config);
+    transfer_lut.resize(tables.transfer_lut.size());
+    lab_lut.resize(tables.lab_lut.size());
+    IOCT_RENDER_CUDA(cudaMemcpyAsync(transfer_lut.data, tables.transfer_lut.data(),
+                                     tables.transfer_lut.size() * sizeof(float),
+                                     cudaMemcpyHostToDevice, stream));
+    IOCT_RENDER_CUDA(cudaMemcpyAsync(lab_lut.data, tables.lab_lut.data(),
+                                     tables.lab_lut.size() * sizeof(float), cudaMemcpyHostToDevice,
+                                     stream));
+    IOCT_RENDER_CUDA(cudaStreamSynchronize(stream));
+    host_transfer_lut = tables.transfer_lut;
+    table_transfer = config.enhanced.transfer;
+    table_colors = config.layer_aware.colors;
+    table_colorize = colorize;
+    tables_valid = true;
+  }
+
+  // u8 level below which a brick's samples cannot contribute in this mode.
+  float empty_level(const RenderConfig& config) const {
+    if (config.mode == RenderMode::layer_aware) {
+      return static_cast<float>(config.layer_aware.i_min * 255.0) - 1e-3f;
+    }
+    // The transfer function's opacity is 0 up to the table entry before its first non-zero one.
+    float level = 0.0f;
+    for (int i = 0; i < kTransferLutSize; ++i) {
+      if (host_transfer_lut[4 * i + 3] > 0.0f) {
+        level = static_cast<float>(std::max(0, i - 1)) * 255.0f / (kTransferLutSize - 1);
+        break;
+      }
+    }
+    if (config.enhanced.use_threshold) {
+      level = std::max(level, static_cast<float>(config.enhanced.threshold * 255.0) - 1e-3f);
+    }
+    return level;
+  }
+};
+
+CudaRenderer::CudaRenderer() : state_(std::make_unique<State>()) {
+  IOCT_RENDER_CUDA(cudaStreamCreateWithFlags(&state_->stream, cudaStreamNonBlocking));
+}
+
+CudaRenderer::~CudaRenderer() {
+  if (state_->stream != nullptr) cudaStreamSynchronize(state_->stream);
+  state_->free_volume();
+  if (state_->stream != nullptr) cudaStreamDestroy(state_->stream);
+}
+
+void CudaRenderer::set_volume(const Volume& volume, const segmentation::Surfaces* surfaces) {
+  state_->allocate({volume.bscans(), volume.ascans(), volume.depth()});
+  state_->upload(volume.pixels().data(), cudaMemcpyHostToDevice, 0, volume.bscans(), surfaces);
+}
+
+void CudaRenderer::update_bscans(const Volume& volume, std::uint32_t first, std::uint32_t count,
+                                 const segmentation::Surfaces* surfaces) {
+  const VolumeDims& d = state_->dims;
+  if (!state_->has_volume || volume.bscans() != d.bscans || volume.ascans() != d.ascans ||
+      volume.depth() != d.depth) {
+    set_volume(volume, surfaces);
+    return;
+  }
+  if (count == 0 || first >= volume.bscans() || count > volume.bscans() - first) {
+    throw std::out_of_range("B-scans [" + std::to_string(first) + ", " +
+                            std::to_string(std::uint64_t{first} + count) +
+                            ") outside the volume's " + std::to_string(volume.bscans()));
+  }
+  state_->upload(volume.pixels().data(), cudaMemcpyHostToDevice, first, count, surfaces);
+}
+
+void CudaRenderer::update_from_device(const std::uint8_t* device_pixels, std::uint32_t bscans,
+                                      std::uint32_t ascans, std::uint32_t depth,
+                                      std::uint32_t first, std::uint32_t count,
+                                      const segmentation::Surfaces* surfaces) {
+  const VolumeDims& d = state_->dims;
+  if (!state_->has_volume || bscans != d.bscans || ascans != d.ascans || depth != d.depth) {
+    state_->allocate({bscans, ascans, depth});
+    first = 0;
+    count = bscans;
+  }
+  if (count == 0 || first >= bscans || count > bscans - first) {
+    throw std::out_of_range("B-scans outside the volume");
+  }
+  state_->upload(device_pixels, cudaMemcpyDeviceToDevice, first, count, surfaces);
+}
+
+void CudaRenderer::render_on_device(const RenderConfig& config) {
+  State& s = *state_;
+  if (!s.has_volume) throw std::logic_error("render() before set_volume()");
+  RenderParams p = bake_params(config, s.dims, s.reference);
+  s.prepare_tables(config);
+  p.transfer_lut = s.transfer_lut.data;
+  p.lab_lut = s.lab_lut.data;
+  p.reference_px = config.mode == RenderMode::axial_colorization ? s.axial.data : s.rpe.data;
+  s.width = output_width(p);
+  s.height = static_cast<std::uint32_t>(p.height);
+  s.image.resize(std::size_t{s.width} * s.height);
+  const TextureSampler sampler{s.texture};
+  const dim3 block(16, 8);
+  const dim3 grid((p.width + block.x - 1) / block.x, (p.height + block.y - 1) / block.y, p.eyes);
+  if (is_volume_mode(config.mode)) {
+    const BrickSkipper skipper{s.bricks.data, s.nx, s.ny, s.nz, s.empty_level(config)};
+    volume_kernel<<<grid, block, 0, s.stream>>>(p, sampler, skipper, skipper.level > 0.0f,
+                                                s.image.data);
+  } else {
+    plane_kernel<<<grid, block, 0, s.stream>>>(p, sampler, s.image.data);
+  }
+  IOCT_RENDER_CUDA(cudaGetLastError());
+}
+
+void CudaRenderer::render(const RenderConfig& config, RgbaImage& image) {
+  render_on_device(config);
+  image.resize(state_->width, state_->height);
+  IOCT_RENDER_CUDA(cudaMemcpyAsync(image.rgba.data(), state_->image.data, image.rgba.size(),
+                                   cudaMemcpyDeviceToHost, state_->stream));
+  IOCT_RENDER_CUDA(cudaStreamSynchronize(state_->stream));
+}
+
+const std::uint8_t* CudaRenderer::image_on_device() const noexcept {
+  return reinterpret_cast<const std::uint8_t*>(state_->image.data);
+}
+std::uint32_t CudaRenderer::image_width() const noexcept { return state_->width; }
+std::uint32_t CudaRenderer::image_height() const noexcept { return state_->height; }
+void CudaRenderer::synchronize() { IOCT_RENDER_CUDA(cudaStreamSynchronize(state_->stream)); }
+void* CudaRenderer::stream() const noexcept { return state_->stream; }
+
+std::uint64_t CudaRenderer::empty_bricks(float level) {
+  std::vector<uchar2> host(state_->bricks.count);
+  IOCT_RENDER_CUDA(cudaMemcpyAsync(host.data(), state_->bricks.data, host.size() * sizeof(uchar2),
+                                   cudaMemcpyDeviceToHost, state_->stream));
+  IOCT_RENDER_CUDA(cudaStreamSynchronize(state_->stream));
+  return static_cast<std::uint64_t>(
+      std::count_if(host.begin(), host.end(), [&](uchar2 b) { return b.y < level; }));
+}
+
+}  // namespace ioct::gpu::render

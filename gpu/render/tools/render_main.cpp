@@ -1,0 +1,283 @@
+// ioct-render: a volume file (NRRD as ioct-process and ioct-vol-import write it, or a Heidelberg
+// .vol export) rendered to PNG in every mode asked for, with the same renderers as the live
+// system; optionally a turntable sequence (one full turn about the A-scan axis).
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ioct/common/atomic_file.hpp"
+#include "ioct/common/config_error.hpp"
+#include "ioct/gpu/filters/volume_filter.hpp"
+#include "ioct/gpu/offline/heidelberg_vol.hpp"
+#include "ioct/gpu/offline/input_file_error.hpp"
+#include "ioct/gpu/offline/nrrd_file.hpp"
+#include "ioct/gpu/render/png_rgba.hpp"
+#include "ioct/gpu/render/renderer.hpp"
+#include "ioct/gpu/segmentation/segmenter.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace ioct::gpu;
+using namespace ioct::gpu::render;
+
+struct Loaded {
+  Volume volume;
+  segmentation::VolumeSampling sampling;
+  bool sampling_known = false;
+  bool already_filtered = false;
+  std::optional<segmentation::Surfaces> vol_layers;  // a .vol's own ILM and BM lines
+  std::string kind;
+};
+
+bool has_extension(const fs::path& path, std::string_view extension) {
+  std::string e = path.extension().string();
+  for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return e == extension;
+}
+
+Loaded load(const fs::path& input) {
+  Loaded loaded;
+  if (has_extension(input, ".vol")) {
+    const offline::HeidelbergVol vol = offline::read_heidelberg_vol(input);
+    loaded.volume = offline::to_volume(vol);
+    loaded.sampling.axial_um_per_px = vol.header.depth_spacing_mm * 1000.0;
+    loaded.sampling.ascan_spacing_um = vol.header.ascan_spacing_mm * 1000.0;
+    loaded.sampling.bscan_spacing_um = vol.header.bscan_distance_mm > 0.0
+                                           ? vol.header.bscan_distance_mm * 1000.0
+                                           : loaded.sampling.ascan_spacing_um;
+    loaded.sampling_known = true;
+    // The device's lines: ILM (0) and Bruch's membrane (1), which stands in for the RPE centre
+    // a few px above it.
+    segmentation::Surfaces s;
+    s.reset(vol.header.bscans, vol.header.ascans, vol.header.depth);
+    for (std::uint32_t b = 0; b < vol.header.bscans; ++b) {
+      const auto& layers = vol.bscans[b].layers;
+      for (std::uint32_t a = 0; a < vol.header.ascans; ++a) {
+        if (layers.size() > 0) s.ilm[s.index(b, a)] = layers[0][a];
+        if (layers.size() > 1) s.rpe[s.index(b, a)] = layers[1][a];
+      }
+    }
+    loaded.vol_layers = std::move(s);
+    loaded.kind = "Heidelberg .vol";
+    return loaded;
+  }
+  if (has_extension(input, ".nrrd") || has_extension(input, ".nhdr")) {
+    offline::NrrdVolume nrrd = offline::read_nrrd_file(input);
+    loaded.volume = std::move(nrrd.volume);
+    const auto& m = nrrd.metadata;
+    double to_um = 0.0;
+    if (m.unit == "mm") to_um = 1000.0;
+    if (m.unit == "um" || m.unit == "\u00b5m" || m.unit == "micron") to_um = 1.0;
+    if (to_um > 0.0 && std::isfinite(m.spacings[0]) && std::isfinite(m.spacings[1]) &&
+        std::isfinite(m.spacings[2])) {
+      loaded.sampling.axial_um_per_px = m.spacings[0] * to_um;
+      loaded.sampling.ascan_spacing_um = m.spacings[1] * to_um;
+      loaded.sampling.bscan_spacing_um = m.spacings[2] * to_um;
+      loaded.sampling_known = true;
+    }
+    for (const auto& [key, value] : m.key_values) {
+      if (key == "ioct_filter" && value != "none") loaded.already_filtered = true;
+    }
+    loaded.kind = "NRRD";
+    return loaded;
+  }
+  throw offline::InputFileError(input, "not a volume file this command reads: use .nrrd or .vol");
+}
+
+std::vector<RenderMode> parse_modes(const std::string& text) {
+  std::vector<RenderMode> modes;
+  if (text == "all") {
+    return {RenderMode::basic,       RenderMode::enhanced,         RenderMode::layer_aware,
+            RenderMode::axial_colorization, RenderMode::la_mip_composite, RenderMode::bscan_slice,
+            RenderMode::en_face_slice};
+  }
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = text.find(',', start);
+    const std::string name =
+        text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    modes.push_back(parse_render_mode(name));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return modes;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string input;
+  std::string out = ".";
+  std::string modes_text = "enhanced";
+  std::string backend_text = "auto";
+  std::string preset_text = "retina";
+  std::string layers = "auto";
+  std::string filter = "auto";
+  std::string name_prefix;
+  std::int64_t width = 1024;
+  std::int64_t height = 768;
+  std::uint32_t turntable = 0;
+  unsigned threads = 0;
+  std::optional<double> bscan_spacing_um;
+  RenderConfig config;
+
+  CLI::App app{"ioct-render: a volume file (.nrrd or Heidelberg .vol) rendered to PNG"};
+  app.add_option("input", input, "volume file: .nrrd (ioct-process, ioct-vol-import) or .vol")
+      ->required();
+  app.add_option("--out", out, "directory for <mode>.png and summary.json");
+  app.add_option("--mode", modes_text,
+                 "comma-separated: basic, enhanced, layer-aware, axial-colorization, la-mip, "
+                 "bscan, en-face; or all");
+  app.add_option("--preset", preset_text, "enhanced ray casting preset: retina or anterior");
+  app.add_option("--backend", backend_text, "cpu, cuda or auto");
+  app.add_option("--layers", layers,
+                 "reference RPE: auto (a .vol's own BM line, else segment), segment, vol, none");
+  app.add_option("--filter", filter, "median + Gaussian before segmenting: auto, yes, no");
+  app.add_option("--width", width, "output width per eye, px");
+  app.add_option("--height", height, "output height, px");
+  app.add_option("--azimuth", config.view.azimuth_deg, "deg about the A-scan axis");
+  app.add_option("--elevation", config.view.elevation_deg, "deg above the tissue plane");
+  app.add_option("--zoom", config.view.zoom, "1: the volume's bounding sphere fits");
+  app.add_option("--pan-x", config.view.pan_x, "image-plane shift (volume extents)");
+  app.add_option("--pan-y", config.view.pan_y, "image-plane shift (volume extents)");
+  app.add_flag("--stereo", config.view.stereo, "side-by-side stereo pair (volume modes)");
+  app.add_option("--stereo-angle", config.view.stereo_angle_deg, "deg between the eyes");
+  app.add_option("--threshold", config.enhanced.threshold, "enhanced: intensity threshold");
+  app.add_option("--shadow-steps", config.layer_aware.shadow_steps,
+                 "layer-aware N_s (20 limited, 200 full, 0 none)");
+  app.add_option("--i-min", config.layer_aware.i_min, "layer-aware opacity ramp start");
+  app.add_option("--i-max", config.layer_aware.i_max, "layer-aware opacity ramp end");
+  app.add_option("--step", config.step_voxels, "ray step in voxels");
+  app.add_option("--bscan-spacing-um", bscan_spacing_um,
+                 "override the B-scan spacing (a single B-scan renders as a slab this thick)");
+  app.add_option("--turntable", turntable, "also write N frames of one full turn per volume mode");
+  app.add_option("--prefix", name_prefix, "prefix of the PNG names");
+  app.add_option("--threads", threads, "CPU threads");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+
+  try {
+    if (width < 1 || width > 8192) {
+      throw ioct::ConfigError("render.view.output_width", ioct::format_value(width),
+                              "must be in [1, 8192]");
+    }
+    if (height < 1 || height > 8192) {
+      throw ioct::ConfigError("render.view.output_height", ioct::format_value(height),
+                              "must be in [1, 8192]");
+    }
+    config.view.output_width = static_cast<std::uint32_t>(width);
+    config.view.output_height = static_cast<std::uint32_t>(height);
+    const LayerAwareConfig layer_aware = config.layer_aware;
+    const double threshold = config.enhanced.threshold;
+    config.enhanced = enhanced_preset(parse_preset(preset_text));
+    config.enhanced.threshold = threshold;
+    config.layer_aware = layer_aware;
+    config.cpu_threads = threads;
+    const std::vector<RenderMode> modes = parse_modes(modes_text);
+    const Backend backend = parse_backend(backend_text);
+    if (layers != "auto" && layers != "segment" && layers != "vol" && layers != "none") {
+      throw ioct::ConfigError("layers", "'" + layers + "'", "must be auto, segment, vol or none");
+    }
+    if (filter != "auto" && filter != "yes" && filter != "no") {
+      throw ioct::ConfigError("filter", "'" + filter + "'", "must be auto, yes or no");
+    }
+    config.validate();
+
+    Loaded loaded = load(input);
+    if (bscan_spacing_um) loaded.sampling.bscan_spacing_um = *bscan_spacing_um;
+    config.spacing = {loaded.sampling.ascan_spacing_um, loaded.sampling.bscan_spacing_um,
+                      loaded.sampling.axial_um_per_px};
+    config.validate();
+
+    // The reference layer.
+    std::optional<segmentation::Surfaces> surfaces;
+    std::string reference = "none";
+    if (layers == "vol" || (layers == "auto" && loaded.vol_layers)) {
+      if (!loaded.vol_layers) {
+        throw ioct::ConfigError("layers", "'vol'", "needs a .vol input (it has the lines)");
+      }
+      surfaces = loaded.vol_layers;
+      reference = "the file's Bruch's membrane line";
+    } else if (layers == "segment" || layers == "auto") {
+      const bool do_filter = filter == "yes" || (filter == "auto" && !loaded.already_filtered);
+      Volume filtered;
+      if (do_filter) {
+        filters::make_volume_filter(backend, {}, threads == 0 ? 2 : threads)
+            ->filter_volume(loaded.volume, filtered);
+      }
+      segmentation::Surfaces s;
+      make_segmenter(backend, {}, loaded.sampling, threads == 0 ? 2 : threads)
+          ->segment_volume(do_filter ? filtered : loaded.volume, s);
+      surfaces = std::move(s);
+      reference = "segmented RPE";
+    }
+
+    const auto renderer = make_renderer(backend, threads);
+    renderer->set_volume(loaded.volume, surfaces ? &*surfaces : nullptr);
+    fs::create_directories(out);
+    nlohmann::json written = nlohmann::json::array();
+    RgbaImage image;
+    const auto start = std::chrono::steady_clock::now();
+    for (const RenderMode mode : modes) {
+      RenderConfig c = config;
+      c.mode = mode;
+      const std::string base = name_prefix + std::string(to_string(mode));
+      renderer->render(c, image);
+      write_png(fs::path(out) / (base + ".png"), image);
+      written.push_back(base + ".png");
+      if (turntable > 0 && is_volume_mode(mode)) {
+        for (std::uint32_t f = 0; f < turntable; ++f) {
+          c.view.azimuth_deg = config.view.azimuth_deg + 360.0 * f / turntable;
+          renderer->render(c, image);
+          char name[64];
+          std::snprintf(name, sizeof name, "_turn%04u.png", f);
+          write_png(fs::path(out) / (base + name), image);
+        }
+        written.push_back(base + "_turn*.png (" + std::to_string(turntable) + ")");
+      }
+    }
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const nlohmann::json summary = {{"input", fs::path(input).filename().string()},
+                                    {"kind", loaded.kind},
+                                    {"backend", std::string(renderer->backend_name())},
+                                    {"bscans", loaded.volume.bscans()},
+                                    {"ascans", loaded.volume.ascans()},
+                                    {"depth", loaded.volume.depth()},
+                                    {"reference_layer", reference},
+                                    {"seconds", seconds},
+                                    {"images", written}};
+    ioct::write_text_file_atomically(fs::path(out) / (name_prefix + "summary.json"),
+                                     summary.dump(2) + "\n");
+    std::cout << "ioct-render: " << input << " (" << loaded.kind << ", "
+              << loaded.volume.bscans() << " x " << loaded.volume.ascans() << " x "
+              << loaded.volume.depth() << "), reference: " << reference << ", "
+              << renderer->backend_name() << ", " << written.size() << " outputs in " << seconds
+              << " s -> " << out << "\n";
+    return 0;
+  } catch (const ioct::ConfigError& e) {
+    std::cerr << "ioct-render: " << e.what() << "\n";
+    return 2;
+  } catch (const BackendUnavailable& e) {
+    std::cerr << "ioct-render: " << e.what() << "\n";
+    return 2;
+  } catch (const offline::InputFileError& e) {
+    std::cerr << "ioct-render: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "ioct-render: " << input << ": " << e.what() << "\n";
+    return 1;
+  }
+}
