@@ -52,7 +52,7 @@ std::optional<ShmObject> take_over_stale(const RingConfig& config, const RingLay
     old.emplace(ShmObject::open(config.name, Access::read_write));
   } catch (const RingError& e) {
     if (e.code() == RingErrc::not_found) return std::nullopt;
-    if (e.code() != RingErrc::too_small) throw;
+    if (e.code() != RingErrc::not_ready) throw;
     // Zero bytes: a producer died between creating and sizing it. Debris of ours.
     ShmObject::remove(config.name);
     action = StartupAction::replaced_stale;

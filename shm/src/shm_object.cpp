@@ -153,8 +153,13 @@ ShmObject ShmObject::open(const std::string& name, Access access) {
       throw RingError(RingErrc::system, "ring '" + name + "': cannot read its size");
     }
     if (size == 0) {
-      // An empty object cannot be mapped; report it as what it is.
-      throw RingError(RingErrc::too_small, "ring '" + name + "': object is 0 bytes (truncated)");
+      // A producer creates the object, then sizes it: a reader that looks in between sees 0
+      // bytes. Waiting readers retry not_ready; a producer dead at that point left debris,
+      // which the next producer removes (RingWriter::create).
+      throw RingError(RingErrc::not_ready,
+                      "ring '" + name +
+                          "': object is 0 bytes: the producer has not sized it yet (or died "
+                          "before it did)");
     }
     impl->region = bip::mapped_region(impl->object, mode);
   } catch (const bip::interprocess_exception& e) {

@@ -122,9 +122,11 @@ TEST_F(RingAttachValidation, MissingObject) {
   expect_attach_fails(shm::RingErrc::not_found, {"does not exist"});
 }
 
+// What a reader sees between the producer's create and its sizing: transient, so waiting
+// readers retry it.
 TEST_F(RingAttachValidation, EmptyObject) {
   make_object(name_.str(), 0);
-  expect_attach_fails(shm::RingErrc::too_small, {"0 bytes"});
+  expect_attach_fails(shm::RingErrc::not_ready, {"0 bytes", "not sized it yet"});
 }
 
 TEST_F(RingAttachValidation, ObjectOf100Bytes) {

@@ -49,8 +49,8 @@ void CpuRenderer::update_bscans(const Volume& volume, std::uint32_t first, std::
   }
   if (count == 0 || first >= volume.bscans() || count > volume.bscans() - first) {
     throw std::out_of_range("B-scans [" + std::to_string(first) + ", " +
-                            std::to_string(std::uint64_t{first} + count) + ") outside the volume's " +
-                            std::to_string(volume.bscans()));
+                            std::to_string(std::uint64_t{first} + count) +
+                            ") outside the volume's " + std::to_string(volume.bscans()));
   }
   for (std::uint32_t b = first; b < first + count; ++b) {
     const auto src = volume.bscan(b);
@@ -86,7 +86,7 @@ void CpuRenderer::render(const RenderConfig& config, RgbaImage& image) {
         const int ex = static_cast<int>(x) % params.width;
         const Rgba c = volume_mode
                            ? render_ray(params, sampler, NoSkip{}, ex, static_cast<int>(y), eye)
-                           : render_plane(params, sampler, ex, static_cast<int>(y));
+                           : render_plane(params, sampler, NoSkip{}, ex, static_cast<int>(y));
         std::uint8_t* out = image.rgba.data() + (std::size_t{y} * width + x) * 4;
         out[0] = to_u8(c.r);
         out[1] = to_u8(c.g);
@@ -104,7 +104,7 @@ void CpuRenderer::render(const RenderConfig& config, RgbaImage& image) {
 }
 
 RgbaImage render_volume(const Volume& volume, const segmentation::Surfaces* surfaces,
-                 const RenderConfig& config) {
+                        const RenderConfig& config) {
   CpuRenderer renderer(config.cpu_threads);
   renderer.set_volume(volume, surfaces);
   RgbaImage image;

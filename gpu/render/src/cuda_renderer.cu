@@ -23,7 +23,7 @@ void check(cudaError_t status, const char* what) {
 }
 #define IOCT_RENDER_CUDA(call) check((call), #call)
 
-constexpr int kBrick = 8;
+constexpr int kBrick = kBrickSize;
 constexpr int kBrickApron = 2;  // trilinear footprint plus the gradient's central differences
 
 template <class T>
@@ -85,6 +85,14 @@ struct BrickSkipper {
     const int next = static_cast<int>(ceilf((t + fmaxf(exit, 0.0f) - t0) / dt - 0.5f));
     return next > k ? next : k + 1;
   }
+  // The largest voxel of the brick around v (its apron covers the trilinear footprint), as a
+  // sample; a hair above, so rounding in the texture unit's interpolation cannot beat it.
+  __host__ __device__ float upper_bound(Vec3 v) const {
+    const int bx = min(max(static_cast<int>(floorf((v.x + 0.5f) / kBrick)), 0), nx - 1);
+    const int by = min(max(static_cast<int>(floorf((v.y + 0.5f) / kBrick)), 0), ny - 1);
+    const int bz = min(max(static_cast<int>(floorf((v.z + 0.5f) / kBrick)), 0), nz - 1);
+    return static_cast<float>(bricks[(bz * ny + by) * nx + bx].y) * (1.0f / 255.0f) + 1e-6f;
+  }
 };
 
 __global__ void volume_kernel(RenderParams p, TextureSampler sampler, BrickSkipper skipper,
@@ -99,25 +107,29 @@ __global__ void volume_kernel(RenderParams p, TextureSampler sampler, BrickSkipp
       make_uchar4(to_u8(c.r), to_u8(c.g), to_u8(c.b), to_u8(c.a));
 }
 
-__global__ void plane_kernel(RenderParams p, TextureSampler sampler, uchar4* out) {
+__global__ void plane_kernel(RenderParams p, TextureSampler sampler, BrickSkipper skipper,
+                             uchar4* out) {
   const int x = blockIdx.x * blockDim.x + threadIdx.x;
   const int y = blockIdx.y * blockDim.y + threadIdx.y;
   if (x >= p.width || y >= p.height) return;
-  const Rgba c = render_plane(p, sampler, x, y);
+  const Rgba c = render_plane(p, sampler, skipper, x, y);
   out[y * p.width + x] = make_uchar4(to_u8(c.r), to_u8(c.g), to_u8(c.b), to_u8(c.a));
 }
 
 // Min and max of each brick of brick rows [by0, by1) (B-scan direction), over its voxels and an
 // apron of kBrickApron on every side.
-__global__ void brick_kernel(const std::uint8_t* volume, int ascans, int bscans, int depth,
-                             int nx, int ny, int nz, int by0, int by1, uchar2* bricks) {
+__global__ void brick_kernel(const std::uint8_t* volume, int ascans, int bscans, int depth, int nx,
+                             int ny, int nz, int by0, int by1, uchar2* bricks) {
   const int bx = blockIdx.x * blockDim.x + threadIdx.x;
   const int by = by0 + blockIdx.y;
   const int bz = blockIdx.z * blockDim.z + threadIdx.z;
   if (bx >= nx || by >= by1 || bz >= nz) return;
-  const int a0 = max(bx * kBrick - kBrickApron, 0), a1 = min(bx * kBrick + kBrick + kBrickApron, ascans);
-  const int b0 = max(by * kBrick - kBrickApron, 0), b1 = min(by * kBrick + kBrick + kBrickApron, bscans);
-  const int d0 = max(bz * kBrick - kBrickApron, 0), d1 = min(bz * kBrick + kBrick + kBrickApron, depth);
+  const int a0 = max(bx * kBrick - kBrickApron, 0),
+            a1 = min(bx * kBrick + kBrick + kBrickApron, ascans);
+  const int b0 = max(by * kBrick - kBrickApron, 0),
+            b1 = min(by * kBrick + kBrick + kBrickApron, bscans);
+  const int d0 = max(bz * kBrick - kBrickApron, 0),
+            d1 = min(bz * kBrick + kBrick + kBrickApron, depth);
   unsigned lo = 255, hi = 0;
   for (int b = b0; b < b1; ++b) {
     for (int a = a0; a < a1; ++a) {
@@ -129,13 +141,13 @@ __global__ void brick_kernel(const std::uint8_t* volume, int ascans, int bscans,
       }
     }
   }
-  bricks[(bz * ny + by) * nx + bx] = make_uchar2(static_cast<unsigned char>(lo),
-                                                 static_cast<unsigned char>(hi));
+  bricks[(bz * ny + by) * nx + bx] =
+      make_uchar2(static_cast<unsigned char>(lo), static_cast<unsigned char>(hi));
 }
 
 // Integer centre-of-mass sums per B-scan (exactly those of centre_of_mass_sums()).
-__global__ void centre_of_mass_kernel(const std::uint8_t* volume, int ascans, int depth,
-                                      int first, unsigned long long* sums) {
+__global__ void centre_of_mass_kernel(const std::uint8_t* volume, int ascans, int depth, int first,
+                                      unsigned long long* sums) {
   const int a = blockIdx.x * blockDim.x + threadIdx.x;
   const int b = first + blockIdx.y;
   if (a >= ascans) return;
@@ -154,10 +166,12 @@ __global__ void centre_of_mass_kernel(const std::uint8_t* volume, int ascans, in
 bool same_transfer(const TransferFunctions& a, const TransferFunctions& b) {
   if (a.color.size() != b.color.size() || a.opacity.size() != b.opacity.size()) return false;
   for (std::size_t i = 0; i < a.color.size(); ++i) {
-    if (a.color[i].intensity != b.color[i].intensity || a.color[i].rgb != b.color[i].rgb) return false;
+    if (a.color[i].intensity != b.color[i].intensity || a.color[i].rgb != b.color[i].rgb)
+      return false;
   }
   for (std::size_t i = 0; i < a.opacity.size(); ++i) {
-    if (a.opacity[i].intensity != b.opacity[i].intensity || a.opacity[i].alpha != b.opacity[i].alpha)
+    if (a.opacity[i].intensity != b.opacity[i].intensity ||
+        a.opacity[i].alpha != b.opacity[i].alpha)
       return false;
   }
   return true;
@@ -207,7 +221,8 @@ struct CudaRenderer::State {
     free_volume();
     dims = d;
     const cudaChannelFormatDesc format = cudaCreateChannelDesc<unsigned char>();
-    IOCT_RENDER_CUDA(cudaMalloc3DArray(&array, &format, make_cudaExtent(d.depth, d.ascans, d.bscans)));
+    IOCT_RENDER_CUDA(
+        cudaMalloc3DArray(&array, &format, make_cudaExtent(d.depth, d.ascans, d.bscans)));
     cudaResourceDesc resource{};
     resource.resType = cudaResourceTypeArray;
     resource.res.array.array = array;
@@ -223,7 +238,8 @@ struct CudaRenderer::State {
     nz = static_cast<int>((d.depth + kBrick - 1) / kBrick);
     bricks.resize(std::size_t(nx) * ny * nz);
     sums.resize(std::size_t{d.bscans} * 2);
-    IOCT_RENDER_CUDA(cudaMemsetAsync(sums.data, 0, sums.count * sizeof(unsigned long long), stream));
+    IOCT_RENDER_CUDA(
+        cudaMemsetAsync(sums.data, 0, sums.count * sizeof(unsigned long long), stream));
     host_sums.assign(sums.count, 0);
     rpe.resize(std::size_t{d.bscans} * d.ascans);
     axial.resize(std::size_t{d.bscans} * d.ascans);
@@ -243,18 +259,20 @@ struct CudaRenderer::State {
     copy.extent = make_cudaExtent(dims.depth, dims.ascans, count);
     copy.kind = kind;
     IOCT_RENDER_CUDA(cudaMemcpy3DAsync(&copy, stream));
-    IOCT_RENDER_CUDA(cudaMemcpyAsync(linear.data + first * bscan_bytes, pixels + first * bscan_bytes,
-                                     count * bscan_bytes, kind, stream));
+    IOCT_RENDER_CUDA(cudaMemcpyAsync(linear.data + first * bscan_bytes,
+                                     pixels + first * bscan_bytes, count * bscan_bytes, kind,
+                                     stream));
     // Bricks whose voxels or apron reach into the changed B-scans.
     const int by0 = std::max(0, (static_cast<int>(first) - kBrickApron) / kBrick);
-    const int by1 = std::min(ny, (static_cast<int>(first + count) + kBrickApron + kBrick - 1) / kBrick);
+    const int by1 =
+        std::min(ny, (static_cast<int>(first + count) + kBrickApron + kBrick - 1) / kBrick);
     const dim3 block(32, 1, 4);
     const dim3 grid((nx + 31) / 32, by1 - by0, (nz + 3) / 4);
-    brick_kernel<<<grid, block, 0, stream>>>(linear.data, dims.ascans, dims.bscans, dims.depth,
-                                             nx, ny, nz, by0, by1, bricks.data);
+    brick_kernel<<<grid, block, 0, stream>>>(linear.data, dims.ascans, dims.bscans, dims.depth, nx,
+                                             ny, nz, by0, by1, bricks.data);
     IOCT_RENDER_CUDA(cudaGetLastError());
-    IOCT_RENDER_CUDA(cudaMemsetAsync(sums.data + 2 * first, 0,
-                                     2 * count * sizeof(unsigned long long), stream));
+    IOCT_RENDER_CUDA(
+        cudaMemsetAsync(sums.data + 2 * first, 0, 2 * count * sizeof(unsigned long long), stream));
     centre_of_mass_kernel<<<dim3((dims.ascans + 127) / 128, count), 128, 0, stream>>>(
         linear.data, dims.ascans, dims.depth, first, sums.data);
     IOCT_RENDER_CUDA(cudaGetLastError());
@@ -384,7 +402,8 @@ void CudaRenderer::render_on_device(const RenderConfig& config) {
     volume_kernel<<<grid, block, 0, s.stream>>>(p, sampler, skipper, skipper.level > 0.0f,
                                                 s.image.data);
   } else {
-    plane_kernel<<<grid, block, 0, s.stream>>>(p, sampler, s.image.data);
+    const BrickSkipper skipper{s.bricks.data, s.nx, s.ny, s.nz, 0.0f};
+    plane_kernel<<<grid, block, 0, s.stream>>>(p, sampler, skipper, s.image.data);
   }
   IOCT_RENDER_CUDA(cudaGetLastError());
 }
@@ -400,10 +419,18 @@ void CudaRenderer::render(const RenderConfig& config, RgbaImage& image) {
 const std::uint8_t* CudaRenderer::image_on_device() const noexcept {
   return reinterpret_cast<const std::uint8_t*>(state_->image.data);
 }
-std::uint32_t CudaRenderer::image_width() const noexcept { return state_->width; }
-std::uint32_t CudaRenderer::image_height() const noexcept { return state_->height; }
-void CudaRenderer::synchronize() { IOCT_RENDER_CUDA(cudaStreamSynchronize(state_->stream)); }
-void* CudaRenderer::stream() const noexcept { return state_->stream; }
+std::uint32_t CudaRenderer::image_width() const noexcept {
+  return state_->width;
+}
+std::uint32_t CudaRenderer::image_height() const noexcept {
+  return state_->height;
+}
+void CudaRenderer::synchronize() {
+  IOCT_RENDER_CUDA(cudaStreamSynchronize(state_->stream));
+}
+void* CudaRenderer::stream() const noexcept {
+  return state_->stream;
+}
 
 std::uint64_t CudaRenderer::empty_bricks(float level) {
   std::vector<uchar2> host(state_->bricks.count);
