@@ -6,11 +6,25 @@
 #include <thread>
 
 #include "ioct/gpu/render/frame_setup.hpp"
+#include "ioct/gpu/render/la_mip.hpp"
 #include "ioct/gpu/render/pixel_shader.hpp"
 
 namespace ioct::gpu::render {
 
 namespace {
+
+// Runs work(i) for i in [0, count) on `threads` threads, in order of i per thread.
+template <class Work>
+void parallel_for(std::uint32_t count, unsigned threads, const Work& work) {
+  std::atomic<std::uint32_t> next{0};
+  const auto run = [&] {
+    for (std::uint32_t i = next++; i < count; i = next++) work(i);
+  };
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < std::min<unsigned>(threads, count); ++t) pool.emplace_back(run);
+  run();
+  for (auto& t : pool) t.join();
+}
 
 CentreOfMassSums total(const std::vector<CentreOfMassSums>& per_bscan) {
   CentreOfMassSums sum;
@@ -77,30 +91,48 @@ void CpuRenderer::render(const RenderConfig& config, RgbaImage& image) {
   const std::uint32_t height = static_cast<std::uint32_t>(params.height);
   image.resize(width, height);
   const bool volume_mode = is_volume_mode(config.mode);
+  const bool la_mip = config.mode == RenderMode::la_mip_composite;
+  const unsigned threads = config.cpu_threads == 0 ? threads_ : config.cpu_threads;
 
-  std::atomic<std::uint32_t> next_row{0};
-  const auto work = [&] {
-    for (std::uint32_t y = next_row++; y < height; y = next_row++) {
-      for (std::uint32_t x = 0; x < width; ++x) {
-        const int eye = static_cast<int>(x) / params.width;
-        const int ex = static_cast<int>(x) % params.width;
-        const Rgba c = volume_mode
-                           ? render_ray(params, sampler, NoSkip{}, ex, static_cast<int>(y), eye)
-                           : render_plane(params, sampler, NoSkip{}, ex, static_cast<int>(y));
-        std::uint8_t* out = image.rgba.data() + (std::size_t{y} * width + x) * 4;
-        out[0] = to_u8(c.r);
-        out[1] = to_u8(c.g);
-        out[2] = to_u8(c.b);
-        out[3] = to_u8(c.a);
+  std::vector<float> projections;
+  if (la_mip) {
+    const LaMipBuffer layout = la_mip_buffer(params);
+    projections.assign(layout.size(), 0.0f);
+    float* buffer = projections.data();
+    const int a_count = params.dim_a, b_count = params.dim_b;
+    parallel_for(dims.bscans, threads, [&](std::uint32_t b) {
+      for (int a = 0; a < a_count; ++a) {
+        la_mip_en_face_texel(params, sampler, a, static_cast<int>(b), buffer);
       }
+    });
+    parallel_for(dims.depth, threads, [&](std::uint32_t z) {
+      const int zi = static_cast<int>(z);
+      for (int a = 0; a < a_count; ++a) {
+        buffer[layout.across_bscans() + std::size_t{z} * layout.a + static_cast<std::size_t>(a)] =
+            la_mip_across_bscans(params, sampler, a, zi, 0, b_count);
+      }
+      for (int b = 0; b < b_count; ++b) {
+        buffer[layout.along_ascans() + std::size_t{z} * layout.b + static_cast<std::size_t>(b)] =
+            la_mip_along_ascans(params, sampler, b, zi, 0, a_count);
+      }
+    });
+  }
+
+  parallel_for(height, threads, [&](std::uint32_t y) {
+    for (std::uint32_t x = 0; x < width; ++x) {
+      const int eye = static_cast<int>(x) / params.width;
+      const int ex = static_cast<int>(x) % params.width;
+      const int row = static_cast<int>(y);
+      const Rgba c = volume_mode ? render_ray(params, sampler, NoSkip{}, ex, row, eye)
+                     : la_mip    ? la_mip_composite_pixel(params, projections.data(), ex, row)
+                                 : render_plane(params, sampler, ex, row);
+      std::uint8_t* out = image.rgba.data() + (std::size_t{y} * width + x) * 4;
+      out[0] = to_u8(c.r);
+      out[1] = to_u8(c.g);
+      out[2] = to_u8(c.b);
+      out[3] = to_u8(c.a);
     }
-  };
-  const unsigned threads =
-      std::min<unsigned>(config.cpu_threads == 0 ? threads_ : config.cpu_threads, height);
-  std::vector<std::thread> pool;
-  for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
-  work();
-  for (auto& t : pool) t.join();
+  });
 }
 
 RgbaImage render_volume(const Volume& volume, const segmentation::Surfaces* surfaces,

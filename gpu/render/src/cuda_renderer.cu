@@ -8,6 +8,7 @@
 
 #include "ioct/gpu/render/cuda_renderer.hpp"
 #include "ioct/gpu/render/frame_setup.hpp"
+#include "ioct/gpu/render/la_mip.hpp"
 #include "ioct/gpu/render/layer_reference.hpp"
 #include "ioct/gpu/render/pixel_shader.hpp"
 
@@ -23,7 +24,7 @@ void check(cudaError_t status, const char* what) {
 }
 #define IOCT_RENDER_CUDA(call) check((call), #call)
 
-constexpr int kBrick = kBrickSize;
+constexpr int kBrick = 8;
 constexpr int kBrickApron = 2;  // trilinear footprint plus the gradient's central differences
 
 template <class T>
@@ -60,6 +61,25 @@ struct TextureSampler {
   }
 };
 
+// Samples at whole A-scan and B-scan positions, linear in depth, from the linear copy of the
+// volume: what the CPU reference's trilinear sampler gives there (its lateral weights are 0),
+// from two bytes instead of the texture unit's eight texels. The LA-MIP projections sample only
+// there.
+struct ColumnSampler {
+  const std::uint8_t* voxels;
+  int ascans, depth;
+  __host__ __device__ float operator()(float x, float y, float z) const {
+    const std::uint8_t* column =
+        voxels + (static_cast<std::size_t>(y) * ascans + static_cast<std::size_t>(x)) * depth;
+    const float c = fminf(fmaxf(z, 0.0f), static_cast<float>(depth - 1));
+    const int z0 = static_cast<int>(floorf(c));
+    const int z1 = z0 + 1 < depth ? z0 + 1 : z0;
+    const float v0 = column[z0];
+    const float v1 = column[z1];
+    return (v0 + (v1 - v0) * (c - static_cast<float>(z0))) * (1.0f / 255.0f);
+  }
+};
+
 // Jumps over bricks whose largest voxel is below `level` (u8): no sample there can contribute.
 // The next sample taken is the first of the ray's regular positions past the brick, so the
 // samples that remain are those the CPU reference takes.
@@ -85,14 +105,6 @@ struct BrickSkipper {
     const int next = static_cast<int>(ceilf((t + fmaxf(exit, 0.0f) - t0) / dt - 0.5f));
     return next > k ? next : k + 1;
   }
-  // The largest voxel of the brick around v (its apron covers the trilinear footprint), as a
-  // sample; a hair above, so rounding in the texture unit's interpolation cannot beat it.
-  __host__ __device__ float upper_bound(Vec3 v) const {
-    const int bx = min(max(static_cast<int>(floorf((v.x + 0.5f) / kBrick)), 0), nx - 1);
-    const int by = min(max(static_cast<int>(floorf((v.y + 0.5f) / kBrick)), 0), ny - 1);
-    const int bz = min(max(static_cast<int>(floorf((v.z + 0.5f) / kBrick)), 0), nz - 1);
-    return static_cast<float>(bricks[(bz * ny + by) * nx + bx].y) * (1.0f / 255.0f) + 1e-6f;
-  }
 };
 
 __global__ void volume_kernel(RenderParams p, TextureSampler sampler, BrickSkipper skipper,
@@ -107,12 +119,85 @@ __global__ void volume_kernel(RenderParams p, TextureSampler sampler, BrickSkipp
       make_uchar4(to_u8(c.r), to_u8(c.g), to_u8(c.b), to_u8(c.a));
 }
 
-__global__ void plane_kernel(RenderParams p, TextureSampler sampler, BrickSkipper skipper,
-                             uchar4* out) {
+__global__ void plane_kernel(RenderParams p, TextureSampler sampler, uchar4* out) {
   const int x = blockIdx.x * blockDim.x + threadIdx.x;
   const int y = blockIdx.y * blockDim.y + threadIdx.y;
   if (x >= p.width || y >= p.height) return;
-  const Rgba c = render_plane(p, sampler, skipper, x, y);
+  const Rgba c = render_plane(p, sampler, x, y);
+  out[y * p.width + x] = make_uchar4(to_u8(c.r), to_u8(c.g), to_u8(c.b), to_u8(c.a));
+}
+
+// The LA-MIP composite's projections (la_mip.hpp). En face: a warp per A-scan column, the lanes
+// striding its depth (coalesced bytes: at whole positions a sample is its voxel / 255, so the
+// maximum is taken on the bytes), then a warp reduction that keeps the brightest and, among
+// equals, the shallowest: la_mip_en_face_texel()'s result.
+__global__ void la_mip_en_face_kernel(RenderParams p, const std::uint8_t* voxels, float* buffer) {
+  const int column = (blockIdx.x * blockDim.x + threadIdx.x) / 32;
+  const int lane = threadIdx.x % 32;
+  const int a = column % p.dim_a;
+  const int b = column / p.dim_a;
+  if (b >= p.dim_b) return;  // whole warps: blockDim.x is a multiple of 32
+  const std::uint8_t* voxel = voxels + static_cast<std::size_t>(column) * p.dim_d;
+  int best = 0;
+  int best_d = 0;
+  for (int d = lane; d < p.dim_d; d += 32) {
+    const int v = voxel[d];
+    if (v > best) {  // d grows per lane: the first of equals stays
+      best = v;
+      best_d = d;
+    }
+  }
+  for (int offset = 16; offset > 0; offset /= 2) {
+    const int other = __shfl_down_sync(0xffffffffu, best, offset);
+    const int other_d = __shfl_down_sync(0xffffffffu, best_d, offset);
+    if (other > best || (other == best && other_d < best_d)) {
+      best = other;
+      best_d = other_d;
+    }
+  }
+  if (lane == 0) {
+    const LaMipBuffer l = la_mip_buffer(p);
+    const std::size_t i = static_cast<std::size_t>(b) * l.a + static_cast<std::size_t>(a);
+    buffer[l.en_face_max() + i] = static_cast<float>(best) * (1.0f / 255.0f);
+    buffer[l.en_face_depth() + i] = static_cast<float>(best_d);
+  }
+}
+
+// The two LA-MIPs: neighbouring threads take neighbouring panel depths z of one lateral position,
+// so they read neighbouring voxels of the same columns; grid z splits each curve into parts of
+// kLaMipPart samples, combined by atomicMax on the float's bits (order-preserving for the
+// non-negative maxima, the buffer zeroed first).
+constexpr int kLaMipPart = 32;
+
+__device__ void max_into(float* target, float value) {
+  atomicMax(reinterpret_cast<int*>(target), __float_as_int(value));
+}
+
+__global__ void la_mip_across_bscans_kernel(RenderParams p, ColumnSampler sampler, float* buffer) {
+  const int z = blockIdx.x * blockDim.x + threadIdx.x;
+  const int a = blockIdx.y;
+  const int b0 = blockIdx.z * kLaMipPart;
+  if (z >= p.dim_d) return;
+  const float best = la_mip_across_bscans(p, sampler, a, z, b0, min(b0 + kLaMipPart, p.dim_b));
+  const LaMipBuffer l = la_mip_buffer(p);
+  max_into(buffer + l.across_bscans() + static_cast<std::size_t>(z) * l.a + a, best);
+}
+
+__global__ void la_mip_along_ascans_kernel(RenderParams p, ColumnSampler sampler, float* buffer) {
+  const int z = blockIdx.x * blockDim.x + threadIdx.x;
+  const int b = blockIdx.y;
+  const int a0 = blockIdx.z * kLaMipPart;
+  if (z >= p.dim_d) return;
+  const float best = la_mip_along_ascans(p, sampler, b, z, a0, min(a0 + kLaMipPart, p.dim_a));
+  const LaMipBuffer l = la_mip_buffer(p);
+  max_into(buffer + l.along_ascans() + static_cast<std::size_t>(z) * l.b + b, best);
+}
+
+__global__ void la_mip_composite_kernel(RenderParams p, const float* buffer, uchar4* out) {
+  const int x = blockIdx.x * blockDim.x + threadIdx.x;
+  const int y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x >= p.width || y >= p.height) return;
+  const Rgba c = la_mip_composite_pixel(p, buffer, x, y);
   out[y * p.width + x] = make_uchar4(to_u8(c.r), to_u8(c.g), to_u8(c.b), to_u8(c.a));
 }
 
@@ -206,6 +291,9 @@ struct CudaRenderer::State {
   bool table_colorize = true;
   DeviceBuffer<uchar4> image;
   std::uint32_t width = 0, height = 0;
+  // The LA-MIP projections of the current volume and RPE; stale after every upload.
+  DeviceBuffer<float> la_mip;
+  bool la_mip_valid = false;
 
   void free_volume() {
     if (texture != 0) cudaDestroyTextureObject(texture);
@@ -259,6 +347,7 @@ struct CudaRenderer::State {
     copy.extent = make_cudaExtent(dims.depth, dims.ascans, count);
     copy.kind = kind;
     IOCT_RENDER_CUDA(cudaMemcpy3DAsync(&copy, stream));
+    la_mip_valid = false;
     IOCT_RENDER_CUDA(cudaMemcpyAsync(linear.data + first * bscan_bytes,
                                      pixels + first * bscan_bytes, count * bscan_bytes, kind,
                                      stream));
@@ -401,9 +490,31 @@ void CudaRenderer::render_on_device(const RenderConfig& config) {
     const BrickSkipper skipper{s.bricks.data, s.nx, s.ny, s.nz, s.empty_level(config)};
     volume_kernel<<<grid, block, 0, s.stream>>>(p, sampler, skipper, skipper.level > 0.0f,
                                                 s.image.data);
+  } else if (config.mode == RenderMode::la_mip_composite) {
+    if (!s.la_mip_valid) {
+      const ColumnSampler column_sampler{s.linear.data, static_cast<int>(s.dims.ascans),
+                                         static_cast<int>(s.dims.depth)};
+      s.la_mip.resize(la_mip_buffer(p).size());
+      const int threads = 128;
+      const std::size_t columns = std::size_t(p.dim_a) * p.dim_b;
+      la_mip_en_face_kernel<<<static_cast<unsigned>((columns * 32 + 255) / 256), 256, 0,
+                              s.stream>>>(p, s.linear.data, s.la_mip.data);
+      const LaMipBuffer l = la_mip_buffer(p);
+      IOCT_RENDER_CUDA(cudaMemsetAsync(s.la_mip.data + l.across_bscans(), 0,
+                                       (l.size() - l.across_bscans()) * sizeof(float), s.stream));
+      const unsigned z_blocks = static_cast<unsigned>((p.dim_d + threads - 1) / threads);
+      const unsigned b_parts = static_cast<unsigned>((p.dim_b + kLaMipPart - 1) / kLaMipPart);
+      const unsigned a_parts = static_cast<unsigned>((p.dim_a + kLaMipPart - 1) / kLaMipPart);
+      la_mip_across_bscans_kernel<<<dim3(z_blocks, p.dim_a, b_parts), threads, 0, s.stream>>>(
+          p, column_sampler, s.la_mip.data);
+      la_mip_along_ascans_kernel<<<dim3(z_blocks, p.dim_b, a_parts), threads, 0, s.stream>>>(
+          p, column_sampler, s.la_mip.data);
+      IOCT_RENDER_CUDA(cudaGetLastError());
+      s.la_mip_valid = true;
+    }
+    la_mip_composite_kernel<<<grid, block, 0, s.stream>>>(p, s.la_mip.data, s.image.data);
   } else {
-    const BrickSkipper skipper{s.bricks.data, s.nx, s.ny, s.nz, 0.0f};
-    plane_kernel<<<grid, block, 0, s.stream>>>(p, sampler, skipper, s.image.data);
+    plane_kernel<<<grid, block, 0, s.stream>>>(p, sampler, s.image.data);
   }
   IOCT_RENDER_CUDA(cudaGetLastError());
 }

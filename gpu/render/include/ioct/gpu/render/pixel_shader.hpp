@@ -14,12 +14,9 @@ struct Rgba {
   float r, g, b, a;
 };
 
-// Never skips: the CPU reference. A Skipper's next_sample() gives the index of the next sample
-// worth taking of the samples t0 + (k + 0.5) dt along `dir`; upper_bound() a bound on every
-// sample within a voxel of v.
+// Never skips: the CPU reference.
 struct NoSkip {
   IOCT_RENDER_HD int next_sample(Vec3, Vec3, float, float, int k) const { return k; }
-  IOCT_RENDER_HD float upper_bound(Vec3) const { return 3.0e38f; }
 };
 
 IOCT_RENDER_HD Rgba transfer_lookup(const float* lut, float intensity) {
@@ -245,98 +242,22 @@ IOCT_RENDER_HD float sample_or_zero(const RenderParams& p, const Sampler& s, flo
   return s(a, b, d);
 }
 
-// One brick's depth range [d0, d0 + kBrickSize) of the en face column at (a, b): keeps the
-// brightest sample and, among equals, the shallowest.
+// The slices (B-scan, en face). One eye only; the LA-MIP composite is in la_mip.hpp.
 template <class Sampler>
-IOCT_RENDER_HD void column_max_in_brick(const RenderParams& p, const Sampler& s, float a, float b,
-                                        int d0, float& best, int& best_d) {
-  const int d1 = d0 + kBrickSize < p.dim_d ? d0 + kBrickSize : p.dim_d;
-  for (int d = d0; d < d1; ++d) {
-    const float i = s(a, b, static_cast<float>(d));
-    if (i > best || (i == best && d < best_d)) {
-      best = i;
-      best_d = d;
-    }
-  }
-}
-
-// The planar modes: the LA-MIP composite and the slices. One eye only. The composite's maxima
-// skip what cannot exceed the best so far (the Skipper's bound), starting the en face column at
-// the reference surface, usually its brightest part; the result is the plain loop's.
-template <class Sampler, class Skipper>
-IOCT_RENDER_HD Rgba render_plane(const RenderParams& p, const Sampler& s, const Skipper& skip,
-                                 int x, int y) {
+IOCT_RENDER_HD Rgba render_plane(const RenderParams& p, const Sampler& s, int x, int y) {
   Rgba out{p.background[0], p.background[1], p.background[2], 0.0f};
-  if (p.kind == PixelKind::bscan_slice || p.kind == PixelKind::en_face_slice) {
-    const float u = (static_cast<float>(x) + 0.5f - p.plane_x0) * p.plane_scale_x - 0.5f;
-    const float w = (static_cast<float>(y) + 0.5f - p.plane_y0) * p.plane_scale_y - 0.5f;
-    float i = 0;
-    if (p.kind == PixelKind::bscan_slice) {
-      if (u < -0.5f || u > p.dim_a - 0.5f || w < -0.5f || w > p.dim_d - 0.5f) return out;
-      i = s(u, p.slice_bscan, w);
-    } else {
-      if (u < -0.5f || u > p.dim_a - 0.5f || w < -0.5f || w > p.dim_b - 0.5f) return out;
-      const float d =
-          p.slice_relative_to_rpe ? reference_at(p, u, w) + p.slice_depth : p.slice_depth;
-      i = sample_or_zero(p, s, u, w, d);
-    }
-    return {i, i, i, 1.0f};
-  }
-  // LA-MIP composite: en face (top left), LA-MIP across B-scans (below, depth down), LA-MIP
-  // along the A-scans of each B-scan (right, depth to the right).
-  const CompositeLayout& l = p.layout;
-  const int px = x - l.x0;
-  const int py = y - l.y0;
-  const float a_scale = static_cast<float>(p.dim_a) / l.en_face_w;
-  const float b_scale = static_cast<float>(p.dim_b) / l.en_face_h;
-  const float d_scale = static_cast<float>(p.dim_d) / l.depth_extent;
-  float best = 0.0f;
-  float ds = 0.0f;
-  if (px >= 0 && py >= 0 && px < l.en_face_w && py < l.en_face_h) {
-    const float a = (px + 0.5f) * a_scale - 0.5f;
-    const float b = (py + 0.5f) * b_scale - 0.5f;
-    int best_d = 0;
-    const float reference = reference_at(p, a, b);
-    const int bricks = (p.dim_d + kBrickSize - 1) / kBrickSize;
-    int seed = static_cast<int>(floorf((reference + 0.5f) / kBrickSize));
-    seed = seed < 0 ? 0 : (seed >= bricks ? bricks - 1 : seed);
-    column_max_in_brick(p, s, a, b, seed * kBrickSize, best, best_d);
-    for (int brick = 0; brick < bricks; ++brick) {
-      if (brick == seed) continue;
-      if (skip.upper_bound(Vec3{a, b, static_cast<float>(brick * kBrickSize)}) < best) continue;
-      column_max_in_brick(p, s, a, b, brick * kBrickSize, best, best_d);
-    }
-    ds = delta_star(static_cast<float>(best_d), reference, p.d_rpe_px);
-  } else if (px >= 0 && px < l.en_face_w && py >= l.en_face_h &&
-             py < l.en_face_h + l.depth_extent) {
-    // Weiss Eqs. (4)-(5): curves at a constant distance from the RPE, across the B-scans.
-    const float a = (px + 0.5f) * a_scale - 0.5f;
-    const float z = (py - l.en_face_h + 0.5f) * d_scale - 0.5f;
-    const float offset = z - reference_at(p, a, 0.5f * (p.dim_b - 1));
-    for (int b = 0; b < p.dim_b; ++b) {
-      const float fb = static_cast<float>(b);
-      const float d = reference_at(p, a, fb) + offset;
-      if (skip.upper_bound(Vec3{a, fb, d}) < best) continue;
-      best = fmaxf(best, sample_or_zero(p, s, a, fb, d));
-    }
-    ds = clamp01((offset / p.d_rpe_px + 1.0f) / 3.0f);
-  } else if (py >= 0 && py < l.en_face_h && px >= l.en_face_w &&
-             px < l.en_face_w + l.depth_extent) {
-    const float b = (py + 0.5f) * b_scale - 0.5f;
-    const float z = (px - l.en_face_w + 0.5f) * d_scale - 0.5f;
-    const float offset = z - reference_at(p, 0.5f * (p.dim_a - 1), b);
-    for (int a = 0; a < p.dim_a; ++a) {
-      const float fa = static_cast<float>(a);
-      const float d = reference_at(p, fa, b) + offset;
-      if (skip.upper_bound(Vec3{fa, b, d}) < best) continue;
-      best = fmaxf(best, sample_or_zero(p, s, fa, b, d));
-    }
-    ds = clamp01((offset / p.d_rpe_px + 1.0f) / 3.0f);
+  const float u = (static_cast<float>(x) + 0.5f - p.plane_x0) * p.plane_scale_x - 0.5f;
+  const float w = (static_cast<float>(y) + 0.5f - p.plane_y0) * p.plane_scale_y - 0.5f;
+  float i = 0;
+  if (p.kind == PixelKind::bscan_slice) {
+    if (u < -0.5f || u > p.dim_a - 0.5f || w < -0.5f || w > p.dim_d - 0.5f) return out;
+    i = s(u, p.slice_bscan, w);
   } else {
-    return out;
+    if (u < -0.5f || u > p.dim_a - 0.5f || w < -0.5f || w > p.dim_b - 0.5f) return out;
+    const float d = p.slice_relative_to_rpe ? reference_at(p, u, w) + p.slice_depth : p.slice_depth;
+    i = sample_or_zero(p, s, u, w, d);
   }
-  const Vec3 c = lab_lookup(p.lab_lut, best, ds);
-  return {c.x, c.y, c.z, 1.0f};
+  return {i, i, i, 1.0f};
 }
 
 IOCT_RENDER_HD unsigned char to_u8(float v) {

@@ -8,8 +8,6 @@
 
 namespace ioct::gpu::render {
 
-// Edge of the CUDA renderer's min-max bricks; the LA-MIP walks depth brick by brick.
-inline constexpr int kBrickSize = 8;
 inline constexpr int kTransferLutSize = 256;  // RGBA per entry, linear between entries
 inline constexpr int kLabLutIntensities = 256;
 inline constexpr int kLabLutDepths = 256;  // delta* in [0, 1]; RGBA per entry, bilinear
