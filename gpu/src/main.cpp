@@ -88,8 +88,8 @@ int main(int argc, char** argv) {
   app.add_option("--stage-threads", stages.cpu_threads,
                  "threads of each CPU stage (filters, segmentation, rendering)");
   app.add_option("--render-mode", render_mode,
-                 "live view: basic, enhanced, layer_aware, axial_colorization, la_mip_composite, "
-                 "bscan_slice or en_face_slice");
+                 "live view: basic, enhanced, layer-aware, axial-colorization, la-mip, bscan or "
+                 "en-face");
   app.add_option("--render-width", stages.render.view.output_width, "live view width, px");
   app.add_option("--render-height", stages.render.view.output_height, "live view height, px");
   app.add_option("--cpu-render-interval", stages.cpu_render_interval_s,

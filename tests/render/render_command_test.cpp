@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include "analytic_volumes.hpp"
@@ -56,12 +57,44 @@ TEST_F(RenderCommand, RendersTheRealVolInEveryMode) {
   const Result r = run(vol.string() + " --out " + dir_.string() +
                        " --mode all --width 96 --height 64 --backend cpu --threads 2");
   ASSERT_EQ(r.status, 0) << r.output;
-  for (const char* name : {"basic", "enhanced", "layer-aware", "axial-colorization", "la-mip",
-                           "bscan", "en-face"}) {
+  for (const char* name :
+       {"basic", "enhanced", "layer-aware", "axial-colorization", "la-mip", "bscan", "en-face"}) {
     EXPECT_TRUE(fs::exists(dir_ / (std::string(name) + ".png"))) << name << "\n" << r.output;
   }
   EXPECT_TRUE(fs::exists(dir_ / "summary.json"));
   EXPECT_NE(r.output.find("Bruch"), std::string::npos) << r.output;
+}
+
+std::string file_bytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// Viehland Fig. 4's progression from the command line: with edge, feature, depth cues and Phong
+// off, the enhanced caster is the basic one; each step on its own changes the image.
+TEST_F(RenderCommand, EnhancementStepsSwitchOffOneByOne) {
+  auto v = ioct::render_test::make_synthetic_retina(16, 32, 64);
+  ioct::gpu::offline::NrrdMetadata meta;
+  meta.spacings = {0.005, 0.02, 0.08};
+  meta.unit = "mm";
+  const fs::path nrrd = dir_ / "retina.nrrd";
+  ioct::gpu::offline::write_nrrd_file(nrrd, v.volume, meta);
+  const std::string common = nrrd.string() + " --out " + dir_.string() +
+                             " --width 48 --height 36 --backend cpu --layers none --threads 2";
+  const std::string all_off = " --no-edge --no-feature --no-depth-cues --no-phong";
+  ASSERT_EQ(run(common + " --mode basic --prefix basic_").status, 0);
+  ASSERT_EQ(run(common + " --mode enhanced --prefix off_" + all_off).status, 0);
+  ASSERT_EQ(run(common + " --mode enhanced --prefix on_").status, 0);
+  const std::string basic = file_bytes(dir_ / "basic_basic.png");
+  ASSERT_FALSE(basic.empty());
+  EXPECT_EQ(file_bytes(dir_ / "off_enhanced.png"), basic);
+  EXPECT_NE(file_bytes(dir_ / "on_enhanced.png"), basic);
+  for (const char* step : {"--no-edge", "--no-feature", "--no-depth-cues", "--no-phong"}) {
+    const std::string prefix = std::string("without") + (step + 4) + "_";
+    ASSERT_EQ(run(common + " --mode enhanced --prefix " + prefix + " " + step).status, 0) << step;
+    EXPECT_NE(file_bytes(dir_ / (prefix + "enhanced.png")), file_bytes(dir_ / "on_enhanced.png"))
+        << step << " changed nothing";
+  }
 }
 
 TEST_F(RenderCommand, WritesATurntableAndStereoPairsFromANrrd) {

@@ -96,8 +96,12 @@ Loaded load(const fs::path& input) {
 std::vector<RenderMode> parse_modes(const std::string& text) {
   std::vector<RenderMode> modes;
   if (text == "all") {
-    return {RenderMode::basic,       RenderMode::enhanced,         RenderMode::layer_aware,
-            RenderMode::axial_colorization, RenderMode::la_mip_composite, RenderMode::bscan_slice,
+    return {RenderMode::basic,
+            RenderMode::enhanced,
+            RenderMode::layer_aware,
+            RenderMode::axial_colorization,
+            RenderMode::la_mip_composite,
+            RenderMode::bscan_slice,
             RenderMode::en_face_slice};
   }
   std::size_t start = 0;
@@ -162,6 +166,21 @@ int main(int argc, char** argv) {
   app.add_option("--turntable", turntable, "also write N frames of one full turn per volume mode");
   app.add_option("--prefix", name_prefix, "prefix of the PNG names");
   app.add_option("--threads", threads, "CPU threads");
+  // Each step of the enhanced ray caster off on its own: Viehland Fig. 4's progression.
+  bool no_threshold = false, no_edge = false, no_feature = false, no_depth_cues = false,
+       no_phong = false, no_colorize = false;
+  app.add_flag("--no-threshold", no_threshold, "enhanced: no intensity threshold");
+  app.add_flag("--no-edge", no_edge, "enhanced: no gradient edge enhancement (kg1, kg2)");
+  app.add_flag("--no-feature", no_feature, "enhanced: no feature enhancement (kf1, kf2)");
+  app.add_flag("--no-depth-cues", no_depth_cues, "enhanced: no depth dimming and blue hue");
+  app.add_flag("--no-phong", no_phong, "enhanced: no Phong shading");
+  app.add_flag("--no-colorize", no_colorize, "layer-aware: lightness only (Weiss Fig. 4 A1)");
+  app.add_flag("--axial-phong", config.axial.phong, "axial colorization with Phong");
+  app.add_option("--bscan", config.slice.bscan, "bscan mode: the B-scan shown (-1: the centre)");
+  app.add_option("--en-face-depth", config.slice.en_face_depth_px,
+                 "en-face mode: depth px (-1: the centre), or below the RPE with --below-rpe");
+  app.add_flag("--below-rpe", config.slice.en_face_relative_to_rpe,
+               "en-face mode: --en-face-depth counts from the RPE");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -183,7 +202,13 @@ int main(int argc, char** argv) {
     const double threshold = config.enhanced.threshold;
     config.enhanced = enhanced_preset(parse_preset(preset_text));
     config.enhanced.threshold = threshold;
+    if (no_threshold) config.enhanced.use_threshold = false;
+    if (no_edge) config.enhanced.edge_enhancement = false;
+    if (no_feature) config.enhanced.feature_enhancement = false;
+    if (no_depth_cues) config.enhanced.depth_cues = false;
+    if (no_phong) config.enhanced.phong = false;
     config.layer_aware = layer_aware;
+    if (no_colorize) config.layer_aware.colorize = false;
     config.cpu_threads = threads;
     const std::vector<RenderMode> modes = parse_modes(modes_text);
     const Backend backend = parse_backend(backend_text);
@@ -261,11 +286,10 @@ int main(int argc, char** argv) {
                                     {"images", written}};
     ioct::write_text_file_atomically(fs::path(out) / (name_prefix + "summary.json"),
                                      summary.dump(2) + "\n");
-    std::cout << "ioct-render: " << input << " (" << loaded.kind << ", "
-              << loaded.volume.bscans() << " x " << loaded.volume.ascans() << " x "
-              << loaded.volume.depth() << "), reference: " << reference << ", "
-              << renderer->backend_name() << ", " << written.size() << " outputs in " << seconds
-              << " s -> " << out << "\n";
+    std::cout << "ioct-render: " << input << " (" << loaded.kind << ", " << loaded.volume.bscans()
+              << " x " << loaded.volume.ascans() << " x " << loaded.volume.depth()
+              << "), reference: " << reference << ", " << renderer->backend_name() << ", "
+              << written.size() << " outputs in " << seconds << " s -> " << out << "\n";
     return 0;
   } catch (const ioct::ConfigError& e) {
     std::cerr << "ioct-render: " << e.what() << "\n";
