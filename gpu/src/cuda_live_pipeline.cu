@@ -330,7 +330,7 @@ struct CudaLivePipeline::Impl {
   std::uint32_t volume_ascans = 0;
   HostVolumePool host_volumes;
   std::optional<std::uint32_t> sealed;  // the host volume seal_partial() returned
-  cuda::Stream readback_stream;  // copy_bscans()
+  cuda::Stream readback_stream;         // copy_bscans()
   cuda::Event reads_done;
   bool reads_pending = false;
   std::uint64_t version = 0;
@@ -407,10 +407,15 @@ void CudaLivePipeline::read_volume(
   m.reads_pending = true;
 }
 
+LiveVolumeShape CudaLivePipeline::shape() const {
+  const Impl& m = *impl_;
+  if (m.volume_ascans == 0) return {};  // no volume begun
+  return {m.book.positions(), m.volume_ascans, m.depth};
+}
+
 void CudaLivePipeline::copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) {
   Impl& m = *impl_;
-  const std::uint32_t ascans = m.volume_ascans;
-  prepare_bscan_copy(ascans == 0 ? 0 : m.book.positions(), ascans, m.depth, first, count, out);
+  prepare_bscan_copy(shape(), first, count, out);
   if (count == 0) return;
   cudaStream_t stream = m.readback_stream.get();
   read_volume(stream, [&](const DeviceVolumeView& view) {

@@ -48,9 +48,14 @@ std::optional<VolumeInfo> HostLivePipeline::seal_partial(const Volume*& volume) 
   return info;
 }
 
+LiveVolumeShape HostLivePipeline::shape() const {
+  const Volume& live = assembler_.volume();
+  return {live.bscans(), live.ascans(), live.depth()};
+}
+
 void HostLivePipeline::copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) {
   const Volume& live = assembler_.volume();
-  prepare_bscan_copy(live.bscans(), live.ascans(), live.depth(), first, count, out);
+  prepare_bscan_copy(shape(), first, count, out);
   if (count == 0) return;
   std::ranges::copy(live.pixels().subspan(first * live.bscan_pixels(), count * live.bscan_pixels()),
                     out.bscan(first).begin());

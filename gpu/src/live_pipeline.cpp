@@ -10,16 +10,14 @@
 
 namespace ioct::gpu {
 
-void prepare_bscan_copy(std::uint32_t bscans, std::uint32_t ascans, std::uint32_t depth,
-                        std::uint32_t first, std::uint32_t count, Volume& out) {
-  if (count != 0 && (first >= bscans || count > bscans - first)) {
+void prepare_bscan_copy(const LiveVolumeShape& shape, std::uint32_t first, std::uint32_t count,
+                        Volume& out) {
+  if (count != 0 && (first >= shape.bscans || count > shape.bscans - first)) {
     throw std::out_of_range("B-scans [" + std::to_string(first) + ", " +
                             std::to_string(std::uint64_t{first} + count) +
-                            ") outside the live volume's " + std::to_string(bscans));
+                            ") outside the live volume's " + std::to_string(shape.bscans));
   }
-  if (out.bscans() != bscans || out.ascans() != ascans || out.depth() != depth) {
-    out.reshape(bscans, ascans, depth);
-  }
+  out.reshape(shape.bscans, shape.ascans, shape.depth);  // (keeps the memory when it fits)
 }
 
 std::unique_ptr<LivePipeline> make_live_pipeline(Backend backend, const OctProcessorConfig& config,

@@ -193,7 +193,7 @@ class LiveProcessor::Session final : public LiveEvents {
     std::uint32_t end = placed.end_position;
     if (stage_needs_whole_volume_) {
       first = 0;
-      end = geometry_.bscans_per_volume / config_.processing.repeats_per_position;
+      end = pipeline_->shape().bscans;
       stage_needs_whole_volume_ = false;
     }
     if (end <= first) return;

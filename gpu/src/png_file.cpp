@@ -29,8 +29,9 @@ struct PngError {
 
 void on_png_warning(png_structp, png_const_charp) {}
 
-bool encode(std::FILE* file, std::uint32_t width, std::uint32_t height, const std::uint8_t* pixels,
-            PngError& error) {
+// `channels` bytes per pixel: 1 grey, 3 RGB, 4 RGBA written as RGB (libpng drops the filler).
+bool encode(std::FILE* file, std::uint32_t width, std::uint32_t height, int channels,
+            const std::uint8_t* pixels, PngError& error) {
   png_structp png =
       png_create_write_struct(PNG_LIBPNG_VER_STRING, &error, on_png_error, on_png_warning);
   if (png == nullptr) {
@@ -49,12 +50,13 @@ bool encode(std::FILE* file, std::uint32_t width, std::uint32_t height, const st
   }
   png_init_io(png, file);
   png_set_compression_level(png, 1);  // files are rewritten every volume: speed over size
-  png_set_IHDR(png, info, width, height, 8, PNG_COLOR_TYPE_GRAY, PNG_INTERLACE_NONE,
+  png_set_IHDR(png, info, width, height, 8,
+               channels == 1 ? PNG_COLOR_TYPE_GRAY : PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
                PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
   png_write_info(png, info);
-  for (std::uint32_t y = 0; y < height; ++y) {
-    png_write_row(png, pixels + std::size_t{y} * width);
-  }
+  if (channels == 4) png_set_filler(png, 0, PNG_FILLER_AFTER);
+  const std::size_t row_bytes = std::size_t{width} * static_cast<std::size_t>(channels);
+  for (std::uint32_t y = 0; y < height; ++y) png_write_row(png, pixels + y * row_bytes);
   png_write_end(png, nullptr);
   png_destroy_write_struct(&png, &info);
   return true;
@@ -102,16 +104,21 @@ bool decode(std::FILE* file, GrayImage& image, PngError& error) {
 
 }  // namespace
 
-void write_png_gray8(const std::filesystem::path& path, std::uint32_t width, std::uint32_t height,
-                     std::span<const std::uint8_t> pixels) {
-  if (width == 0 || height == 0 || pixels.size() != std::size_t{width} * height) {
+void write_png8(const std::filesystem::path& path, std::uint32_t width, std::uint32_t height,
+                int channels, std::span<const std::uint8_t> pixels) {
+  if (channels != 1 && channels != 3 && channels != 4) {
+    throw std::invalid_argument("PNG '" + path.string() + "': " + std::to_string(channels) +
+                                " bytes per pixel (1, 3 or 4)");
+  }
+  if (width == 0 || height == 0 ||
+      pixels.size() != std::size_t{width} * height * static_cast<std::size_t>(channels)) {
     throw std::invalid_argument("PNG '" + path.string() + "': " + std::to_string(pixels.size()) +
-                                " pixels for " + std::to_string(width) + " x " +
-                                std::to_string(height));
+                                " bytes for " + std::to_string(width) + " x " +
+                                std::to_string(height) + " px of " + std::to_string(channels));
   }
   AtomicFile file(path);
   PngError error;
-  if (!encode(file.stream(), width, height, pixels.data(), error)) {
+  if (!encode(file.stream(), width, height, channels, pixels.data(), error)) {
     throw std::runtime_error("cannot write PNG '" + path.string() + "': " + error.message);
   }
   file.commit();

@@ -21,8 +21,11 @@ namespace {
 class FakeLiveVolume final : public LiveVolumeSource {
  public:
   Volume volume;
+  LiveVolumeShape shape() const override {
+    return {volume.bscans(), volume.ascans(), volume.depth()};
+  }
   void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) override {
-    prepare_bscan_copy(volume.bscans(), volume.ascans(), volume.depth(), first, count, out);
+    prepare_bscan_copy(shape(), first, count, out);
     const std::size_t n = volume.bscan_pixels();
     std::copy_n(volume.bscan(first).data(), count * n, out.bscan(first).data());
   }

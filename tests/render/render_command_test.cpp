@@ -48,6 +48,16 @@ class RenderCommand : public ::testing::Test {
     fs::create_directories(dir_);
   }
   void TearDown() override { fs::remove_all(dir_); }
+  // A small synthetic retina as the NRRD ioct-process writes, spacings in mm.
+  fs::path write_retina_nrrd() const {
+    const auto v = ioct::render_test::make_synthetic_retina(16, 32, 64);
+    ioct::gpu::offline::NrrdMetadata meta;
+    meta.spacings = {0.005, 0.02, 0.08};
+    meta.unit = "mm";
+    const fs::path nrrd = dir_ / "retina.nrrd";
+    ioct::gpu::offline::write_nrrd_file(nrrd, v.volume, meta);
+    return nrrd;
+  }
   fs::path dir_;
 };
 
@@ -73,12 +83,7 @@ std::string file_bytes(const fs::path& path) {
 // Viehland Fig. 4's progression from the command line: with edge, feature, depth cues and Phong
 // off, the enhanced caster is the basic one; each step on its own changes the image.
 TEST_F(RenderCommand, EnhancementStepsSwitchOffOneByOne) {
-  auto v = ioct::render_test::make_synthetic_retina(16, 32, 64);
-  ioct::gpu::offline::NrrdMetadata meta;
-  meta.spacings = {0.005, 0.02, 0.08};
-  meta.unit = "mm";
-  const fs::path nrrd = dir_ / "retina.nrrd";
-  ioct::gpu::offline::write_nrrd_file(nrrd, v.volume, meta);
+  const fs::path nrrd = write_retina_nrrd();
   const std::string common = nrrd.string() + " --out " + dir_.string() +
                              " --width 48 --height 36 --backend cpu --layers none --threads 2";
   const std::string all_off = " --no-edge --no-feature --no-depth-cues --no-phong";
@@ -98,12 +103,7 @@ TEST_F(RenderCommand, EnhancementStepsSwitchOffOneByOne) {
 }
 
 TEST_F(RenderCommand, WritesATurntableAndStereoPairsFromANrrd) {
-  auto v = ioct::render_test::make_synthetic_retina(16, 32, 64);
-  ioct::gpu::offline::NrrdMetadata meta;
-  meta.spacings = {0.005, 0.02, 0.08};
-  meta.unit = "mm";
-  const fs::path nrrd = dir_ / "retina.nrrd";
-  ioct::gpu::offline::write_nrrd_file(nrrd, v.volume, meta);
+  const fs::path nrrd = write_retina_nrrd();
   const Result r = run(nrrd.string() + " --out " + dir_.string() +
                        " --mode enhanced --stereo --turntable 4 --width 40 --height 30 "
                        "--backend cpu --layers none --threads 2");

@@ -64,9 +64,7 @@ nlohmann::json describe(const segmentation::Surfaces& s) {
 }
 
 std::string mode_file(render::RenderMode mode) {
-  std::string name(render::to_string(mode));
-  std::ranges::replace(name, '_', '-');
-  return "render-" + name + ".png";
+  return "render-" + std::string(render::to_string(mode)) + ".png";
 }
 
 }  // namespace
@@ -103,16 +101,15 @@ void VolumeStages::on_bscans(LiveVolumeSource& source, std::uint32_t first, std:
   if (count == 0) return;
   std::unique_lock lock(mutex_);
   if (!accepting_) return;
-  const std::uint32_t bscans_before = pending_.bscans();
-  const std::uint32_t ascans_before = pending_.ascans();
-  const std::uint32_t depth_before = pending_.depth();
-  source.copy_bscans(first, count, pending_);
-  if (pending_.bscans() != bscans_before || pending_.ascans() != ascans_before ||
-      pending_.depth() != depth_before) {
-    // A new geometry: the rest of the copy is unspecified until its B-scans arrive, so the next
-    // pass starts over with what has arrived (the others are zero).
+  const LiveVolumeShape shape = source.shape();
+  const bool new_shape = !shape.fits(pending_);
+  if (new_shape) {
+    // The B-scans that have not arrived yet are zero, and the next pass starts over.
+    pending_.reshape(shape.bscans, shape.ascans, shape.depth);
     std::ranges::fill(pending_.pixels(), std::uint8_t{0});
-    source.copy_bscans(first, count, pending_);
+  }
+  source.copy_bscans(first, count, pending_);
+  if (new_shape) {
     dirty_first_ = 0;
     dirty_end_ = pending_.bscans();
   } else if (dirty_groups_ == 0) {
@@ -140,8 +137,7 @@ void VolumeStages::work() {
       std::unique_lock lock(mutex_);
       wake_.wait(lock, [&] { return stop_ || dirty_groups_ > 0; });
       if (dirty_groups_ == 0) return;  // stopped with nothing pending
-      if (input_.bscans() != pending_.bscans() || input_.ascans() != pending_.ascans() ||
-          input_.depth() != pending_.depth()) {
+      if (!input_.same_shape(pending_)) {
         input_ = pending_;
         first = 0;
         count = pending_.bscans();
@@ -201,8 +197,7 @@ render::RenderConfig VolumeStages::live_view() const {
 void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups) {
   const std::uint64_t t0 = shm::monotonic_ns();
   filters::BscanRange outputs{0, input_.bscans()};
-  if (filtered_.bscans() != input_.bscans() || filtered_.ascans() != input_.ascans() ||
-      filtered_.depth() != input_.depth()) {
+  if (!filtered_.same_shape(input_)) {
     filter_->filter_volume(input_, filtered_);
   } else {
     outputs = filter_->filter_group(input_, filtered_, first, count);

@@ -56,16 +56,11 @@ void CpuRenderer::set_volume(const Volume& volume, const segmentation::Surfaces*
 
 void CpuRenderer::update_bscans(const Volume& volume, std::uint32_t first, std::uint32_t count,
                                 const segmentation::Surfaces* surfaces) {
-  if (!has_volume_ || volume.bscans() != volume_.bscans() || volume.ascans() != volume_.ascans() ||
-      volume.depth() != volume_.depth()) {
+  if (!has_volume_ || !volume.same_shape(volume_)) {
     set_volume(volume, surfaces);
     return;
   }
-  if (count == 0 || first >= volume.bscans() || count > volume.bscans() - first) {
-    throw std::out_of_range("B-scans [" + std::to_string(first) + ", " +
-                            std::to_string(std::uint64_t{first} + count) +
-                            ") outside the volume's " + std::to_string(volume.bscans()));
-  }
+  check_bscan_range(volume.bscans(), first, count);
   for (std::uint32_t b = first; b < first + count; ++b) {
     const auto src = volume.bscan(b);
     std::copy(src.begin(), src.end(), volume_.bscan(b).begin());
@@ -99,21 +94,20 @@ void CpuRenderer::render(const RenderConfig& config, RgbaImage& image) {
     const LaMipBuffer layout = la_mip_buffer(params);
     projections.assign(layout.size(), 0.0f);
     float* buffer = projections.data();
-    const int a_count = params.dim_a, b_count = params.dim_b;
     parallel_for(dims.bscans, threads, [&](std::uint32_t b) {
-      for (int a = 0; a < a_count; ++a) {
+      for (int a = 0; a < params.dim_a; ++a) {
         la_mip_en_face_texel(params, sampler, a, static_cast<int>(b), buffer);
       }
     });
     parallel_for(dims.depth, threads, [&](std::uint32_t z) {
       const int zi = static_cast<int>(z);
-      for (int a = 0; a < a_count; ++a) {
-        buffer[layout.across_bscans() + std::size_t{z} * layout.a + static_cast<std::size_t>(a)] =
-            la_mip_across_bscans(params, sampler, a, zi, 0, b_count);
-      }
-      for (int b = 0; b < b_count; ++b) {
-        buffer[layout.along_ascans() + std::size_t{z} * layout.b + static_cast<std::size_t>(b)] =
-            la_mip_along_ascans(params, sampler, b, zi, 0, a_count);
+      for (const LaMipAxis axis : {LaMipAxis::across_bscans, LaMipAxis::along_ascans}) {
+        const int positions = la_mip_positions(params, axis);
+        const int length = la_mip_curve_length(params, axis);
+        for (int at = 0; at < positions; ++at) {
+          buffer[la_mip_texel(layout, axis, at, zi)] =
+              la_mip_curve_max(params, sampler, axis, at, zi, 0, length);
+        }
       }
     });
   }

@@ -84,14 +84,14 @@ struct ColumnSampler {
 // The next sample taken is the first of the ray's regular positions past the brick, so the
 // samples that remain are those the CPU reference takes.
 struct BrickSkipper {
-  const uchar2* bricks;  // (min, max) per brick, [bz][by][bx] with x the A-scan axis
+  const std::uint8_t* bricks;  // largest voxel per brick, [bz][by][bx] with x the A-scan axis
   int nx, ny, nz;
   float level;
   __host__ __device__ int next_sample(Vec3 v, Vec3 dir, float t0, float dt, int k) const {
     const int bx = min(max(static_cast<int>(floorf((v.x + 0.5f) / kBrick)), 0), nx - 1);
     const int by = min(max(static_cast<int>(floorf((v.y + 0.5f) / kBrick)), 0), ny - 1);
     const int bz = min(max(static_cast<int>(floorf((v.z + 0.5f) / kBrick)), 0), nz - 1);
-    if (static_cast<float>(bricks[(bz * ny + by) * nx + bx].y) >= level) return k;
+    if (static_cast<float>(bricks[(bz * ny + by) * nx + bx]) >= level) return k;
     const float lo[3] = {bx * kBrick - 0.5f, by * kBrick - 0.5f, bz * kBrick - 0.5f};
     const float pos[3] = {v.x, v.y, v.z};
     const float d[3] = {dir.x, dir.y, dir.z};
@@ -173,24 +173,16 @@ __device__ void max_into(float* target, float value) {
   atomicMax(reinterpret_cast<int*>(target), __float_as_int(value));
 }
 
-__global__ void la_mip_across_bscans_kernel(RenderParams p, ColumnSampler sampler, float* buffer) {
+// grid: x panel depths, y lateral positions, z parts of the curves.
+__global__ void la_mip_curve_kernel(RenderParams p, ColumnSampler sampler, LaMipAxis axis,
+                                    float* buffer) {
   const int z = blockIdx.x * blockDim.x + threadIdx.x;
-  const int a = blockIdx.y;
-  const int b0 = blockIdx.z * kLaMipPart;
+  const int at = blockIdx.y;
+  const int k0 = blockIdx.z * kLaMipPart;
   if (z >= p.dim_d) return;
-  const float best = la_mip_across_bscans(p, sampler, a, z, b0, min(b0 + kLaMipPart, p.dim_b));
-  const LaMipBuffer l = la_mip_buffer(p);
-  max_into(buffer + l.across_bscans() + static_cast<std::size_t>(z) * l.a + a, best);
-}
-
-__global__ void la_mip_along_ascans_kernel(RenderParams p, ColumnSampler sampler, float* buffer) {
-  const int z = blockIdx.x * blockDim.x + threadIdx.x;
-  const int b = blockIdx.y;
-  const int a0 = blockIdx.z * kLaMipPart;
-  if (z >= p.dim_d) return;
-  const float best = la_mip_along_ascans(p, sampler, b, z, a0, min(a0 + kLaMipPart, p.dim_a));
-  const LaMipBuffer l = la_mip_buffer(p);
-  max_into(buffer + l.along_ascans() + static_cast<std::size_t>(z) * l.b + b, best);
+  const int k1 = min(k0 + kLaMipPart, la_mip_curve_length(p, axis));
+  const float best = la_mip_curve_max(p, sampler, axis, at, z, k0, k1);
+  max_into(buffer + la_mip_texel(la_mip_buffer(p), axis, at, z), best);
 }
 
 __global__ void la_mip_composite_kernel(RenderParams p, const float* buffer, uchar4* out) {
@@ -201,10 +193,10 @@ __global__ void la_mip_composite_kernel(RenderParams p, const float* buffer, uch
   out[y * p.width + x] = make_uchar4(to_u8(c.r), to_u8(c.g), to_u8(c.b), to_u8(c.a));
 }
 
-// Min and max of each brick of brick rows [by0, by1) (B-scan direction), over its voxels and an
-// apron of kBrickApron on every side.
+// The largest voxel of each brick of brick rows [by0, by1) (B-scan direction), over its voxels and
+// an apron of kBrickApron on every side.
 __global__ void brick_kernel(const std::uint8_t* volume, int ascans, int bscans, int depth, int nx,
-                             int ny, int nz, int by0, int by1, uchar2* bricks) {
+                             int ny, int nz, int by0, int by1, std::uint8_t* bricks) {
   const int bx = blockIdx.x * blockDim.x + threadIdx.x;
   const int by = by0 + blockIdx.y;
   const int bz = blockIdx.z * blockDim.z + threadIdx.z;
@@ -215,19 +207,17 @@ __global__ void brick_kernel(const std::uint8_t* volume, int ascans, int bscans,
             b1 = min(by * kBrick + kBrick + kBrickApron, bscans);
   const int d0 = max(bz * kBrick - kBrickApron, 0),
             d1 = min(bz * kBrick + kBrick + kBrickApron, depth);
-  unsigned lo = 255, hi = 0;
+  unsigned hi = 0;
   for (int b = b0; b < b1; ++b) {
     for (int a = a0; a < a1; ++a) {
       const std::uint8_t* column = volume + (static_cast<std::size_t>(b) * ascans + a) * depth;
       for (int d = d0; d < d1; ++d) {
         const unsigned v = column[d];
-        lo = min(lo, v);
         hi = max(hi, v);
       }
     }
   }
-  bricks[(bz * ny + by) * nx + bx] =
-      make_uchar2(static_cast<unsigned char>(lo), static_cast<unsigned char>(hi));
+  bricks[(bz * ny + by) * nx + bx] = static_cast<std::uint8_t>(hi);
 }
 
 // Integer centre-of-mass sums per B-scan (exactly those of centre_of_mass_sums()).
@@ -248,25 +238,6 @@ __global__ void centre_of_mass_kernel(const std::uint8_t* volume, int ascans, in
   atomicAdd(&sums[2 * b + 1], weight);
 }
 
-bool same_transfer(const TransferFunctions& a, const TransferFunctions& b) {
-  if (a.color.size() != b.color.size() || a.opacity.size() != b.opacity.size()) return false;
-  for (std::size_t i = 0; i < a.color.size(); ++i) {
-    if (a.color[i].intensity != b.color[i].intensity || a.color[i].rgb != b.color[i].rgb)
-      return false;
-  }
-  for (std::size_t i = 0; i < a.opacity.size(); ++i) {
-    if (a.opacity[i].intensity != b.opacity[i].intensity ||
-        a.opacity[i].alpha != b.opacity[i].alpha)
-      return false;
-  }
-  return true;
-}
-
-bool same_colors(const LabColorMap& a, const LabColorMap& b) {
-  return a.c0 == b.c0 && a.c1 == b.c1 && a.ab_scale == b.ab_scale &&
-         a.chroma_curve == b.chroma_curve;
-}
-
 }  // namespace
 
 struct CudaRenderer::State {
@@ -275,7 +246,7 @@ struct CudaRenderer::State {
   cudaTextureObject_t texture = 0;
   VolumeDims dims;
   DeviceBuffer<std::uint8_t> linear;  // the volume once more, for bricks and sums
-  DeviceBuffer<uchar2> bricks;
+  DeviceBuffer<std::uint8_t> bricks;  // the largest voxel of each brick
   int nx = 0, ny = 0, nz = 0;
   DeviceBuffer<unsigned long long> sums;
   std::vector<unsigned long long> host_sums;
@@ -334,23 +305,23 @@ struct CudaRenderer::State {
     has_volume = true;
   }
 
-  // Copies B-scans [first, first + count) from `pixels` (host or device) and refreshes what
-  // depends on them.
-  void upload(const std::uint8_t* pixels, cudaMemcpyKind kind, std::uint32_t first,
-              std::uint32_t count, const segmentation::Surfaces* surfaces) {
+  // Copies B-scans [first, first + count) of the host volume `pixels` and refreshes what
+  // depends on them. They cross the bus once, into the linear copy; the texture's array is
+  // filled from there.
+  void upload(const std::uint8_t* pixels, std::uint32_t first, std::uint32_t count,
+              const segmentation::Surfaces* surfaces) {
     const std::size_t bscan_bytes = std::size_t{dims.ascans} * dims.depth;
+    std::uint8_t* changed = linear.data + first * bscan_bytes;
+    IOCT_RENDER_CUDA(cudaMemcpyAsync(changed, pixels + first * bscan_bytes, count * bscan_bytes,
+                                     cudaMemcpyHostToDevice, stream));
     cudaMemcpy3DParms copy{};
-    copy.srcPtr = make_cudaPitchedPtr(const_cast<std::uint8_t*>(pixels + first * bscan_bytes),
-                                      dims.depth, dims.depth, dims.ascans);
+    copy.srcPtr = make_cudaPitchedPtr(changed, dims.depth, dims.depth, dims.ascans);
     copy.dstArray = array;
     copy.dstPos = make_cudaPos(0, 0, first);
     copy.extent = make_cudaExtent(dims.depth, dims.ascans, count);
-    copy.kind = kind;
+    copy.kind = cudaMemcpyDeviceToDevice;
     IOCT_RENDER_CUDA(cudaMemcpy3DAsync(&copy, stream));
     la_mip_valid = false;
-    IOCT_RENDER_CUDA(cudaMemcpyAsync(linear.data + first * bscan_bytes,
-                                     pixels + first * bscan_bytes, count * bscan_bytes, kind,
-                                     stream));
     // Bricks whose voxels or apron reach into the changed B-scans.
     const int by0 = std::max(0, (static_cast<int>(first) - kBrickApron) / kBrick);
     const int by1 =
@@ -384,8 +355,8 @@ struct CudaRenderer::State {
 
   void prepare_tables(const RenderConfig& config) {
     const bool colorize = config.mode != RenderMode::layer_aware || config.layer_aware.colorize;
-    if (tables_valid && same_transfer(table_transfer, config.enhanced.transfer) &&
-        same_colors(table_colors, config.layer_aware.colors) && table_colorize == colorize) {
+    if (tables_valid && table_transfer == config.enhanced.transfer &&
+        table_colors == config.layer_aware.colors && table_colorize == colorize) {
       return;
     }
     const RenderTables tables = bake_tables(config);
@@ -437,7 +408,7 @@ CudaRenderer::~CudaRenderer() {
 
 void CudaRenderer::set_volume(const Volume& volume, const segmentation::Surfaces* surfaces) {
   state_->allocate({volume.bscans(), volume.ascans(), volume.depth()});
-  state_->upload(volume.pixels().data(), cudaMemcpyHostToDevice, 0, volume.bscans(), surfaces);
+  state_->upload(volume.pixels().data(), 0, volume.bscans(), surfaces);
 }
 
 void CudaRenderer::update_bscans(const Volume& volume, std::uint32_t first, std::uint32_t count,
@@ -448,28 +419,8 @@ void CudaRenderer::update_bscans(const Volume& volume, std::uint32_t first, std:
     set_volume(volume, surfaces);
     return;
   }
-  if (count == 0 || first >= volume.bscans() || count > volume.bscans() - first) {
-    throw std::out_of_range("B-scans [" + std::to_string(first) + ", " +
-                            std::to_string(std::uint64_t{first} + count) +
-                            ") outside the volume's " + std::to_string(volume.bscans()));
-  }
-  state_->upload(volume.pixels().data(), cudaMemcpyHostToDevice, first, count, surfaces);
-}
-
-void CudaRenderer::update_from_device(const std::uint8_t* device_pixels, std::uint32_t bscans,
-                                      std::uint32_t ascans, std::uint32_t depth,
-                                      std::uint32_t first, std::uint32_t count,
-                                      const segmentation::Surfaces* surfaces) {
-  const VolumeDims& d = state_->dims;
-  if (!state_->has_volume || bscans != d.bscans || ascans != d.ascans || depth != d.depth) {
-    state_->allocate({bscans, ascans, depth});
-    first = 0;
-    count = bscans;
-  }
-  if (count == 0 || first >= bscans || count > bscans - first) {
-    throw std::out_of_range("B-scans outside the volume");
-  }
-  state_->upload(device_pixels, cudaMemcpyDeviceToDevice, first, count, surfaces);
+  check_bscan_range(volume.bscans(), first, count);
+  state_->upload(volume.pixels().data(), first, count, surfaces);
 }
 
 void CudaRenderer::render_on_device(const RenderConfig& config) {
@@ -503,12 +454,13 @@ void CudaRenderer::render_on_device(const RenderConfig& config) {
       IOCT_RENDER_CUDA(cudaMemsetAsync(s.la_mip.data + l.across_bscans(), 0,
                                        (l.size() - l.across_bscans()) * sizeof(float), s.stream));
       const unsigned z_blocks = static_cast<unsigned>((p.dim_d + threads - 1) / threads);
-      const unsigned b_parts = static_cast<unsigned>((p.dim_b + kLaMipPart - 1) / kLaMipPart);
-      const unsigned a_parts = static_cast<unsigned>((p.dim_a + kLaMipPart - 1) / kLaMipPart);
-      la_mip_across_bscans_kernel<<<dim3(z_blocks, p.dim_a, b_parts), threads, 0, s.stream>>>(
-          p, column_sampler, s.la_mip.data);
-      la_mip_along_ascans_kernel<<<dim3(z_blocks, p.dim_b, a_parts), threads, 0, s.stream>>>(
-          p, column_sampler, s.la_mip.data);
+      for (const LaMipAxis axis : {LaMipAxis::across_bscans, LaMipAxis::along_ascans}) {
+        const int length = la_mip_curve_length(p, axis);
+        const dim3 grid_curves(z_blocks, static_cast<unsigned>(la_mip_positions(p, axis)),
+                               static_cast<unsigned>((length + kLaMipPart - 1) / kLaMipPart));
+        la_mip_curve_kernel<<<grid_curves, threads, 0, s.stream>>>(p, column_sampler, axis,
+                                                                   s.la_mip.data);
+      }
       IOCT_RENDER_CUDA(cudaGetLastError());
       s.la_mip_valid = true;
     }
@@ -527,29 +479,11 @@ void CudaRenderer::render(const RenderConfig& config, RgbaImage& image) {
   IOCT_RENDER_CUDA(cudaStreamSynchronize(state_->stream));
 }
 
-const std::uint8_t* CudaRenderer::image_on_device() const noexcept {
-  return reinterpret_cast<const std::uint8_t*>(state_->image.data);
-}
-std::uint32_t CudaRenderer::image_width() const noexcept {
-  return state_->width;
-}
-std::uint32_t CudaRenderer::image_height() const noexcept {
-  return state_->height;
-}
 void CudaRenderer::synchronize() {
   IOCT_RENDER_CUDA(cudaStreamSynchronize(state_->stream));
 }
 void* CudaRenderer::stream() const noexcept {
   return state_->stream;
-}
-
-std::uint64_t CudaRenderer::empty_bricks(float level) {
-  std::vector<uchar2> host(state_->bricks.count);
-  IOCT_RENDER_CUDA(cudaMemcpyAsync(host.data(), state_->bricks.data, host.size() * sizeof(uchar2),
-                                   cudaMemcpyDeviceToHost, state_->stream));
-  IOCT_RENDER_CUDA(cudaStreamSynchronize(state_->stream));
-  return static_cast<std::uint64_t>(
-      std::count_if(host.begin(), host.end(), [&](uchar2 b) { return b.y < level; }));
 }
 
 }  // namespace ioct::gpu::render

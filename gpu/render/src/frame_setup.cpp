@@ -15,23 +15,31 @@ namespace {
 Vec3 cross(Vec3 a, Vec3 b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
 }
-Vec3 normalized(Vec3 v) { return (1.0f / length(v)) * v; }
+Vec3 normalized(Vec3 v) {
+  return (1.0f / length(v)) * v;
+}
 
 PixelKind kind_of(RenderMode mode) {
   switch (mode) {
-    case RenderMode::basic: return PixelKind::basic;
-    case RenderMode::enhanced: return PixelKind::enhanced;
-    case RenderMode::layer_aware: return PixelKind::layer_aware;
-    case RenderMode::axial_colorization: return PixelKind::axial_colorization;
-    case RenderMode::la_mip_composite: return PixelKind::la_mip_composite;
-    case RenderMode::bscan_slice: return PixelKind::bscan_slice;
-    case RenderMode::en_face_slice: return PixelKind::en_face_slice;
+    case RenderMode::basic:
+      return PixelKind::basic;
+    case RenderMode::enhanced:
+      return PixelKind::enhanced;
+    case RenderMode::layer_aware:
+      return PixelKind::layer_aware;
+    case RenderMode::axial_colorization:
+      return PixelKind::axial_colorization;
+    case RenderMode::la_mip_composite:
+      return PixelKind::la_mip_composite;
+    case RenderMode::bscan_slice:
+      return PixelKind::bscan_slice;
+    case RenderMode::en_face_slice:
+      return PixelKind::en_face_slice;
   }
   return PixelKind::enhanced;
 }
 
-}  // namespace
-
+// d_rpe in px: the configured one, else the reference's mean thickness, else 250 um of depth.
 float d_rpe_px(const RenderConfig& config, const LayerReference& reference) {
   if (config.layer_aware.colors.d_rpe_px > 0.0) {
     return static_cast<float>(config.layer_aware.colors.d_rpe_px);
@@ -39,6 +47,8 @@ float d_rpe_px(const RenderConfig& config, const LayerReference& reference) {
   if (reference.mean_thickness_px > 1.0f) return reference.mean_thickness_px;
   return static_cast<float>(kDefaultRetinaThicknessUm / config.spacing.depth);
 }
+
+}  // namespace
 
 std::uint32_t output_width(const RenderParams& params) {
   return static_cast<std::uint32_t>(params.width * params.eyes);
@@ -116,9 +126,11 @@ RenderParams bake_params(const RenderConfig& config, VolumeDims dims,
                                static_cast<float>(l[2]) * towards_eye);
     e.half_world = normalized(e.light_world + towards_eye);
     e.light_voxel = to_voxel_dir(e.light_world);
-    const float per_world = std::max({std::fabs(f.x) / vx, std::fabs(f.y) / vy, std::fabs(f.z) / vz});
+    const float per_world =
+        std::max({std::fabs(f.x) / vx, std::fabs(f.y) / vy, std::fabs(f.z) / vz});
     e.step = static_cast<float>(config.step_voxels) / per_world;
-    const float projected = std::fabs(f.x) * half.x + std::fabs(f.y) * half.y + std::fabs(f.z) * half.z;
+    const float projected =
+        std::fabs(f.x) * half.x + std::fabs(f.y) * half.y + std::fabs(f.z) * half.z;
     e.depth_cue_offset = radius + 1.0f - projected;
     e.depth_cue_scale = 1.0f / (2.0f * projected);
   }

@@ -52,8 +52,7 @@ double chroma_scale(ChromaCurve curve, double intensity) {
   return curve == ChromaCurve::as_printed ? 1.0 - d * d : std::max(0.0, 1.0 - 4.0 * d * d);
 }
 
-std::array<double, 3> layer_color_lab(const LabColorMap& map, double intensity,
-                                      double delta_star) {
+std::array<double, 3> layer_color_lab(const LabColorMap& map, double intensity, double delta_star) {
   const double g = chroma_scale(map.chroma_curve, intensity) * map.ab_scale;
   const double a = g * (delta_star * map.c1[0] + (1.0 - delta_star) * map.c0[0]);
   const double b = g * (delta_star * map.c1[1] + (1.0 - delta_star) * map.c0[1]);
@@ -69,7 +68,8 @@ std::vector<float> bake_lab_lut(const LabColorMap& map, bool colorize) {
       auto lab = layer_color_lab(map, intensity, ds);
       if (!colorize) lab[1] = lab[2] = 0.0;
       const auto rgb = lab_to_srgb(lab[0], lab[1], lab[2]);
-      float* out = lut.data() + 4 * (std::size_t{static_cast<unsigned>(j)} * kLabLutIntensities + i);
+      float* out =
+          lut.data() + 4 * (std::size_t{static_cast<unsigned>(j)} * kLabLutIntensities + i);
       out[0] = static_cast<float>(rgb[0]);
       out[1] = static_cast<float>(rgb[1]);
       out[2] = static_cast<float>(rgb[2]);

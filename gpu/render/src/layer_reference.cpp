@@ -1,7 +1,7 @@
 #include "ioct/gpu/render/layer_reference.hpp"
 
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 
 namespace ioct::gpu::render {
@@ -42,23 +42,24 @@ bool fill_row(float* row, std::uint32_t n) {
     previous = i;
   }
   if (previous < 0) return false;
-  for (std::uint32_t j = static_cast<std::uint32_t>(previous) + 1; j < n; ++j) row[j] = row[previous];
+  for (std::uint32_t j = static_cast<std::uint32_t>(previous) + 1; j < n; ++j)
+    row[j] = row[previous];
   return true;
 }
 
 }  // namespace
 
-LayerReference make_layer_reference(std::uint32_t bscans, std::uint32_t ascans,
-                                    std::uint32_t depth, const segmentation::Surfaces* surfaces,
-                                    CentreOfMassSums sums) {
+LayerReference make_layer_reference(std::uint32_t bscans, std::uint32_t ascans, std::uint32_t depth,
+                                    const segmentation::Surfaces* surfaces, CentreOfMassSums sums) {
   LayerReference ref;
   ref.bscans = bscans;
   ref.ascans = ascans;
   const std::size_t n = std::size_t{bscans} * ascans;
-  ref.centre_of_mass_px = sums.weight > 0 ? static_cast<float>(static_cast<double>(sums.weighted_depth) /
-                                                               static_cast<double>(sums.weight))
-                                          : 0.5f * static_cast<float>(depth);
-  ref.axial_plane_px.assign(n, ref.centre_of_mass_px);
+  const float centre_of_mass_px =
+      sums.weight > 0 ? static_cast<float>(static_cast<double>(sums.weighted_depth) /
+                                           static_cast<double>(sums.weight))
+                      : 0.5f * static_cast<float>(depth);
+  ref.axial_plane_px.assign(n, centre_of_mass_px);
   const bool usable = surfaces != nullptr && surfaces->bscans == bscans &&
                       surfaces->ascans == ascans && surfaces->rpe.size() == n;
   if (!usable) {
@@ -76,7 +77,8 @@ LayerReference make_layer_reference(std::uint32_t bscans, std::uint32_t ascans,
   }
   if (both > 0 && thickness > 0.0) ref.mean_thickness_px = static_cast<float>(thickness / both);
   std::vector<bool> has_row(bscans, false);
-  for (std::uint32_t b = 0; b < bscans; ++b) has_row[b] = fill_row(ref.rpe_px.data() + std::size_t{b} * ascans, ascans);
+  for (std::uint32_t b = 0; b < bscans; ++b)
+    has_row[b] = fill_row(ref.rpe_px.data() + std::size_t{b} * ascans, ascans);
   std::int64_t nearest_any = -1;
   for (std::uint32_t b = 0; b < bscans; ++b) {
     if (has_row[b]) nearest_any = b;
@@ -86,15 +88,17 @@ LayerReference make_layer_reference(std::uint32_t bscans, std::uint32_t ascans,
     ref.mean_thickness_px = 0.0f;
     return ref;
   }
-  ref.rpe_known = true;
   for (std::uint32_t b = 0; b < bscans; ++b) {
     if (has_row[b]) continue;
     std::int64_t best = -1;
     for (std::int64_t k = 1; best < 0; ++k) {
-      if (b >= k && has_row[b - k]) best = b - k;
-      else if (b + k < bscans && has_row[b + k]) best = b + k;
+      if (b >= k && has_row[b - k])
+        best = b - k;
+      else if (b + k < bscans && has_row[b + k])
+        best = b + k;
     }
-    std::copy_n(ref.rpe_px.begin() + best * ascans, ascans, ref.rpe_px.begin() + std::size_t{b} * ascans);
+    std::copy_n(ref.rpe_px.begin() + best * ascans, ascans,
+                ref.rpe_px.begin() + std::size_t{b} * ascans);
   }
   return ref;
 }

@@ -1,3 +1,6 @@
+#include <stdexcept>
+#include <string>
+
 #include "ioct/gpu/render/cpu_renderer.hpp"
 #include "ioct/gpu/render/renderer.hpp"
 
@@ -6,6 +9,14 @@
 #endif
 
 namespace ioct::gpu::render {
+
+void check_bscan_range(std::uint32_t bscans, std::uint32_t first, std::uint32_t count) {
+  if (count == 0 || first >= bscans || count > bscans - first) {
+    throw std::out_of_range("B-scans [" + std::to_string(first) + ", " +
+                            std::to_string(std::uint64_t{first} + count) +
+                            ") outside the volume's " + std::to_string(bscans));
+  }
+}
 
 std::unique_ptr<Renderer> make_renderer(Backend backend, unsigned cpu_threads) {
   if (backend == Backend::cpu) return std::make_unique<CpuRenderer>(cpu_threads);

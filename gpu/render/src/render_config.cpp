@@ -14,7 +14,8 @@ std::string key_of(std::string_view prefix, std::string_view name) {
 }
 
 void require_finite(std::string_view key, double value) {
-  if (!std::isfinite(value)) throw ConfigError(std::string(key), format_value(value), "must be finite");
+  if (!std::isfinite(value))
+    throw ConfigError(std::string(key), format_value(value), "must be finite");
 }
 
 void require_at_least(std::string_view key, double value, double lo) {
@@ -40,22 +41,28 @@ void require_unit_color(std::string_view key, const std::array<double, 3>& rgb) 
 
 std::string_view to_string(RenderMode mode) noexcept {
   switch (mode) {
-    case RenderMode::basic: return "basic";
-    case RenderMode::enhanced: return "enhanced";
-    case RenderMode::layer_aware: return "layer-aware";
-    case RenderMode::axial_colorization: return "axial-colorization";
-    case RenderMode::la_mip_composite: return "la-mip";
-    case RenderMode::bscan_slice: return "bscan";
-    case RenderMode::en_face_slice: return "en-face";
+    case RenderMode::basic:
+      return "basic";
+    case RenderMode::enhanced:
+      return "enhanced";
+    case RenderMode::layer_aware:
+      return "layer-aware";
+    case RenderMode::axial_colorization:
+      return "axial-colorization";
+    case RenderMode::la_mip_composite:
+      return "la-mip";
+    case RenderMode::bscan_slice:
+      return "bscan";
+    case RenderMode::en_face_slice:
+      return "en-face";
   }
   return "?";
 }
 
 RenderMode parse_render_mode(std::string_view name) {
-  for (const RenderMode m :
-       {RenderMode::basic, RenderMode::enhanced, RenderMode::layer_aware,
-        RenderMode::axial_colorization, RenderMode::la_mip_composite, RenderMode::bscan_slice,
-        RenderMode::en_face_slice}) {
+  for (const RenderMode m : {RenderMode::basic, RenderMode::enhanced, RenderMode::layer_aware,
+                             RenderMode::axial_colorization, RenderMode::la_mip_composite,
+                             RenderMode::bscan_slice, RenderMode::en_face_slice}) {
     if (name == to_string(m)) return m;
   }
   throw ConfigError("render.mode", "'" + std::string(name) + "'",

@@ -16,9 +16,8 @@
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
-#include "ioct/gpu/offline/heidelberg_vol.hpp"
 #include "ioct/gpu/offline/input_file_error.hpp"
-#include "ioct/gpu/offline/nrrd_file.hpp"
+#include "ioct/gpu/offline/volume_file.hpp"
 #include "ioct/gpu/render/png_rgba.hpp"
 #include "ioct/gpu/render/renderer.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"
@@ -29,68 +28,20 @@ namespace fs = std::filesystem;
 using namespace ioct::gpu;
 using namespace ioct::gpu::render;
 
-struct Loaded {
-  Volume volume;
-  segmentation::VolumeSampling sampling;
-  bool sampling_known = false;
-  bool already_filtered = false;
-  std::optional<segmentation::Surfaces> vol_layers;  // a .vol's own ILM and BM lines
-  std::string kind;
-};
-
-bool has_extension(const fs::path& path, std::string_view extension) {
-  std::string e = path.extension().string();
-  for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return e == extension;
-}
-
-Loaded load(const fs::path& input) {
-  Loaded loaded;
-  if (has_extension(input, ".vol")) {
-    const offline::HeidelbergVol vol = offline::read_heidelberg_vol(input);
-    loaded.volume = offline::to_volume(vol);
-    loaded.sampling.axial_um_per_px = vol.header.depth_spacing_mm * 1000.0;
-    loaded.sampling.ascan_spacing_um = vol.header.ascan_spacing_mm * 1000.0;
-    loaded.sampling.bscan_spacing_um = vol.header.bscan_distance_mm > 0.0
-                                           ? vol.header.bscan_distance_mm * 1000.0
-                                           : loaded.sampling.ascan_spacing_um;
-    loaded.sampling_known = true;
-    // The device's lines: ILM (0) and Bruch's membrane (1), which stands in for the RPE centre
-    // a few px above it.
-    segmentation::Surfaces s;
-    s.reset(vol.header.bscans, vol.header.ascans, vol.header.depth);
-    for (std::uint32_t b = 0; b < vol.header.bscans; ++b) {
-      const auto& layers = vol.bscans[b].layers;
-      for (std::uint32_t a = 0; a < vol.header.ascans; ++a) {
-        if (layers.size() > 0) s.ilm[s.index(b, a)] = layers[0][a];
-        if (layers.size() > 1) s.rpe[s.index(b, a)] = layers[1][a];
-      }
+// A .vol's own lines as surfaces: ILM (line 0) and Bruch's membrane (line 1), which stands in for
+// the RPE centre a few px above it.
+segmentation::Surfaces surfaces_from_vol_layers(const offline::VolumeFile& file) {
+  const Volume& v = file.volume;
+  segmentation::Surfaces s;
+  s.reset(v.bscans(), v.ascans(), v.depth());
+  for (std::uint32_t b = 0; b < v.bscans() && b < file.vol_layers.size(); ++b) {
+    const auto& layers = file.vol_layers[b];
+    for (std::uint32_t a = 0; a < v.ascans(); ++a) {
+      if (layers.size() > 0) s.ilm[s.index(b, a)] = layers[0][a];
+      if (layers.size() > 1) s.rpe[s.index(b, a)] = layers[1][a];
     }
-    loaded.vol_layers = std::move(s);
-    loaded.kind = "Heidelberg .vol";
-    return loaded;
   }
-  if (has_extension(input, ".nrrd") || has_extension(input, ".nhdr")) {
-    offline::NrrdVolume nrrd = offline::read_nrrd_file(input);
-    loaded.volume = std::move(nrrd.volume);
-    const auto& m = nrrd.metadata;
-    double to_um = 0.0;
-    if (m.unit == "mm") to_um = 1000.0;
-    if (m.unit == "um" || m.unit == "\u00b5m" || m.unit == "micron") to_um = 1.0;
-    if (to_um > 0.0 && std::isfinite(m.spacings[0]) && std::isfinite(m.spacings[1]) &&
-        std::isfinite(m.spacings[2])) {
-      loaded.sampling.axial_um_per_px = m.spacings[0] * to_um;
-      loaded.sampling.ascan_spacing_um = m.spacings[1] * to_um;
-      loaded.sampling.bscan_spacing_um = m.spacings[2] * to_um;
-      loaded.sampling_known = true;
-    }
-    for (const auto& [key, value] : m.key_values) {
-      if (key == "ioct_filter" && value != "none") loaded.already_filtered = true;
-    }
-    loaded.kind = "NRRD";
-    return loaded;
-  }
-  throw offline::InputFileError(input, "not a volume file this command reads: use .nrrd or .vol");
+  return s;
 }
 
 std::vector<RenderMode> parse_modes(const std::string& text) {
@@ -220,20 +171,27 @@ int main(int argc, char** argv) {
     }
     config.validate();
 
-    Loaded loaded = load(input);
-    if (bscan_spacing_um) loaded.sampling.bscan_spacing_um = *bscan_spacing_um;
-    config.spacing = {loaded.sampling.ascan_spacing_um, loaded.sampling.bscan_spacing_um,
-                      loaded.sampling.axial_um_per_px};
+    const offline::VolumeFile loaded = offline::read_volume_file(input);
+    segmentation::VolumeSampling sampling;
+    if (loaded.spacing) {
+      sampling.axial_um_per_px = loaded.spacing->axial_per_px;
+      sampling.ascan_spacing_um = loaded.spacing->ascan;
+      sampling.bscan_spacing_um = loaded.spacing->bscan;
+    }
+    if (bscan_spacing_um) sampling.bscan_spacing_um = *bscan_spacing_um;
+    config.spacing = {sampling.ascan_spacing_um, sampling.bscan_spacing_um,
+                      sampling.axial_um_per_px};
     config.validate();
+    const bool has_vol_layers = !loaded.vol_layers.empty();
 
     // The reference layer.
     std::optional<segmentation::Surfaces> surfaces;
     std::string reference = "none";
-    if (layers == "vol" || (layers == "auto" && loaded.vol_layers)) {
-      if (!loaded.vol_layers) {
+    if (layers == "vol" || (layers == "auto" && has_vol_layers)) {
+      if (!has_vol_layers) {
         throw ioct::ConfigError("layers", "'vol'", "needs a .vol input (it has the lines)");
       }
-      surfaces = loaded.vol_layers;
+      surfaces = surfaces_from_vol_layers(loaded);
       reference = "the file's Bruch's membrane line";
     } else if (layers == "segment" || layers == "auto") {
       const bool do_filter = filter == "yes" || (filter == "auto" && !loaded.already_filtered);
@@ -243,7 +201,7 @@ int main(int argc, char** argv) {
             ->filter_volume(loaded.volume, filtered);
       }
       segmentation::Surfaces s;
-      make_segmenter(backend, {}, loaded.sampling, threads == 0 ? 2 : threads)
+      make_segmenter(backend, {}, sampling, threads == 0 ? 2 : threads)
           ->segment_volume(do_filter ? filtered : loaded.volume, s);
       surfaces = std::move(s);
       reference = "segmented RPE";

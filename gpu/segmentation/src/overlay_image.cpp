@@ -1,62 +1,13 @@
 #include "ioct/gpu/segmentation/overlay_image.hpp"
 
-#include <png.h>
-
 #include <algorithm>
 #include <cmath>
-#include <csetjmp>
-#include <cstdio>
 #include <stdexcept>
 #include <string>
 
-#include "ioct/common/atomic_file.hpp"
+#include "ioct/gpu/png_file.hpp"
 
 namespace ioct::gpu::segmentation {
-namespace {
-
-struct PngError {
-  char message[256] = "";
-};
-
-[[noreturn]] void on_png_error(png_structp png, png_const_charp message) {
-  auto* error = static_cast<PngError*>(png_get_error_ptr(png));
-  std::snprintf(error->message, sizeof error->message, "%s", message);
-  png_longjmp(png, 1);
-}
-
-void on_png_warning(png_structp, png_const_charp) {}
-
-// libpng longjmps back here on error; the frame holds only trivially destructible locals.
-bool encode_rgb(std::FILE* file, const RgbImage& image, PngError& error) {
-  png_structp png =
-      png_create_write_struct(PNG_LIBPNG_VER_STRING, &error, on_png_error, on_png_warning);
-  if (png == nullptr) {
-    std::snprintf(error.message, sizeof error.message, "libpng could not start (out of memory)");
-    return false;
-  }
-  png_infop info = png_create_info_struct(png);
-  if (info == nullptr) {
-    png_destroy_write_struct(&png, &info);
-    std::snprintf(error.message, sizeof error.message, "libpng could not start (out of memory)");
-    return false;
-  }
-  if (setjmp(png_jmpbuf(png))) {
-    png_destroy_write_struct(&png, &info);
-    return false;
-  }
-  png_init_io(png, file);
-  png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
-               PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-  png_write_info(png, info);
-  for (std::uint32_t y = 0; y < image.height; ++y) {
-    png_write_row(png, image.pixels.data() + std::size_t{y} * image.width * 3);
-  }
-  png_write_end(png, nullptr);
-  png_destroy_write_struct(&png, &info);
-  return true;
-}
-
-}  // namespace
 
 void mark(RgbImage& image, std::uint32_t x, float depth_px, std::uint8_t r, std::uint8_t g,
           std::uint8_t b) noexcept {
@@ -110,18 +61,7 @@ RgbImage crop_rows(const RgbImage& image, std::uint32_t first_row, std::uint32_t
 }
 
 void write_png_rgb8(const std::filesystem::path& path, const RgbImage& image) {
-  if (image.pixels.size() != std::size_t{image.width} * image.height * 3 || image.width == 0 ||
-      image.height == 0) {
-    throw std::invalid_argument("write_png_rgb8: " + path.string() + ": an image of " +
-                                std::to_string(image.width) + " x " + std::to_string(image.height) +
-                                " px with " + std::to_string(image.pixels.size()) + " bytes");
-  }
-  AtomicFile file(path);
-  PngError error;
-  if (!encode_rgb(file.stream(), image, error)) {
-    throw std::runtime_error("cannot write " + path.string() + ": " + error.message);
-  }
-  file.commit();
+  write_png8(path, image.width, image.height, 3, image.pixels);
 }
 
 }  // namespace ioct::gpu::segmentation

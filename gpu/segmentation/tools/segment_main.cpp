@@ -16,9 +16,8 @@
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
-#include "ioct/gpu/offline/heidelberg_vol.hpp"
 #include "ioct/gpu/offline/input_file_error.hpp"
-#include "ioct/gpu/offline/nrrd_file.hpp"
+#include "ioct/gpu/offline/volume_file.hpp"
 #include "ioct/gpu/segmentation/overlay_image.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"
 #include "ioct/gpu/segmentation/surfaces_csv.hpp"
@@ -28,60 +27,6 @@ namespace {
 namespace fs = std::filesystem;
 using namespace ioct::gpu;
 using namespace ioct::gpu::segmentation;
-
-struct LoadedVolume {
-  Volume volume;
-  VolumeSampling sampling;
-  bool sampling_known = false;
-  bool already_filtered = false;
-  std::string kind;
-};
-
-bool has_extension(const fs::path& path, std::string_view extension) {
-  std::string e = path.extension().string();
-  for (char& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return e == extension;
-}
-
-LoadedVolume load(const fs::path& input) {
-  LoadedVolume loaded;
-  if (has_extension(input, ".vol")) {
-    const offline::HeidelbergVol vol = offline::read_heidelberg_vol(input);
-    loaded.volume = offline::to_volume(vol);
-    loaded.sampling.axial_um_per_px = vol.header.depth_spacing_mm * 1000.0;
-    loaded.sampling.ascan_spacing_um = vol.header.ascan_spacing_mm * 1000.0;
-    // A single line or circle has no distance between B-scans: any valid value serves.
-    loaded.sampling.bscan_spacing_um = vol.header.bscan_distance_mm > 0.0
-                                           ? vol.header.bscan_distance_mm * 1000.0
-                                           : loaded.sampling.ascan_spacing_um;
-    loaded.sampling_known = true;
-    loaded.kind = "Heidelberg .vol (" +
-                  std::string(offline::scan_pattern_name(vol.header.scan_pattern)) + ")";
-    return loaded;
-  }
-  if (has_extension(input, ".nrrd") || has_extension(input, ".nhdr")) {
-    offline::NrrdVolume nrrd = offline::read_nrrd_file(input);
-    loaded.volume = std::move(nrrd.volume);
-    const auto& m = nrrd.metadata;
-    double to_um = 0.0;
-    if (m.unit == "mm") to_um = 1000.0;
-    if (m.unit == "um" || m.unit == "\u00b5m" || m.unit == "micron") to_um = 1.0;
-    const bool spacings_known = to_um > 0.0 && std::isfinite(m.spacings[0]) &&
-                                std::isfinite(m.spacings[1]) && std::isfinite(m.spacings[2]);
-    if (spacings_known) {
-      loaded.sampling.axial_um_per_px = m.spacings[0] * to_um;
-      loaded.sampling.ascan_spacing_um = m.spacings[1] * to_um;
-      loaded.sampling.bscan_spacing_um = m.spacings[2] * to_um;
-      loaded.sampling_known = true;
-    }
-    for (const auto& [key, value] : m.key_values) {
-      if (key == "ioct_filter" && value != "none") loaded.already_filtered = true;
-    }
-    loaded.kind = "NRRD";
-    return loaded;
-  }
-  throw offline::InputFileError(input, "not a volume file this command reads: use .nrrd or .vol");
-}
 
 std::vector<std::uint32_t> overlay_bscans(const std::string& which, const Surfaces& surfaces) {
   std::vector<std::uint32_t> list;
@@ -153,18 +98,24 @@ int main(int argc, char** argv) {
     }
     config.validate();
 
-    LoadedVolume loaded = load(input);
-    if (axial_um) loaded.sampling.axial_um_per_px = *axial_um;
-    if (ascan_um) loaded.sampling.ascan_spacing_um = *ascan_um;
-    if (bscan_um) loaded.sampling.bscan_spacing_um = *bscan_um;
-    if (!loaded.sampling_known && !(axial_um && ascan_um && bscan_um)) {
+    const offline::VolumeFile loaded = offline::read_volume_file(input);
+    VolumeSampling sampling;
+    if (loaded.spacing) {
+      sampling.axial_um_per_px = loaded.spacing->axial_per_px;
+      sampling.ascan_spacing_um = loaded.spacing->ascan;
+      sampling.bscan_spacing_um = loaded.spacing->bscan;
+    }
+    if (axial_um) sampling.axial_um_per_px = *axial_um;
+    if (ascan_um) sampling.ascan_spacing_um = *ascan_um;
+    if (bscan_um) sampling.bscan_spacing_um = *bscan_um;
+    if (!loaded.spacing && !(axial_um && ascan_um && bscan_um)) {
       std::cerr << "ioct-segment: " << input
                 << ": the file states no spacings in mm or um; using the default geometry's ("
-                << loaded.sampling.axial_um_per_px << " um/px, " << loaded.sampling.ascan_spacing_um
-                << " um, " << loaded.sampling.bscan_spacing_um
+                << sampling.axial_um_per_px << " um/px, " << sampling.ascan_spacing_um << " um, "
+                << sampling.bscan_spacing_um
                 << " um); give --axial-um, --ascan-um and --bscan-um\n";
     }
-    loaded.sampling.validate();
+    sampling.validate();
 
     const auto start = std::chrono::steady_clock::now();
     const bool do_filter = filter == "yes" || (filter == "auto" && !loaded.already_filtered);
@@ -173,8 +124,7 @@ int main(int argc, char** argv) {
       filters::make_volume_filter(backend, {}, threads)->filter_volume(loaded.volume, filtered);
     }
     const Volume& volume = do_filter && loaded.volume.bscans() > 0 ? filtered : loaded.volume;
-    const std::unique_ptr<Segmenter> segmenter =
-        make_segmenter(backend, config, loaded.sampling, threads);
+    const std::unique_ptr<Segmenter> segmenter = make_segmenter(backend, config, sampling, threads);
     Surfaces surfaces;
     segmenter->segment_volume(volume, surfaces);
     const double seconds =
@@ -184,7 +134,7 @@ int main(int argc, char** argv) {
     const fs::path csv = fs::path(out) / "surfaces.csv";
     {
       ioct::AtomicFile file(csv);
-      write_surfaces_csv(file.stream(), surfaces, loaded.sampling.axial_um_per_px);
+      write_surfaces_csv(file.stream(), surfaces, sampling.axial_um_per_px);
       file.commit();
     }
     std::vector<std::string> pngs;
@@ -207,9 +157,9 @@ int main(int argc, char** argv) {
         {"ascans", volume.ascans()},
         {"depth", volume.depth()},
         {"sampling_um",
-         {{"axial_per_px", loaded.sampling.axial_um_per_px},
-          {"ascan_spacing", loaded.sampling.ascan_spacing_um},
-          {"bscan_spacing", loaded.sampling.bscan_spacing_um}}},
+         {{"axial_per_px", sampling.axial_um_per_px},
+          {"ascan_spacing", sampling.ascan_spacing_um},
+          {"bscan_spacing", sampling.bscan_spacing_um}}},
         {"bscans_with_retina", retina},
         {"ascans_measured", counts[static_cast<int>(SurfaceState::measured)]},
         {"ascans_bridged", counts[static_cast<int>(SurfaceState::bridged)]},

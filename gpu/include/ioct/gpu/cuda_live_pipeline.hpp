@@ -58,6 +58,7 @@ class CudaLivePipeline final : public LivePipeline {
   shm::PollStatus poll(LiveEvents& events) override;
   void drain(LiveEvents& events) override;
   std::optional<VolumeInfo> seal_partial(const Volume*& volume) override;
+  LiveVolumeShape shape() const override;
   // Through read_volume() on a stream of its own, synchronously.
   void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) override;
   const shm::RingReader& reader() const noexcept override;

@@ -21,6 +21,7 @@ class HostLivePipeline final : public LivePipeline {
   shm::PollStatus poll(LiveEvents& events) override;
   void drain(LiveEvents&) override {}
   std::optional<VolumeInfo> seal_partial(const Volume*& volume) override;
+  LiveVolumeShape shape() const override;
   void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) override;
   const shm::RingReader& reader() const noexcept override { return reader_; }
   std::string_view backend_name() const noexcept override { return processor_->backend_name(); }

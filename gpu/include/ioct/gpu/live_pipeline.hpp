@@ -40,7 +40,6 @@ class LiveEvents {
 
 class LivePipeline : public LiveVolumeSource {
  public:
-
   // Moves work along without waiting long: reads what the ring has ready, finishes what the
   // processing has done. Returns ready when anything is under way or happened (call again soon),
   // empty when there is nothing to do, producer_gone when the producer closed the ring and

@@ -15,21 +15,31 @@
 
 namespace ioct::gpu {
 
-// The live volume as a stage may read it: positions x active A-scans x depth.
+// The live volume's dimensions: B-scan positions x active A-scans x depth (all 0 before a volume
+// has begun).
+struct LiveVolumeShape {
+  std::uint32_t bscans = 0, ascans = 0, depth = 0;
+  bool fits(const Volume& v) const noexcept {
+    return v.bscans() == bscans && v.ascans() == ascans && v.depth() == depth;
+  }
+};
+
+// The live volume as a stage may read it.
 class LiveVolumeSource {
  public:
   virtual ~LiveVolumeSource() = default;
+  virtual LiveVolumeShape shape() const = 0;
   // Copies B-scans [first, first + count) of the live volume, as of the last group reported,
-  // into the same B-scans of `out`. `out` is first reshaped to the live volume's dimensions when
-  // they differ (its other B-scans are then unspecified). Throws std::out_of_range for B-scans
-  // outside the volume; nothing is copied before a volume has begun (count must then be 0).
+  // into the same B-scans of `out`. `out` is first reshaped to shape() when it differs (its other
+  // B-scans are then unspecified). Throws std::out_of_range for B-scans outside the volume;
+  // nothing is copied before a volume has begun (count must then be 0).
   virtual void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) = 0;
 };
 
-// For implementations: reshapes `out` to `bscans x ascans x depth` when it differs and checks
-// that [first, first + count) lies inside; throws std::out_of_range naming the range.
-void prepare_bscan_copy(std::uint32_t bscans, std::uint32_t ascans, std::uint32_t depth,
-                        std::uint32_t first, std::uint32_t count, Volume& out);
+// For implementations: reshapes `out` to `shape` and checks that [first, first + count) lies
+// inside; throws std::out_of_range naming the range.
+void prepare_bscan_copy(const LiveVolumeShape& shape, std::uint32_t first, std::uint32_t count,
+                        Volume& out);
 
 class LiveStage {
  public:

@@ -28,6 +28,9 @@ class Volume {
   std::uint32_t ascans() const noexcept { return ascans_; }
   std::uint32_t depth() const noexcept { return depth_; }
   std::size_t bscan_pixels() const noexcept { return std::size_t{ascans_} * depth_; }
+  bool same_shape(const Volume& other) const noexcept {
+    return bscans_ == other.bscans_ && ascans_ == other.ascans_ && depth_ == other.depth_;
+  }
 
   std::span<std::uint8_t> bscan(std::uint32_t b) noexcept {
     return {pixels_.data() + b * bscan_pixels(), bscan_pixels()};

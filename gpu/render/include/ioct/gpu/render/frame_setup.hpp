@@ -20,9 +20,6 @@ struct VolumeDims {
 RenderParams bake_params(const RenderConfig& config, VolumeDims dims,
                          const LayerReference& reference);
 
-// d_rpe in px: the configured one, else the reference's mean thickness, else 250 um of depth.
-float d_rpe_px(const RenderConfig& config, const LayerReference& reference);
-
 // Output image size: one eye's width times the eyes, by the height.
 std::uint32_t output_width(const RenderParams& params);
 

@@ -52,50 +52,45 @@ IOCT_RENDER_HD void la_mip_en_face_texel(const RenderParams& p, const Sampler& s
   buffer[l.en_face_depth() + i] = static_cast<float>(best_d);
 }
 
-// Eq. 4 across the B-scans: at A-scan a, the maximum over B-scans [b0, b1) along the curve whose
-// distance from the RPE is that of panel depth z at the middle B-scan. (Ranges let CUDA split a
-// curve over threads; the maximum of the parts is the whole's.) At whole (a, b) the RPE is
-// reference_at()'s value without interpolating. Texel (z, a) of the across_bscans() image.
+// Which of the two LA-MIPs: the curves run across the B-scans (at one A-scan) or along the
+// A-scans (of one B-scan).
+enum class LaMipAxis { across_bscans, along_ascans };
+
+// Eq. 4: at lateral position `at` (an A-scan, or a B-scan) and panel depth z, the maximum over
+// curve samples [k0, k1) (B-scans, or A-scans) along the curve whose distance from the RPE is
+// that of z at the middle of the curve. (Ranges let CUDA split a curve over threads; the maximum
+// of the parts is the whole's.) At whole (a, b) the RPE is reference_at()'s value without
+// interpolating.
 template <class Sampler>
-IOCT_RENDER_HD float la_mip_across_bscans(const RenderParams& p, const Sampler& s, int a, int z,
-                                          int b0, int b1) {
-  const float fa = static_cast<float>(a);
-  const float offset = static_cast<float>(z) - reference_at(p, fa, 0.5f * (p.dim_b - 1));
+IOCT_RENDER_HD float la_mip_curve_max(const RenderParams& p, const Sampler& s, LaMipAxis axis,
+                                      int at, int z, int k0, int k1) {
+  const bool across = axis == LaMipAxis::across_bscans;
+  const float fat = static_cast<float>(at);
+  const float middle = across ? reference_at(p, fat, 0.5f * (p.dim_b - 1))
+                              : reference_at(p, 0.5f * (p.dim_a - 1), fat);
+  const float offset = static_cast<float>(z) - middle;
   float best = 0.0f;
-  for (int b = b0; b < b1; ++b) {
+  for (int k = k0; k < k1; ++k) {
+    const int a = across ? at : k;
+    const int b = across ? k : at;
     const float d = p.reference_px[b * p.dim_a + a] + offset;
-    best = fmaxf(best, sample_or_zero(p, s, fa, static_cast<float>(b), d));
+    best = fmaxf(best, sample_or_zero(p, s, static_cast<float>(a), static_cast<float>(b), d));
   }
   return best;
 }
 
-// Eq. 4 along the A-scans [a0, a1) of B-scan b, at the distance from the RPE of panel depth z at
-// the middle A-scan. Texel (z, b) of the along_ascans() image.
-template <class Sampler>
-IOCT_RENDER_HD float la_mip_along_ascans(const RenderParams& p, const Sampler& s, int b, int z,
-                                         int a0, int a1) {
-  const float fb = static_cast<float>(b);
-  const float offset = static_cast<float>(z) - reference_at(p, 0.5f * (p.dim_a - 1), fb);
-  const float* rpe = p.reference_px + b * p.dim_a;
-  float best = 0.0f;
-  for (int a = a0; a < a1; ++a) {
-    best = fmaxf(best, sample_or_zero(p, s, static_cast<float>(a), fb, rpe[a] + offset));
-  }
-  return best;
+// Where texel (z, at) of `axis`'s LA-MIP image lies in the buffer; how many lateral positions
+// that image has, and how many samples its curves.
+IOCT_RENDER_HD std::size_t la_mip_texel(const LaMipBuffer& l, LaMipAxis axis, int at, int z) {
+  return axis == LaMipAxis::across_bscans
+             ? l.across_bscans() + static_cast<std::size_t>(z) * l.a + static_cast<std::size_t>(at)
+             : l.along_ascans() + static_cast<std::size_t>(z) * l.b + static_cast<std::size_t>(at);
 }
-
-// Bilinear lookup in a w x h image at (x, y) in texel units, edges clamped.
-IOCT_RENDER_HD float bilinear(const float* image, int w, int h, float x, float y) {
-  x = fminf(fmaxf(x, 0.0f), static_cast<float>(w - 1));
-  y = fminf(fmaxf(y, 0.0f), static_cast<float>(h - 1));
-  const int x0 = static_cast<int>(floorf(x));
-  const int y0 = static_cast<int>(floorf(y));
-  const int x1 = x0 + 1 < w ? x0 + 1 : x0;
-  const int y1 = y0 + 1 < h ? y0 + 1 : y0;
-  const float fx = x - static_cast<float>(x0);
-  const float fy = y - static_cast<float>(y0);
-  return lerp(lerp(image[y0 * w + x0], image[y0 * w + x1], fx),
-              lerp(image[y1 * w + x0], image[y1 * w + x1], fx), fy);
+IOCT_RENDER_HD int la_mip_positions(const RenderParams& p, LaMipAxis axis) {
+  return axis == LaMipAxis::across_bscans ? p.dim_a : p.dim_b;
+}
+IOCT_RENDER_HD int la_mip_curve_length(const RenderParams& p, LaMipAxis axis) {
+  return axis == LaMipAxis::across_bscans ? p.dim_b : p.dim_a;
 }
 
 // One output pixel of the composite: en face (top left), LA-MIP across the B-scans (below, depth

@@ -16,11 +16,11 @@ inline constexpr std::uint8_t kCentreOfMassLevel = 64;
 
 struct LayerReference {
   std::uint32_t bscans = 0, ascans = 0;
-  std::vector<float> rpe_px;  // [bscan][ascan], no NaN
-  bool rpe_known = false;     // false: rpe_px is the centre-of-mass plane
+  std::vector<float> rpe_px;       // [bscan][ascan], no NaN; the axial plane without an RPE
   float mean_thickness_px = 0.0f;  // mean rpe - ilm over A-scans having both; 0: unknown
-  float centre_of_mass_px = 0.0f;
-  std::vector<float> axial_plane_px;  // [bscan][ascan], all centre_of_mass_px
+  // [bscan][ascan], all the axial centre of mass: a surface like the RPE, so that the pixel code
+  // reads either through the same pointer.
+  std::vector<float> axial_plane_px;
 };
 
 // Integer sums of value x depth and of value over the voxels >= kCentreOfMassLevel of B-scans
@@ -35,8 +35,7 @@ CentreOfMassSums centre_of_mass_sums(const Volume& volume, std::uint32_t first,
 // `surfaces` may be null or of other dimensions than the volume (then ignored). NaN A-scans of
 // the RPE take the linear interpolation of the nearest measured ones along their B-scan; B-scans
 // with none take the nearest B-scan's row; without any RPE the centre-of-mass plane stands in.
-LayerReference make_layer_reference(std::uint32_t bscans, std::uint32_t ascans,
-                                    std::uint32_t depth, const segmentation::Surfaces* surfaces,
-                                    CentreOfMassSums sums);
+LayerReference make_layer_reference(std::uint32_t bscans, std::uint32_t ascans, std::uint32_t depth,
+                                    const segmentation::Surfaces* surfaces, CentreOfMassSums sums);
 
 }  // namespace ioct::gpu::render

@@ -55,19 +55,23 @@ IOCT_RENDER_HD float delta_star(float depth_px, float reference_px, float d_rpe_
   return clamp01(((depth_px - reference_px) / d_rpe_px + 1.0f) / 3.0f);
 }
 
-// The reference surface (RPE or the axial plane) at a lateral position, bilinear, edges clamped.
-IOCT_RENDER_HD float reference_at(const RenderParams& p, float a, float b) {
-  const float x = fminf(fmaxf(a, 0.0f), static_cast<float>(p.dim_a - 1));
-  const float y = fminf(fmaxf(b, 0.0f), static_cast<float>(p.dim_b - 1));
+// Bilinear lookup in a w x h float image at (x, y) in texel units, edges clamped.
+IOCT_RENDER_HD float bilinear(const float* image, int w, int h, float x, float y) {
+  x = fminf(fmaxf(x, 0.0f), static_cast<float>(w - 1));
+  y = fminf(fmaxf(y, 0.0f), static_cast<float>(h - 1));
   const int x0 = static_cast<int>(floorf(x));
   const int y0 = static_cast<int>(floorf(y));
-  const int x1 = x0 + 1 < p.dim_a ? x0 + 1 : x0;
-  const int y1 = y0 + 1 < p.dim_b ? y0 + 1 : y0;
+  const int x1 = x0 + 1 < w ? x0 + 1 : x0;
+  const int y1 = y0 + 1 < h ? y0 + 1 : y0;
   const float fx = x - static_cast<float>(x0);
   const float fy = y - static_cast<float>(y0);
-  const float* r = p.reference_px;
-  return lerp(lerp(r[y0 * p.dim_a + x0], r[y0 * p.dim_a + x1], fx),
-              lerp(r[y1 * p.dim_a + x0], r[y1 * p.dim_a + x1], fx), fy);
+  return lerp(lerp(image[y0 * w + x0], image[y0 * w + x1], fx),
+              lerp(image[y1 * w + x0], image[y1 * w + x1], fx), fy);
+}
+
+// The reference surface (RPE or the axial plane) at a lateral position, bilinear, edges clamped.
+IOCT_RENDER_HD float reference_at(const RenderParams& p, float a, float b) {
+  return bilinear(p.reference_px, p.dim_a, p.dim_b, a, b);
 }
 
 // Linear opacity transfer function of the layer-aware DVR: 0 up to i_min, alpha_max from i_max.

@@ -38,7 +38,7 @@ struct ViewConfig {
   double zoom = 1.0;            // 1: the volume's bounding sphere fits the image height
   double pan_x = 0.0;           // image-plane shift, in units of the volume's largest extent
   double pan_y = 0.0;
-  bool stereo = false;           // side by side: left eye | right eye, each output_width wide
+  bool stereo = false;            // side by side: left eye | right eye, each output_width wide
   double stereo_angle_deg = 9.0;  // the eyes sit at azimuth -/+ half of this
   std::uint32_t output_width = 1024;
   std::uint32_t output_height = 768;
@@ -52,9 +52,9 @@ struct ViewConfig {
 
 // Physical size of a voxel in micrometres: gives the rendered aspect (and d_rpe's fallback).
 struct VoxelSpacing {
-  double ascan = 11.74;   // between neighbouring A-scans of a B-scan
-  double bscan = 47.24;   // between neighbouring B-scans
-  double depth = 5.605;   // along the A-scan
+  double ascan = 11.74;  // between neighbouring A-scans of a B-scan
+  double bscan = 47.24;  // between neighbouring B-scans
+  double depth = 5.605;  // along the A-scan
 
   void validate() const;  // "render.spacing.<key>"
 };
@@ -63,18 +63,21 @@ struct VoxelSpacing {
 struct ColorPoint {
   double intensity = 0.0;
   std::array<double, 3> rgb{0.0, 0.0, 0.0};
+  bool operator==(const ColorPoint&) const = default;
 };
 struct OpacityPoint {
   double intensity = 0.0;
   double alpha = 0.0;
+  bool operator==(const OpacityPoint&) const = default;
 };
 
 struct TransferFunctions {
-  std::vector<ColorPoint> color{{0.0, {0.55, 0.45, 0.40}}, {0.6, {0.95, 0.85, 0.75}},
-                                {1.0, {1.0, 1.0, 1.0}}};
+  std::vector<ColorPoint> color{
+      {0.0, {0.55, 0.45, 0.40}}, {0.6, {0.95, 0.85, 0.75}}, {1.0, {1.0, 1.0, 1.0}}};
   std::vector<OpacityPoint> opacity{{0.0, 0.0}, {0.35, 0.05}, {1.0, 0.6}};
 
   void validate(std::string_view key) const;
+  bool operator==(const TransferFunctions&) const = default;  // (the CUDA renderer's table cache)
 };
 
 // Viehland et al. 2016, Eqs. (1)-(5); each step can be switched off (their Fig. 4 progression).
@@ -118,15 +121,16 @@ enum class ChromaCurve : std::uint8_t { stated_properties, as_printed };
 // Weiss et al. 2019, Sec. 3.1: L* = 100 I, (a*, b*) = ab_scale gamma(I) ((1-d) C0 + d C1) with
 // d = delta* = clamp((delta + 1) / 3), delta = (depth - rpe) / d_rpe.
 struct LabColorMap {
-  std::array<double, 2> c0{-0.5, -0.5};   // (a*, b*) at delta* = 0: blue
-  std::array<double, 2> c1{0.75, 0.75};   // (a*, b*) at delta* = 1: red
-  double ab_scale = 100.0;                // the paper's a*b* units to CIE a*b*
+  std::array<double, 2> c0{-0.5, -0.5};  // (a*, b*) at delta* = 0: blue
+  std::array<double, 2> c1{0.75, 0.75};  // (a*, b*) at delta* = 1: red
+  double ab_scale = 100.0;               // the paper's a*b* units to CIE a*b*
   ChromaCurve chroma_curve = ChromaCurve::stated_properties;
   // d_rpe, the average retinal thickness in depth px; 0: measured from the surfaces (mean of
   // rpe - ilm), or kDefaultRetinaThicknessUm of depth where the surfaces do not give it.
   double d_rpe_px = 0.0;
 
   void validate(std::string_view key) const;
+  bool operator==(const LabColorMap&) const = default;  // (the CUDA renderer's table cache)
 };
 
 inline constexpr double kDefaultRetinaThicknessUm = 250.0;
@@ -138,12 +142,12 @@ inline constexpr std::uint32_t kMaxShadowSteps = 1000;
 
 // Weiss et al. 2019, Sec. 3.2, Eqs. (2)-(3).
 struct LayerAwareConfig {
-  double i_min = 0.3;       // linear opacity transfer function: 0 at i_min ...
-  double i_max = 0.9;       // ... alpha_max at i_max and above
+  double i_min = 0.3;  // linear opacity transfer function: 0 at i_min ...
+  double i_max = 0.9;  // ... alpha_max at i_max and above
   double alpha_max = 0.5;
-  bool colorize = true;     // false: L* only (their Fig. 4 A1)
+  bool colorize = true;                              // false: L* only (their Fig. 4 A1)
   std::uint32_t shadow_steps = kShadowStepsLimited;  // N_s; 0: no shadows
-  double early_termination = 0.975;  // stop a ray once its opacity exceeds this
+  double early_termination = 0.975;                  // stop a ray once its opacity exceeds this
   LabColorMap colors;
 
   void validate() const;  // "render.layer_aware.<key>"
@@ -158,8 +162,8 @@ struct AxialColorizationConfig {
 };
 
 struct SliceConfig {
-  std::int64_t bscan = -1;        // B-scan shown; -1: the centre one
-  double en_face_depth_px = -1;   // en face slice depth; -1: the centre depth
+  std::int64_t bscan = -1;               // B-scan shown; -1: the centre one
+  double en_face_depth_px = -1;          // en face slice depth; -1: the centre depth
   bool en_face_relative_to_rpe = false;  // then en_face_depth_px is the offset below the RPE
 
   void validate() const;  // "render.slice.<key>"
@@ -169,7 +173,7 @@ struct RenderConfig {
   RenderMode mode = RenderMode::enhanced;
   ViewConfig view;
   VoxelSpacing spacing;
-  double step_voxels = 1.0;  // ray step: at most this many voxels along any axis per sample
+  double step_voxels = 1.0;          // ray step: at most this many voxels along any axis per sample
   double early_termination = 0.975;  // basic and enhanced: stop once opacity exceeds this
   EnhancedConfig enhanced;
   LayerAwareConfig layer_aware;

@@ -47,8 +47,12 @@ class Renderer {
 // usable, else cpu. cpu_threads 0: the hardware's.
 std::unique_ptr<Renderer> make_renderer(Backend backend, unsigned cpu_threads = 0);
 
+// For the implementations of update_bscans(): throws std::out_of_range naming B-scans
+// [first, first + count) when they are empty or not inside a volume of `bscans`.
+void check_bscan_range(std::uint32_t bscans, std::uint32_t first, std::uint32_t count);
+
 // One call on the CPU reference: set_volume() then render().
 RgbaImage render_volume(const Volume& volume, const segmentation::Surfaces* surfaces,
-                 const RenderConfig& config);
+                        const RenderConfig& config);
 
 }  // namespace ioct::gpu::render
