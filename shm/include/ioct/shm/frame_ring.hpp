@@ -1,0 +1,194 @@
+// The frame ring: rendered frames from ioct-gpu (one writer) to ioct-view (readers), the only
+// contract between the pipeline and the process that faces the network.
+//
+// The same discipline as the group ring, smaller: one writer that never waits, slots under a
+// seqlock, readers that map read-only and find out afterwards whether the writer lapped them.
+// Latest wins: a reader that falls behind skips to the newest frames; nothing here ever waits for
+// a viewer. Besides the frames the header carries the writer's heartbeat and the pipeline's
+// status (the producer's state, the newest group, drops), so a viewer can tell "no new group for a
+// while" (STALE) from "the pipeline is gone" (NO SIGNAL) without a second channel.
+//
+// Layout: FrameRingHeader (page 0), then `slot_count` slots of `slot_stride` bytes, each a
+// FrameSlotHeader (sequence word, FrameMeta) followed by the payload at a page boundary.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "ioct/shm/shm_object.hpp"
+
+namespace ioct::shm {
+
+inline constexpr std::uint64_t kFrameRingMagic = 0x454D'4152'4654'4F49;  // "IOTFRAME" (LE)
+inline constexpr std::uint32_t kFrameRingVersion = 1;
+inline constexpr std::uint32_t kMaxFrameSlots = 64;
+inline constexpr std::uint64_t kMaxFramePayloadBytes = 64ull << 20;  // a 4K stereo JPEG is < 8 MiB
+inline constexpr std::size_t kFrameModeNameBytes = 24;
+
+enum class FrameFormat : std::uint32_t { jpeg = 1 };
+
+// What the writer knows of the group ring it reads (FrameRingStatus::source_state).
+enum class SourceState : std::uint32_t {
+  waiting = 0,        // no producer ring yet (ioct-rt not running), or not attached yet
+  live = 1,           // attached, groups arriving
+  producer_gone = 2,  // the producer closed or left its ring; the writer waits for it
+};
+
+// One frame's description. Trivially copyable; copied out whole by readers.
+struct FrameMeta {
+  std::uint64_t frame_index;        // set by the writer: 0, 1, 2, ... per writer epoch
+  std::uint64_t view_id;            // 0: the shared (operator's) view; others: a viewer's own
+  std::uint64_t params_generation;  // the render parameters' generation this frame shows
+  std::uint64_t group_index;        // newest ring group in the volume state shown
+  std::uint64_t volume_index;       // that group's volume
+  std::uint64_t t_group_published_ns;  // CLOCK_MONOTONIC, from the group's slot header
+  std::uint64_t t_group_processed_ns;  // the group placed into the live volume
+  std::uint64_t t_rendered_ns;         // the render finished (before encoding)
+  std::uint64_t t_written_ns;          // set by the writer: the frame published here
+  std::uint32_t format;                // FrameFormat
+  std::uint32_t width;                 // the render, px (stereo: both eyes side by side)
+  std::uint32_t height;
+  std::uint32_t render_bytes;  // payload [0, render_bytes): the render, encoded
+  std::uint32_t bscan_bytes;   // payload [render_bytes, + bscan_bytes): the B-scan, or 0
+  std::uint32_t bscan_width;   // A-scans
+  std::uint32_t bscan_height;  // depth px
+  std::uint32_t bscan_index;   // which B-scan of the volume (its position, 0 = first)
+  std::uint32_t bscans;        // B-scans in the volume
+  std::uint32_t stereo;        // 1: left | right eye side by side
+  char mode[kFrameModeNameBytes];  // render mode name, NUL-terminated ("enhanced", ...)
+};
+
+// The pipeline's figures as the writer last reported them (FrameRingWriter::set_status).
+struct FrameRingStatus {
+  std::uint64_t source_state;             // SourceState
+  std::uint64_t groups_consumed;          // ring groups read intact
+  std::uint64_t groups_dropped;           // lapped + behind
+  std::uint64_t volumes_completed;
+  std::uint64_t last_group_index;         // newest group processed
+  std::uint64_t last_group_published_ns;  // its publish time (CLOCK_MONOTONIC); 0: none yet
+  std::uint64_t group_period_ns;          // measured between groups; 0: not known yet
+  std::uint64_t passes;                   // live-stage passes (filter, segment, render)
+  std::uint64_t renders;                  // frames rendered (all views)
+};
+
+struct FrameRingHeader {
+  std::uint64_t magic;  // written last at creation
+  std::uint32_t layout_version;
+  std::uint32_t slot_count;
+  std::uint64_t header_bytes;
+  std::uint64_t slot_stride;
+  std::uint64_t max_payload_bytes;
+  std::uint64_t writer_pid;
+  std::uint64_t writer_start_ticks;
+  // Live words (atomic access only).
+  std::uint64_t epoch;         // a new writer (restart) takes a new epoch
+  std::uint64_t closed;        // 1 once the writer closed it on an orderly exit
+  std::uint64_t published;     // frames published in this epoch
+  std::uint64_t heartbeat_ns;  // CLOCK_MONOTONIC; the writer beats while alive, frames or not
+  std::uint64_t status_sequence;  // seqlock of `status`: odd while it is written
+  FrameRingStatus status;
+};
+
+struct FrameSlotHeader {
+  std::uint64_t sequence;  // 2f+1 while frame f is written, 2f+2 once published
+  std::uint64_t reserved[7];
+  FrameMeta meta;
+};
+
+struct FrameRingConfig {
+  std::string name;  // shm object name, e.g. "<ring>.frames"
+  std::uint32_t slots = 8;
+  std::uint64_t max_payload_bytes = 8ull << 20;
+  unsigned mode = 0640;  // the writer writes, the view's group reads
+  std::string group;     // owning group; empty: the writer's
+
+  void validate() const;  // ConfigError "frames.<key>"
+};
+
+// ioct-gpu's side. Not thread-safe: one thread publishes (the live stages' thread); heartbeat()
+// and set_status() may come from another thread only if the caller serialises them with publish().
+class FrameRingWriter {
+ public:
+  // Creates the object; a dead writer's object under the name is replaced, a live writer's is
+  // refused (RingError owned_by_live_producer), a foreign object is left alone (RingError foreign).
+  explicit FrameRingWriter(const FrameRingConfig& config);
+  FrameRingWriter(FrameRingWriter&&) noexcept;
+  FrameRingWriter& operator=(FrameRingWriter&&) noexcept;
+  ~FrameRingWriter();  // close()
+
+  // Publishes one frame: `meta` (frame_index and t_written_ns are set here; render_bytes and
+  // bscan_bytes from the spans) and its payload. Returns the frame index. Throws
+  // std::length_error when the payload does not fit max_payload_bytes (nothing is published).
+  std::uint64_t publish(FrameMeta meta, std::span<const std::byte> render,
+                        std::span<const std::byte> bscan);
+  void heartbeat(std::uint64_t now_ns) noexcept;
+  void set_status(const FrameRingStatus& status) noexcept;
+  // Marks the ring closed and removes the name (readers keep their mapping and see closed).
+  void close() noexcept;
+
+  const std::string& name() const noexcept;
+  std::uint64_t epoch() const noexcept;
+
+ private:
+  std::optional<ShmObject> object_;
+  std::uint64_t next_frame_ = 0;
+};
+
+// A frame as a reader copied it.
+struct Frame {
+  FrameMeta meta{};
+  std::vector<std::byte> payload;  // render bytes, then B-scan bytes
+  std::span<const std::byte> render() const { return {payload.data(), meta.render_bytes}; }
+  std::span<const std::byte> bscan() const {
+    return {payload.data() + meta.render_bytes, meta.bscan_bytes};
+  }
+};
+
+// What a reader sees of the writer.
+struct FrameWriterHealth {
+  bool alive = false;                 // the writer's process is running and the ring not closed
+  std::uint64_t heartbeat_age_ns = 0;
+  std::uint64_t epoch = 0;
+  std::uint64_t published = 0;
+};
+
+// ioct-view's side. Maps the object read-only; validates the header before touching a slot.
+class FrameRingReader {
+ public:
+  // Throws RingError: not_found / not_ready (retry later), foreign, wrong_version, corrupt,
+  // too_small, permission.
+  static FrameRingReader attach(const std::string& name);
+
+  FrameRingReader(FrameRingReader&&) noexcept;
+  FrameRingReader& operator=(FrameRingReader&&) noexcept;
+  ~FrameRingReader();
+
+  // Copies the next frame not yet read into `out` (reusing its buffer); false when there is none.
+  // Frames the writer overwrote before or during the copy are skipped and counted; a reader more
+  // than a ring behind jumps to the oldest frame still there. A new writer epoch starts over.
+  bool read_next(Frame& out);
+  FrameWriterHealth health() const;
+  // The pipeline status; false if the writer kept rewriting it during the copy (try again).
+  bool read_status(FrameRingStatus& out) const;
+
+  std::uint64_t frames_skipped() const noexcept { return skipped_; }
+  const std::string& name() const noexcept;
+
+ private:
+  explicit FrameRingReader(ShmObject object);
+  std::optional<ShmObject> object_;
+  std::uint64_t epoch_ = 0;
+  std::uint64_t next_ = 0;
+  std::uint64_t skipped_ = 0;
+};
+
+// Throws RingError(corrupt | wrong_version | foreign | too_small) naming the field, for a header
+// of an object of `object_bytes` bytes (also used by the fuzz target on raw bytes).
+void validate_frame_ring_header(const FrameRingHeader& header, std::uint64_t object_bytes,
+                                const std::string& name);
+
+}  // namespace ioct::shm
