@@ -11,6 +11,7 @@ ioct_packages=(
   libboost-dev libfftw3-dev libpng-dev libcli11-dev nlohmann-json3-dev libtomlplusplus-dev
   libusb-1.0-0-dev libgpiod-dev
   libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev
+  chromium  # the live view's browser tests drive it headless (tests/view)
 )
 
 ioct_install_packages() {
