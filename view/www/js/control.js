@@ -1,0 +1,82 @@
+// The assistant's page: the live picture with every control. Each edit goes to the server
+// (throttled, ParamSender); a refusal's text appears beside the control that caused it; the
+// controls follow the shared parameters the server reports, except the one being touched.
+import { startLiveView } from './live-view.js';
+import { tokenFromFragment } from './token.js';
+import { ParamSender } from './param-sender.js';
+import { getPath } from './param-paths.js';
+import { buildControl } from './control-widgets.js';
+import { kMainControls, kViewControls, kAdvancedControls } from './control-table.js';
+import { attachOrbit } from './orbit.js';
+import { attachPresets } from './presets-panel.js';
+
+const $ = (id) => document.getElementById(id);
+const token = tokenFromFragment();
+const controls = [];
+let params = {};
+
+const live = startLiveView({
+  token,
+  onState: (state) => {
+    const role = state.role === 'operator' ? 'operator' : 'viewer';
+    $('role').textContent = role === 'operator'
+      ? 'Operator'
+      : 'Viewer — changes are refused without the operator\u2019s link';
+    $('role').className = role;
+    if (state.params) {
+      params = state.params;
+      for (const control of controls) control.set(getPath(params, control.def.path));
+    }
+  },
+  onFrame: (meta) => {
+    const bscan = controls.find((c) => c.def.path === 'slice.bscan');
+    if (bscan && meta.bscans > 0) bscan.row.querySelector('input').max = meta.bscans - 1;
+  },
+});
+
+const sender = new ParamSender(live.socket, {
+  onReply: (reply, paths) => {
+    if (reply.ok) {
+      for (const control of controls) if (paths.includes(control.def.path)) control.showError('');
+      $('general-error').textContent = '';
+      return;
+    }
+    const key = String(reply.key || '').replace(/^render\./, '');
+    const culprit = controls.find((c) => key === c.def.path)
+      || controls.find((c) => key.startsWith(`${c.def.path}[`) || key.startsWith(`${c.def.path}.`))
+      || controls.find((c) => paths.includes(c.def.path));
+    if (culprit) culprit.showError(reply.error || 'refused');
+    else $('general-error').textContent = reply.error || 'refused';
+  },
+});
+
+function addControls(container, table) {
+  for (const def of table) {
+    const control = buildControl(def, (value) => sender.change(def.path, value));
+    controls.push(control);
+    container.append(control.row);
+  }
+}
+addControls($('main-controls'), kMainControls);
+addControls($('view-controls'), kViewControls);
+addControls($('advanced-controls'), kAdvancedControls);
+
+attachOrbit($('render'), () => ({ azimuth_deg: 30, elevation_deg: 25, zoom: 1, ...(params.view || {}) }),
+  (viewChanges) => {
+    params.view = { ...(params.view || {}), ...viewChanges };
+    for (const [key, value] of Object.entries(viewChanges)) sender.change(`view.${key}`, value);
+  });
+
+async function act(button, message, describe) {
+  const reply = await live.socket.request(message);
+  $(`${button}-result`).textContent = reply.ok ? describe(reply) : (reply.error || 'refused');
+  $(`${button}-result`).className = reply.ok ? 'result' : 'result control-error';
+}
+$('scan-start').addEventListener('click', () => act('scan', { type: 'scan', cmd: 'start' }, (r) => `start: ${r.state || 'ok'}`));
+$('scan-stop').addEventListener('click', () => act('scan', { type: 'scan', cmd: 'stop' }, (r) => `stop: ${r.state || 'ok'}`));
+$('snapshot').addEventListener('click', () => act('snapshot', { type: 'snapshot' }, (r) => `saved ${r.png || ''}`));
+
+attachPresets({ list: $('preset-list'), nameInput: $('preset-name'), saveButton: $('preset-save'),
+  errorElement: $('preset-error') }, token);
+
+window.ioctControl = { controls, sender };

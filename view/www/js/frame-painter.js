@@ -1,0 +1,46 @@
+// Draws frames onto the render and B-scan canvases as they come, newest first: while one frame
+// is being decoded, a newer one replaces any other waiting (a slow page drops frames, it never
+// falls behind). After drawing it calls onDrawn(meta), which tells the server (published → drawn).
+export class FramePainter {
+  constructor({ renderCanvas, bscanCanvas, onDrawn = () => {}, onProblem = () => {} }) {
+    Object.assign(this, { renderCanvas, bscanCanvas, onDrawn, onProblem });
+    this.busy = false;
+    this.waiting = null;
+  }
+
+  paint(frame) {
+    this.waiting = frame;
+    if (!this.busy) this.drain();
+  }
+
+  async drain() {
+    this.busy = true;
+    while (this.waiting) {
+      const frame = this.waiting;
+      this.waiting = null;
+      try {
+        await this.draw(frame);
+        this.onDrawn(frame.meta);
+      } catch (error) {
+        this.onProblem(`frame ${frame.meta.frame} could not be drawn: ${error.message}`);
+      }
+    }
+    this.busy = false;
+  }
+
+  async draw({ meta, render, bscan }) {
+    const images = await Promise.all([
+      createImageBitmap(new Blob([render], { type: 'image/jpeg' })),
+      bscan.byteLength > 0 ? createImageBitmap(new Blob([bscan], { type: 'image/jpeg' })) : null,
+    ]);
+    drawBitmap(this.renderCanvas, images[0]);
+    if (images[1]) drawBitmap(this.bscanCanvas, images[1]);
+    for (const image of images) image?.close();
+  }
+}
+
+function drawBitmap(canvas, bitmap) {
+  if (canvas.width !== bitmap.width) canvas.width = bitmap.width;
+  if (canvas.height !== bitmap.height) canvas.height = bitmap.height;
+  canvas.getContext('2d').drawImage(bitmap, 0, 0);
+}

@@ -1,0 +1,57 @@
+// What the picture may claim to be. It is live only while the server says `live`, messages keep
+// coming (a state or frame within the last second) and the WebSocket is open; anything else is
+// STALE (the server says so) or NO SIGNAL (the server says so, is silent, or is unreachable).
+export const kSilenceMs = 1000;
+
+export class SignalWatch {
+  constructor(now = () => performance.now()) {
+    this.now = now;
+    this.connected = false;
+    this.lastMessageAt = -Infinity;
+    this.serverSignal = 'no_signal';
+    this.serverAgeMs = null;  // the newest group's age when the state was sent
+    this.stateAt = -Infinity;
+    this.lastLiveAt = null;   // when the picture was last known live (for the age while lost)
+  }
+
+  connection(open) {
+    this.connected = open;
+    if (!open) this.serverSignal = 'no_signal';
+  }
+
+  state(message) {
+    this.lastMessageAt = this.stateAt = this.now();
+    this.serverSignal = message.signal || 'no_signal';
+    this.serverAgeMs = Number.isFinite(message.age_ms) ? message.age_ms : null;
+    if (this.serverSignal === 'live') this.lastLiveAt = this.lastMessageAt;
+  }
+
+  frame() { this.lastMessageAt = this.now(); }
+
+  // {signal: 'live'|'stale'|'no_signal', ageMs: number|null, reason: string}
+  current() {
+    const now = this.now();
+    const sinceLive = this.lastLiveAt === null ? null : now - this.lastLiveAt;
+    const serverAge = this.serverAgeMs === null ? sinceLive : this.serverAgeMs + (now - this.stateAt);
+    if (!this.connected) {
+      return { signal: 'no_signal', ageMs: sinceLive, reason: 'no connection to the appliance' };
+    }
+    if (now - this.lastMessageAt > kSilenceMs) {
+      return { signal: 'no_signal', ageMs: sinceLive, reason: 'the appliance is silent' };
+    }
+    if (this.serverSignal === 'live') return { signal: 'live', ageMs: serverAge, reason: '' };
+    if (this.serverSignal === 'stale') {
+      return { signal: 'stale', ageMs: serverAge, reason: 'no new scan data' };
+    }
+    return { signal: 'no_signal', ageMs: serverAge, reason: 'the scanner or the pipeline is not running' };
+  }
+}
+
+// "3.2 s", "1 min 05 s", "" for unknown.
+export function formatAge(ms) {
+  if (ms === null || !Number.isFinite(ms)) return '';
+  const s = ms / 1000;
+  if (s < 60) return `${s.toFixed(1)} s`;
+  const whole = Math.floor(s);
+  return `${Math.floor(whole / 60)} min ${String(whole % 60).padStart(2, '0')} s`;
+}

@@ -1,0 +1,40 @@
+// The one line that says what the appliance is doing: scanning / stopped / fault, laser on/off,
+// groups per second, drops. Reads ioct-view's state message; `rt` is ioct-rt's status object
+// ({safety: {state, emission_readback, faults}, ...}) or the reason it is not known.
+export function describeState(state) {
+  const rt = state.rt && typeof state.rt === 'object' ? (state.rt.status || state.rt) : null;
+  const safety = rt && rt.safety ? rt.safety : null;
+  let scan = 'scanner unknown';
+  let scanClass = 'unknown';
+  if (safety) {
+    const s = safety.state;
+    if (s === 'scanning') [scan, scanClass] = ['SCANNING', 'ok'];
+    else if (s === 'fault') [scan, scanClass] = [`FAULT${safety.faults ? `: ${safety.faults}` : ''}`, 'fault'];
+    else if (s === 'arming') [scan, scanClass] = ['ARMING', 'warn'];
+    else [scan, scanClass] = ['STOPPED', 'warn'];
+  } else if (typeof state.rt === 'string') {
+    scan = `scanner: ${state.rt}`;
+  } else if (rt && rt.error) {
+    scan = `scanner: ${rt.error}`;
+  }
+  const laser = safety ? (safety.emission_readback ? 'LASER ON' : 'laser off') : 'laser ?';
+  const rate = Number.isFinite(state.groups_per_s) ? `${state.groups_per_s.toFixed(1)} groups/s` : '– groups/s';
+  const drops = Number.isFinite(state.dropped) ? `${state.dropped} dropped` : '';
+  return { scan, scanClass, laser, laserOn: Boolean(safety && safety.emission_readback), rate, drops };
+}
+
+export function renderStateLine(element, state) {
+  const d = describeState(state);
+  element.replaceChildren(
+    span(d.scan, `scan ${d.scanClass}`),
+    span(d.laser, d.laserOn ? 'laser on' : 'laser'),
+    span(d.rate, 'rate'),
+    span(d.drops, 'drops'));
+}
+
+function span(text, className) {
+  const s = document.createElement('span');
+  s.className = className;
+  s.textContent = text;
+  return s;
+}
