@@ -1,0 +1,246 @@
+// The live view's pages in a real browser against the whole simulated appliance (ioct-rt,
+// ioct-gpu, ioct-view as processes): the surgeon's page shows live frames that change, the
+// assistant's controls change the next frame's pixels, the STALE banner comes and goes with the
+// scan, a viewer without the token changes nothing, and screenshots are kept as artefacts.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "ioct/devtools/headless_chromium.hpp"
+#include "ioct/view_test/live_appliance.hpp"
+
+namespace ioct::view_test {
+namespace {
+
+using devtools::BrowserPage;
+using devtools::HeadlessChromium;
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+const std::filesystem::path kArtefacts = IOCT_VIEW_TEST_OUTPUT_DIR;
+
+// The page is live and has drawn at least `frames` frames.
+std::string live_with_frames(int frames) {
+  return "window.ioctView && ioctView.status.signal === 'live' && ioctView.status.framesDrawn >= " +
+         std::to_string(frames) + " && document.getElementById('signal-banner').hidden";
+}
+
+// What the render canvas shows now: a hash of its pixels, their mean, and the frame drawn.
+constexpr const char* kRenderPixels = R"((() => {
+  const c = document.getElementById('render');
+  const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+  let hash = 0, sum = 0;
+  for (let i = 0; i < d.length; i += 4) {
+    hash = (Math.imul(hash, 31) + d[i] + 7 * d[i + 1] + 13 * d[i + 2]) >>> 0;
+    sum += d[i] + d[i + 1] + d[i + 2];
+  }
+  const f = ioctView.status.lastFrame;
+  return { hash, mean: sum / (d.length / 4 * 3), width: c.width, height: c.height,
+           frame: f.frame, generation: f.generation, mode: f.mode };
+})())";
+
+class LiveViewPage : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    // Chromium is part of the project's set-up: without it this fails, it does not skip.
+    ASSERT_TRUE(HeadlessChromium::find_executable().has_value())
+        << "no Chromium: install the Debian package chromium (tools/setup.sh does)";
+    name_ = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+    appliance_ = std::make_unique<LiveAppliance>(ApplianceOptions{.tag = "page"});
+    appliance_->start_all();
+    devtools::ChromiumOptions options;
+    options.window_width = 1280;
+    options.window_height = 800;
+    options.log_file = kArtefacts / (name_ + "-chromium.log");
+    browser_ = std::make_unique<HeadlessChromium>(options);
+  }
+
+  void TearDown() override {
+    if (!HasFailure()) return;
+    if (page_) {
+      try {
+        page_->save_screenshot(kArtefacts / (name_ + "-failed.png"), 10s);
+        for (const std::string& e : page_->take_page_errors()) std::cerr << "page: " << e << "\n";
+        std::cerr << "page status: "
+                  << page_->evaluate("JSON.stringify(window.ioctView?.status)", 5s) << "\n";
+      } catch (const std::exception& e) {
+        std::cerr << "no failure screenshot: " << e.what() << "\n";
+      }
+    }
+    if (appliance_) {
+      appliance_->keep_folder();
+      std::cerr << "the processes' logs are in " << appliance_->folder() << "\n"
+                << appliance_->logs();
+    }
+  }
+
+  void open(const std::string& url) { page_ = browser_->open_page(url, 20s); }
+
+  // Waits for `condition` (JavaScript) and fails with the page's status when it does not hold.
+  nlohmann::json expect_within(const std::string& condition, std::chrono::milliseconds timeout) {
+    nlohmann::json last;
+    std::optional<nlohmann::json> value = page_->wait_until(condition, timeout, &last);
+    EXPECT_TRUE(value.has_value())
+        << "not within " << timeout.count() << " ms: " << condition
+        << "\n  page status: " << page_->evaluate("JSON.stringify(window.ioctView?.status)", 5s);
+    return value.value_or(nlohmann::json());
+  }
+
+  std::string name_;
+  std::unique_ptr<LiveAppliance> appliance_;
+  std::unique_ptr<HeadlessChromium> browser_;
+  std::unique_ptr<BrowserPage> page_;
+};
+
+TEST_F(LiveViewPage, SurgeonsDisplayShowsLiveFramesThatChangeAndItsScreenshotIsKept) {
+  open(appliance_->url("/"));
+  ASSERT_FALSE(expect_within(live_with_frames(1), 30s).is_null());
+  const nlohmann::json first = page_->evaluate(kRenderPixels, 5s);
+  EXPECT_GT(first.at("mean").get<double>(), 2.0) << "the render shows something, not black";
+
+  // The volume auto-rotates and new groups arrive: later frames differ, pixel for pixel.
+  const std::string later = "ioctView.status.lastFrame.frame >= " +
+                            std::to_string(first.at("frame").get<long long>() + 3);
+  ASSERT_FALSE(expect_within(later, 30s).is_null());
+  const nlohmann::json second = page_->evaluate(kRenderPixels, 5s);
+  EXPECT_NE(first.at("hash"), second.at("hash")) << "frames arrive but the picture never changes";
+
+  // The B-scan beside it, and its position marked on the volume.
+  EXPECT_EQ(page_->evaluate("document.getElementById('bscan-locator-label').textContent", 5s)
+                .get<std::string>()
+                .rfind("B-scan ", 0),
+            0u);
+  const nlohmann::json state_line =
+      page_->evaluate("document.getElementById('state-line').textContent", 5s);
+  EXPECT_NE(state_line.get<std::string>().find("groups/s"), std::string::npos) << state_line;
+
+  const std::filesystem::path shot = kArtefacts / "surgeons-display-live.png";
+  page_->save_screenshot(shot, 10s);
+  EXPECT_GT(std::filesystem::file_size(shot), 10'000u) << shot;
+  EXPECT_TRUE(page_->take_page_errors().empty());
+}
+
+TEST_F(LiveViewPage, ThresholdAndModeControlsChangeTheNextFramesPixels) {
+  open(appliance_->operator_url("/control"));
+  ASSERT_FALSE(expect_within(live_with_frames(1) + " && ioctView.status.role === 'operator'", 30s)
+                   .is_null());
+  // Hold the camera still, so only the controls change the picture.
+  page_->evaluate(
+      "(() => { const e = document.getElementById('ctl-view-auto_rotate'); if (e.checked) "
+      "e.click(); })()",
+      5s);
+  ASSERT_FALSE(expect_within("ioctView.status.lastState.params.view.auto_rotate === false && "
+                             "ioctView.status.lastFrame.generation >= "
+                             "ioctView.status.lastState.generation",
+                             20s)
+                   .is_null());
+  const nlohmann::json before = page_->evaluate(kRenderPixels, 5s);
+
+  // Threshold 0.35 -> 0.9: most of the retina falls below it and the render goes dark.
+  page_->evaluate(
+      "(() => { const e = document.getElementById('ctl-enhanced-threshold'); e.value = 0.9; "
+      "e.dispatchEvent(new Event('input')); })()",
+      5s);
+  const std::string newer = "ioctView.status.lastFrame.generation > " +
+                            std::to_string(before.at("generation").get<long long>());
+  ASSERT_FALSE(expect_within(newer, 20s).is_null());
+  const nlohmann::json thresholded = page_->evaluate(kRenderPixels, 5s);
+  EXPECT_LT(thresholded.at("mean").get<double>(), before.at("mean").get<double>() * 0.8)
+      << "threshold 0.9 should darken the render; before " << before << ", after " << thresholded;
+  EXPECT_EQ(page_->evaluate("ioctView.status.lastState.params.enhanced.threshold", 5s), 0.9);
+
+  // Render mode -> la-mip: the next frames say so and look different.
+  page_->evaluate(
+      "(() => { const e = document.getElementById('ctl-mode'); e.value = 'la-mip'; "
+      "e.dispatchEvent(new Event('change')); })()",
+      5s);
+  ASSERT_FALSE(expect_within("ioctView.status.lastFrame.mode === 'la-mip'", 20s).is_null());
+  const nlohmann::json la_mip = page_->evaluate(kRenderPixels, 5s);
+  EXPECT_NE(la_mip.at("hash"), thresholded.at("hash"));
+
+  // A value the server refuses: its error text appears beside the control that sent it.
+  page_->evaluate("ioctControl.sender.change('enhanced.kg1', -1)", 5s);
+  const nlohmann::json error = expect_within(
+      "document.querySelector('[data-path=\"enhanced.kg1\"] .control-error').textContent", 10s);
+  EXPECT_NE(error.dump().find("kg1"), std::string::npos) << error;
+
+  page_->save_screenshot(kArtefacts / "control-page-la-mip.png", 10s);
+}
+
+TEST_F(LiveViewPage, StaleBannerAppearsWhenScanningStopsAndGoesWhenItResumes) {
+  open(appliance_->url("/"));
+  ASSERT_FALSE(expect_within(live_with_frames(2), 30s).is_null());
+
+  appliance_->rt_command("stop");
+  const auto stopped = Clock::now();
+  // --stale-after 0.5 s, state messages every 0.25 s, the page's own 1 s silence check: the
+  // banner must be up within 3 s of the last group.
+  const std::string banner_up =
+      "ioctView.status.signal !== 'live' && !document.getElementById('signal-banner').hidden && "
+      "document.getElementById('picture').classList.contains('not-live') && "
+      "document.getElementById('signal-banner-title').textContent";
+  const nlohmann::json title = expect_within(banner_up, 3s);
+  const auto shown_after =
+      std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - stopped);
+  std::printf("[ stats    ] banner %s after %lld ms\n", title.dump().c_str(),
+              static_cast<long long>(shown_after.count()));
+  EXPECT_EQ(title, "STALE") << "the pipeline runs, the scan stopped: stale, not no signal";
+  EXPECT_NE(page_->evaluate("document.getElementById('signal-banner-detail').textContent", 5s)
+                .get<std::string>()
+                .find(" ago"),
+            std::string::npos)
+      << "the banner gives the age";
+  page_->save_screenshot(kArtefacts / "surgeons-display-stale.png", 10s);
+
+  appliance_->rt_command("start");
+  EXPECT_FALSE(expect_within(live_with_frames(1), 15s).is_null())
+      << "the banner goes once groups arrive again";
+}
+
+TEST_F(LiveViewPage, ViewerWithoutTheTokenCannotChangeAnything) {
+  const nlohmann::json params_before =
+      nlohmann::json::parse(appliance_->http("GET", "/api/params").body);
+  open(appliance_->url("/control"));  // no #token=
+  ASSERT_FALSE(
+      expect_within(live_with_frames(1) + " && ioctView.status.role === 'viewer'", 30s).is_null());
+  EXPECT_NE(page_->evaluate("document.getElementById('role').textContent", 5s)
+                .get<std::string>()
+                .find("Viewer"),
+            std::string::npos);
+
+  // Over the WebSocket: parameters, scan and snapshot are all refused.
+  for (const char* request : {"{type: 'params', changes: {enhanced: {threshold: 0.9}}}",
+                              "{type: 'scan', cmd: 'stop'}", "{type: 'snapshot'}"}) {
+    const nlohmann::json reply =
+        page_->evaluate(std::string("ioctView.socket.request(") + request + ")", 10s);
+    EXPECT_EQ(reply.value("ok", true), false) << request << " -> " << reply;
+  }
+  // Over HTTP from the page, without a bearer token: 401.
+  const nlohmann::json status = page_->evaluate(
+      "fetch('/api/params', {method: 'POST', headers: {'Content-Type': 'application/json'}, "
+      "body: JSON.stringify({enhanced: {threshold: 0.9}})}).then(r => r.status)",
+      10s);
+  EXPECT_EQ(status, 401);
+  // Through the page's own control: the refusal shows beside it.
+  page_->evaluate(
+      "(() => { const e = document.getElementById('ctl-enhanced-threshold'); e.value = 0.9; "
+      "e.dispatchEvent(new Event('input')); })()",
+      5s);
+  EXPECT_FALSE(expect_within("document.querySelector('[data-path=\"enhanced.threshold\"] "
+                             ".control-error').textContent",
+                             10s)
+                   .is_null());
+
+  const nlohmann::json params_after =
+      nlohmann::json::parse(appliance_->http("GET", "/api/params").body);
+  EXPECT_EQ(params_after, params_before) << "nothing changed";
+  EXPECT_TRUE(page_->wait_until(live_with_frames(1), 5s).has_value()) << "still scanning";
+}
+
+}  // namespace
+}  // namespace ioct::view_test
