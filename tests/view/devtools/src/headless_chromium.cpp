@@ -91,6 +91,9 @@ HeadlessChromium::HeadlessChromium(const ChromiumOptions& options)
       "--window-size=" + std::to_string(options.window_width) + "," +
           std::to_string(options.window_height),
       "about:blank"};
+  if (options.allow_file_access) {
+    args.insert(args.end() - 1, "--allow-file-access-from-files");
+  }
   std::vector<char*> argv;
   for (std::string& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);

@@ -21,6 +21,8 @@ struct ChromiumOptions {
   int window_height = 900;
   std::filesystem::path log_file;  // the browser's stdout and stderr; empty: in the profile
   std::chrono::milliseconds start_timeout{30'000};
+  // Lets file:// pages import ES modules from file:// (the page modules' tests need no server).
+  bool allow_file_access = false;
 };
 
 class HeadlessChromium {

@@ -1,0 +1,155 @@
+// The pages' ES modules on their own, in the browser, without a server: the frame message is
+// parsed as the protocol lays it out, the signal is never live without a live, recent, connected
+// server, the state line reads ioct-rt's status, and parameter changes are throttled and merged.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "ioct/devtools/headless_chromium.hpp"
+
+namespace ioct::devtools {
+namespace {
+
+using namespace std::chrono_literals;
+
+const std::string kModules = std::string("file://") + IOCT_VIEW_WWW_DIR + "/js/";
+
+class PageModules : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_TRUE(HeadlessChromium::find_executable().has_value())
+        << "no Chromium: install the Debian package chromium (tools/setup.sh does)";
+    ChromiumOptions options;
+    options.window_width = 320;
+    options.window_height = 240;
+    options.allow_file_access = true;
+    browser_ = std::make_unique<HeadlessChromium>(options);
+    page_ = browser_->open_page(std::string("file://") + IOCT_VIEW_WWW_DIR + "/index.html");
+  }
+
+  // Runs `body` (an async function's body) with module `name` imported as `m`.
+  nlohmann::json with_module(const std::string& name, const std::string& body) {
+    return page_->evaluate(
+        "(async () => { const m = await import('" + kModules + name + "'); " + body + " })()", 10s);
+  }
+
+  std::unique_ptr<HeadlessChromium> browser_;
+  std::unique_ptr<BrowserPage> page_;
+};
+
+TEST_F(PageModules, FrameMessageIsParsedAsTheProtocolLaysItOut) {
+  const nlohmann::json parsed = with_module("frame-message.js", R"(
+    const meta = new TextEncoder().encode(JSON.stringify(
+        {type: 'frame', frame: 7, render_bytes: 3, bscan_bytes: 2}));
+    const bytes = new Uint8Array(4 + meta.length + 5);
+    new DataView(bytes.buffer).setUint32(0, meta.length, true);
+    bytes.set(meta, 4);
+    bytes.set([1, 2, 3, 9, 8], 4 + meta.length);
+    const f = m.parseFrameMessage(bytes.buffer);
+    let truncated = '';
+    try { m.parseFrameMessage(bytes.buffer.slice(0, bytes.length - 1)); }
+    catch (e) { truncated = e.message; }
+    return {frame: f.meta.frame, render: [...f.render], bscan: [...f.bscan], truncated};)");
+  EXPECT_EQ(parsed.at("frame"), 7);
+  EXPECT_EQ(parsed.at("render"), (nlohmann::json{1, 2, 3}));
+  EXPECT_EQ(parsed.at("bscan"), (nlohmann::json{9, 8}));
+  EXPECT_NE(parsed.at("truncated").get<std::string>().find("past the end"), std::string::npos);
+}
+
+TEST_F(PageModules, SignalIsLiveOnlyWhileTheServerSaysSoRecentlyOverAnOpenConnection) {
+  const nlohmann::json r = with_module("signal-watch.js", R"(
+    let now = 0;
+    const w = new m.SignalWatch(() => now);
+    const at = () => w.current().signal;
+    const out = {};
+    out.before = at();
+    w.connection(true);
+    out.connectedNoState = at();
+    w.state({signal: 'live', age_ms: 40});
+    out.live = at();
+    now = 900; out.quiet900 = at();
+    now = 1100; out.silent1100 = at();
+    w.frame(); out.frameAgain = at();
+    w.state({signal: 'stale', age_ms: 2000}); now = 1600;
+    out.stale = at(); out.staleAge = w.current().ageMs;
+    w.state({signal: 'no_signal'}); out.noSignal = at();
+    w.state({signal: 'live', age_ms: 10}); w.connection(false); out.closed = at();
+    out.formatted = [m.formatAge(3200), m.formatAge(65000), m.formatAge(null)];
+    return out;)");
+  EXPECT_EQ(r.at("before"), "no_signal");
+  EXPECT_EQ(r.at("connectedNoState"), "no_signal");
+  EXPECT_EQ(r.at("live"), "live");
+  EXPECT_EQ(r.at("quiet900"), "live");
+  EXPECT_EQ(r.at("silent1100"), "no_signal") << "1 s without a message is not live";
+  EXPECT_EQ(r.at("frameAgain"), "live");
+  EXPECT_EQ(r.at("stale"), "stale");
+  EXPECT_DOUBLE_EQ(r.at("staleAge").get<double>(), 2500.0) << "the age keeps growing locally";
+  EXPECT_EQ(r.at("noSignal"), "no_signal");
+  EXPECT_EQ(r.at("closed"), "no_signal") << "a closed WebSocket is never live";
+  EXPECT_EQ(r.at("formatted"), (nlohmann::json{"3.2 s", "1 min 05 s", ""}));
+}
+
+TEST_F(PageModules, StateLineReadsTheScannersStatus) {
+  const nlohmann::json r = with_module("state-line.js", R"(
+    const d = (rt) => m.describeState({groups_per_s: 20.04, dropped: 3, rt});
+    return {
+      scanning: d({safety: {state: 'scanning', emission_readback: true}}),
+      fault: d({status: {safety: {state: 'fault', faults: 'k_clock', emission_readback: false}}}),
+      idle: d({safety: {state: 'idle', emission_readback: false}}),
+      unknown: d('ioct-rt not reachable'),
+    };)");
+  EXPECT_EQ(r.at("scanning").at("scan"), "SCANNING");
+  EXPECT_EQ(r.at("scanning").at("laser"), "LASER ON");
+  EXPECT_EQ(r.at("scanning").at("rate"), "20.0 groups/s");
+  EXPECT_EQ(r.at("scanning").at("drops"), "3 dropped");
+  EXPECT_EQ(r.at("fault").at("scan"), "FAULT: k_clock");
+  EXPECT_EQ(r.at("fault").at("laser"), "laser off");
+  EXPECT_EQ(r.at("idle").at("scan"), "STOPPED");
+  EXPECT_EQ(r.at("unknown").at("scan"), "scanner: ioct-rt not reachable");
+}
+
+TEST_F(PageModules, ParameterChangesGoOutAtMostEvery30MsMergedAndInOrder) {
+  const nlohmann::json r = with_module("param-sender.js", R"(
+    const sent = [];
+    const replies = [];
+    const socket = {request: async (msg) => { sent.push({at: performance.now(), msg});
+                                              return {ok: true}; }};
+    const s = new m.ParamSender(socket, {intervalMs: 30,
+                                         onReply: (reply, paths) => replies.push(paths)});
+    const start = performance.now();
+    // A dragged slider: 50 changes over ~250 ms, with a second control changed once.
+    for (let i = 0; i < 50; ++i) {
+      s.change('enhanced.threshold', i / 100);
+      if (i === 10) s.change('view.zoom', 2);
+      await new Promise((r) => setTimeout(r, 5));
+    }
+    await new Promise((r) => setTimeout(r, 100));
+    const gaps = sent.slice(1).map((x, i) => x.at - sent[i].at);
+    return {count: sent.length, minGap: Math.min(...gaps),
+            last: sent[sent.length - 1].msg, zoomSent: sent.some((x) => x.msg.changes.view?.zoom === 2),
+            type: sent[0].msg.type, replies: replies.length};)");
+  EXPECT_GE(r.at("count").get<int>(), 4);
+  EXPECT_LE(r.at("count").get<int>(), 15) << "50 changes in ~250 ms: at most one per 30 ms";
+  EXPECT_GE(r.at("minGap").get<double>(), 29.0);
+  EXPECT_EQ(r.at("type"), "params");
+  EXPECT_EQ(r.at("last").at("changes").at("enhanced").at("threshold"), 0.49)
+      << "the last value always goes out";
+  EXPECT_EQ(r.at("zoomSent"), true) << "a change merged into a message is not lost";
+  EXPECT_EQ(r.at("replies"), r.at("count"));
+}
+
+TEST_F(PageModules, TokenComesFromTheFragmentAndGoesOutAsABearerHeader) {
+  const nlohmann::json r = with_module("token.js", R"(
+    return {token: m.tokenFromFragment('#token=abc123&x=1'), none: m.tokenFromFragment(''),
+            header: m.authHeaders('abc123'), noHeader: m.authHeaders('')};)");
+  EXPECT_EQ(r.at("token"), "abc123");
+  EXPECT_EQ(r.at("none"), "");
+  EXPECT_EQ(r.at("header").at("Authorization"), "Bearer abc123");
+  EXPECT_TRUE(r.at("noHeader").empty());
+}
+
+}  // namespace
+}  // namespace ioct::devtools
