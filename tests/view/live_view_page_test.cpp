@@ -192,7 +192,7 @@ TEST_F(LiveViewPage, StaleBannerAppearsWhenScanningStopsAndGoesWhenItResumes) {
   EXPECT_EQ(title, "STALE") << "the pipeline runs, the scan stopped: stale, not no signal";
   EXPECT_NE(page_->evaluate("document.getElementById('signal-banner-detail').textContent", 5s)
                 .get<std::string>()
-                .find(" ago"),
+                .find(" old"),
             std::string::npos)
       << "the banner gives the age";
   page_->save_screenshot(kArtefacts / "surgeons-display-stale.png", 10s);

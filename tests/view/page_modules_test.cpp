@@ -99,7 +99,7 @@ TEST_F(PageModules, StateLineReadsTheScannersStatus) {
       scanning: d({safety: {state: 'scanning', emission_readback: true}}),
       fault: d({status: {safety: {state: 'fault', faults: 'k_clock', emission_readback: false}}}),
       idle: d({safety: {state: 'idle', emission_readback: false}}),
-      unknown: d('ioct-rt not reachable'),
+      unknown: m.describeState({rt: null, rt_error: 'ioct-rt not reachable'}),
     };)");
   EXPECT_EQ(r.at("scanning").at("scan"), "SCANNING");
   EXPECT_EQ(r.at("scanning").at("laser"), "LASER ON");

@@ -91,7 +91,7 @@ export function startLiveView({ token = '', onState = () => {}, onFrame = () => 
     if (!live) {
       elements.bannerTitle.textContent = signal === 'stale' ? 'STALE' : 'NO SIGNAL';
       const age = formatAge(ageMs);
-      elements.bannerDetail.textContent = age ? `${reason} — last live ${age} ago` : reason;
+      elements.bannerDetail.textContent = age ? `${reason} — newest scan ${age} old` : reason;
     }
   }
 

@@ -10,6 +10,7 @@ export class SignalWatch {
     this.lastMessageAt = -Infinity;
     this.serverSignal = 'no_signal';
     this.serverAgeMs = null;  // the newest group's age when the state was sent
+    this.serverReason = '';
     this.stateAt = -Infinity;
     this.lastLiveAt = null;   // when the picture was last known live (for the age while lost)
   }
@@ -23,6 +24,7 @@ export class SignalWatch {
     this.lastMessageAt = this.stateAt = this.now();
     this.serverSignal = message.signal || 'no_signal';
     this.serverAgeMs = Number.isFinite(message.age_ms) ? message.age_ms : null;
+    this.serverReason = typeof message.reason === 'string' ? message.reason : '';
     if (this.serverSignal === 'live') this.lastLiveAt = this.lastMessageAt;
   }
 
@@ -41,9 +43,10 @@ export class SignalWatch {
     }
     if (this.serverSignal === 'live') return { signal: 'live', ageMs: serverAge, reason: '' };
     if (this.serverSignal === 'stale') {
-      return { signal: 'stale', ageMs: serverAge, reason: 'no new scan data' };
+      return { signal: 'stale', ageMs: serverAge, reason: this.serverReason || 'no new scan data' };
     }
-    return { signal: 'no_signal', ageMs: serverAge, reason: 'the scanner or the pipeline is not running' };
+    return { signal: 'no_signal', ageMs: serverAge,
+      reason: this.serverReason || 'the scanner or the pipeline is not running' };
   }
 }
 

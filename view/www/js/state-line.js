@@ -1,6 +1,6 @@
 // The one line that says what the appliance is doing: scanning / stopped / fault, laser on/off,
 // groups per second, drops. Reads ioct-view's state message; `rt` is ioct-rt's status object
-// ({safety: {state, emission_readback, faults}, ...}) or the reason it is not known.
+// ({safety: {state, emission_readback, faults}, ...}), or null with the reason in `rt_error`.
 export function describeState(state) {
   const rt = state.rt && typeof state.rt === 'object' ? (state.rt.status || state.rt) : null;
   const safety = rt && rt.safety ? rt.safety : null;
@@ -12,6 +12,8 @@ export function describeState(state) {
     else if (s === 'fault') [scan, scanClass] = [`FAULT${safety.faults ? `: ${safety.faults}` : ''}`, 'fault'];
     else if (s === 'arming') [scan, scanClass] = ['ARMING', 'warn'];
     else [scan, scanClass] = ['STOPPED', 'warn'];
+  } else if (state.rt_error) {
+    scan = `scanner: ${state.rt_error}`;
   } else if (typeof state.rt === 'string') {
     scan = `scanner: ${state.rt}`;
   } else if (rt && rt.error) {
