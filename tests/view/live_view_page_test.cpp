@@ -172,6 +172,37 @@ TEST_F(LiveViewPage, ThresholdAndModeControlsChangeTheNextFramesPixels) {
   page_->save_screenshot(kArtefacts / "control-page-la-mip.png", 10s);
 }
 
+TEST_F(LiveViewPage, StereoPairFillsTheSurgeonsDisplaySideBySide) {
+  open(appliance_->operator_url("/control"));
+  ASSERT_FALSE(expect_within(live_with_frames(1) + " && ioctView.status.role === 'operator'", 30s)
+                   .is_null());
+  page_->evaluate("document.getElementById('ctl-view-stereo').click()", 5s);
+  ASSERT_FALSE(expect_within("ioctView.status.lastFrame.stereo === true", 20s).is_null());
+
+  // The surgeon's display, in a browser window of its own: the left | right pair at the
+  // display's full size, nothing beside it.
+  auto display = browser_->open_page(appliance_->url("/"), 20s);
+  nlohmann::json layout;
+  ASSERT_TRUE(display
+                  ->wait_until(R"((() => {
+    const s = window.ioctView && ioctView.status;
+    if (!s || !s.lastFrame || !s.lastFrame.stereo || s.signal !== 'live') return null;
+    const box = document.getElementById('render').getBoundingClientRect();
+    return { stereo: document.body.classList.contains('stereo'), width: box.width,
+             height: box.height, windowWidth: innerWidth, frameWidth: s.lastFrame.width,
+             frameHeight: s.lastFrame.height,
+             bscanShown: getComputedStyle(document.getElementById('bscan-panel')).display };
+  })())",
+                               30s, &layout)
+                  .has_value())
+      << layout;
+  EXPECT_TRUE(layout.at("stereo").get<bool>());
+  EXPECT_EQ(layout.at("width"), layout.at("windowWidth")) << "the pair spans the display";
+  EXPECT_EQ(layout.at("bscanShown"), "none");
+  EXPECT_EQ(layout.at("frameWidth").get<int>(), 2 * 320) << "each eye at the render's width";
+  display->save_screenshot(kArtefacts / "surgeons-display-stereo.png", 10s);
+}
+
 TEST_F(LiveViewPage, StaleBannerAppearsWhenScanningStopsAndGoesWhenItResumes) {
   open(appliance_->url("/"));
   ASSERT_FALSE(expect_within(live_with_frames(2), 30s).is_null());
