@@ -27,7 +27,7 @@ struct ApplianceOptions {
   double ascan_rate_hz = 25'000.0;
   std::uint32_t render_width = 320;
   std::uint32_t render_height = 240;
-  double stale_after_s = 0.5;  // ioct-view --stale-after
+  double stale_after_s = 1.0;  // ioct-view --stale-after (a loaded CI machine lags at times)
   std::string token = "operator-token-for-the-browser-tests";
 };
 
