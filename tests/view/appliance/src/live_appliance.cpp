@@ -49,15 +49,40 @@ LiveAppliance::LiveAppliance(ApplianceOptions options)
   }
   ::chmod(token_file.c_str(), 0600);  // ioct-view refuses a token others can read
 
+  // The simulator's safety timings for a machine shared with other builds: the simulated laser
+  // watchdog and the stall check would otherwise fault a starved but healthy run. What the page
+  // tests need is a scanner that stops only when told to.
+  const std::filesystem::path rt_config = folder_ / "rt.toml";
+  {
+    std::ofstream out(rt_config);
+    out << "[safety]\nstall_timeout_ms = 10000\n\n[simulation]\nlaser_watchdog_timeout_ms = "
+           "10000\n";
+  }
+
   const std::string frames = ring_.str() + ".frames";
   rt_ = std::make_unique<LoggedProcess>(
       test_support::sibling_executable("ioct-rt"),
-      std::vector<std::string>{"--ring", ring_.str(), "--ascans", std::to_string(options_.ascans),
-                               "--bscans-per-group", std::to_string(options_.bscans_per_group),
-                               "--bscans-per-volume", std::to_string(options_.bscans_per_volume),
-                               "--ascan-rate", std::to_string(options_.ascan_rate_hz),
-                               "--rt-priority", "0",  // CI runs unprivileged as often as not
-                               "--seed", "7", "--control-socket", control_socket_, "--seconds",
+      std::vector<std::string>{"--config",
+                               rt_config.string(),
+                               "--ring",
+                               ring_.str(),
+                               "--samples",
+                               std::to_string(options_.samples),
+                               "--ascans",
+                               std::to_string(options_.ascans),
+                               "--bscans-per-group",
+                               std::to_string(options_.bscans_per_group),
+                               "--bscans-per-volume",
+                               std::to_string(options_.bscans_per_volume),
+                               "--ascan-rate",
+                               std::to_string(options_.ascan_rate_hz),
+                               "--rt-priority",
+                               "0",  // CI runs unprivileged as often as not
+                               "--seed",
+                               "7",
+                               "--control-socket",
+                               control_socket_,
+                               "--seconds",
                                "0"},
       folder_ / "ioct-rt.log");
   gpu_ = std::make_unique<LoggedProcess>(

@@ -21,6 +21,7 @@ struct ApplianceOptions {
   std::string tag = "view";  // part of the ring's name and of the folder's
   // A small raster at a quarter of the real sweep rate, as the e2e test uses, so a loaded 2-core
   // machine keeps up on the CPU path: 128 A-scans x 8 B-scans per group (49 ms), 32 per volume.
+  std::uint32_t samples = 512;  // k-clock samples per A-scan: 256 px of depth
   std::uint32_t ascans = 128;
   std::uint32_t bscans_per_group = 8;
   std::uint32_t bscans_per_volume = 32;
