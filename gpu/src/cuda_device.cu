@@ -4,7 +4,7 @@
 #include <string>
 
 #include "cuda_kernels.cuh"
-#include "cuda_support.hpp"
+#include "ioct/gpu/cuda_support.hpp"
 #include "ioct/gpu/cuda_oct_processor.hpp"
 
 #ifndef IOCT_CUDA_ARCHITECTURES

@@ -2,7 +2,7 @@
 #include <stdexcept>
 
 #include "cuda_kernels.cuh"
-#include "cuda_support.hpp"
+#include "ioct/gpu/cuda_support.hpp"
 #include "ioct/gpu/cuda_oct_processor.hpp"
 #include "ioct/gpu/group_check.hpp"
 #include "ioct/gpu/repeats.hpp"

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "device_stage_chain.hpp"
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
@@ -100,18 +101,25 @@ VolumeStages::~VolumeStages() {
 void VolumeStages::on_bscans(LiveVolumeSource& source, std::uint32_t first, std::uint32_t count) {
   if (count == 0) return;
   std::unique_lock lock(mutex_);
+  // Where the B-scans go depends on the stages' backends: wait for them once, at the start.
+  wake_.wait(lock, [&] { return backends_made_; });
   if (!accepting_) return;
   const LiveVolumeShape shape = source.shape();
-  const bool new_shape = !shape.fits(pending_);
-  if (new_shape) {
-    // The B-scans that have not arrived yet are zero, and the next pass starts over.
-    pending_.reshape(shape.bscans, shape.ascans, shape.depth);
-    std::ranges::fill(pending_.pixels(), std::uint8_t{0});
+  bool new_shape = false;
+  if (device_ != nullptr && device_->hand_over(source, shape, first, count, new_shape)) {
+    dirty_on_device_ = true;
+  } else {
+    new_shape = !shape.fits(pending_);
+    if (new_shape) {
+      // The B-scans that have not arrived yet are zero, and the next pass starts over.
+      pending_.reshape(shape.bscans, shape.ascans, shape.depth);
+      std::ranges::fill(pending_.pixels(), std::uint8_t{0});
+    }
+    source.copy_bscans(first, count, pending_);
   }
-  source.copy_bscans(first, count, pending_);
   if (new_shape) {
     dirty_first_ = 0;
-    dirty_end_ = pending_.bscans();
+    dirty_end_ = shape.bscans;
   } else if (dirty_groups_ == 0) {
     dirty_first_ = first;
     dirty_end_ = first + count;
@@ -121,7 +129,7 @@ void VolumeStages::on_bscans(LiveVolumeSource& source, std::uint32_t first, std:
   }
   ++dirty_groups_;
   lock.unlock();
-  wake_.notify_one();
+  wake_.notify_all();
 }
 
 void VolumeStages::work() {
@@ -133,11 +141,22 @@ void VolumeStages::work() {
     std::uint32_t first = 0;
     std::uint32_t count = 0;
     std::uint64_t groups = 0;
+    std::uint64_t taken_ns = 0;
     {
       std::unique_lock lock(mutex_);
       wake_.wait(lock, [&] { return stop_ || dirty_groups_ > 0; });
       if (dirty_groups_ == 0) return;  // stopped with nothing pending
-      if (!input_.same_shape(pending_)) {
+      taken_ns = shm::monotonic_ns();
+      if (device_ != nullptr) {
+        // The input is the chain's, on the device; the pending B-scans are in its pending
+        // volume, or in pending_ (a host live volume), uploaded here.
+        const std::uint32_t n = dirty_end_ - dirty_first_;
+        const DeviceStageChain::Taken taken = dirty_on_device_
+                                                  ? device_->take(dirty_first_, n)
+                                                  : device_->take_host(pending_, dirty_first_, n);
+        first = taken.first;
+        count = taken.count;
+      } else if (!input_.same_shape(pending_)) {
         input_ = pending_;
         first = 0;
         count = pending_.bscans();
@@ -151,7 +170,11 @@ void VolumeStages::work() {
       dirty_groups_ = 0;
     }
     try {
-      run_pass(first, count, groups);
+      if (device_ != nullptr) {
+        run_device_pass(first, count, groups, taken_ns);
+      } else {
+        run_pass(first, count, groups);
+      }
     } catch (const std::exception& e) {
       fail(e.what());
       return;
@@ -167,6 +190,13 @@ bool VolumeStages::make_backends() {
     segmenter_ = segmentation::make_segmenter(backend, config_.segmentation, config_.sampling,
                                               config_.cpu_threads);
     renderer_ = render::make_renderer(backend, config_.cpu_threads);
+    auto device = DeviceStageChain::make(*filter_, *segmenter_, *renderer_);
+    {
+      std::lock_guard lock(mutex_);
+      device_ = std::move(device);
+      backends_made_ = true;
+    }
+    wake_.notify_all();
     std::lock_guard lock(mutex_);
     backends_ = "filter " + std::string(filter_->backend_name()) + ", segmentation " +
                 std::string(segmenter_->backend_name()) + ", render " +
@@ -179,10 +209,14 @@ bool VolumeStages::make_backends() {
 }
 
 void VolumeStages::fail(const std::string& what) {
-  std::lock_guard lock(mutex_);
-  if (figures_.problem.empty()) figures_.problem = what;
-  accepting_ = false;
-  dirty_groups_ = 0;
+  {
+    std::lock_guard lock(mutex_);
+    if (figures_.problem.empty()) figures_.problem = what;
+    accepting_ = false;
+    backends_made_ = true;  // nothing to wait for any more
+    dirty_groups_ = 0;
+  }
+  wake_.notify_all();
 }
 
 render::RenderConfig VolumeStages::live_view() const {
@@ -233,7 +267,45 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
     }
     f.pass.record(t3 - t0);
   }
+  if (config_.on_pass) {
+    config_.on_pass(StagesPass{groups, first, count, false, render_now, t0, t1, t2, t3});
+  }
   if (render_now) write_live_image(t3);
+}
+
+bool VolumeStages::live_image_due(std::uint64_t now_ns) const {
+  if (config_.live_image.empty() || config_.image_interval_s <= 0.0) return false;
+  return last_image_ns_ == 0 ||
+         static_cast<double>(now_ns - last_image_ns_) * 1e-9 >= config_.image_interval_s;
+}
+
+void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups,
+                                   std::uint64_t taken_ns) {
+  // The frame comes back only when the live image is to be written.
+  const bool frame_wanted = live_image_due(shm::monotonic_ns());
+  const DeviceStageChain::PassTimes t =
+      device_->run_pass(first, count, live_view(), frame_wanted ? &image_ : nullptr);
+  last_render_ns_ = t.rendered_ns;
+  const auto ns = [](double ms) { return static_cast<std::uint64_t>(ms * 1e6); };
+  {
+    std::lock_guard lock(mutex_);
+    Figures& f = figures_;
+    ++f.passes;
+    f.groups += groups;
+    f.groups_folded += groups - 1;
+    f.largest_fold = std::max(f.largest_fold, groups);
+    f.bscans += count;
+    f.filter.record(ns(t.filter_ms));
+    f.segment.record(ns(t.segment_ms));
+    ++f.renders;
+    f.render.record(ns(t.render_ms));
+    f.pass.record(t.rendered_ns - taken_ns);
+  }
+  if (config_.on_pass) {
+    config_.on_pass(StagesPass{groups, first, count, true, true, taken_ns, t.filtered_ns,
+                               t.segmented_ns, t.rendered_ns});
+  }
+  if (frame_wanted) write_live_image(t.rendered_ns);
 }
 
 void VolumeStages::write_live_image(std::uint64_t now_ns) {
@@ -270,9 +342,18 @@ nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
 
   nlohmann::json files = nlohmann::json::object();
   std::string problem;
+  std::uint64_t passes = 0;
   {
     std::lock_guard lock(mutex_);
     problem = figures_.problem;
+    passes = figures_.passes;
+  }
+  if (problem.empty() && device_ != nullptr && passes > 0) {
+    try {
+      device_->download(filtered_, surfaces_);  // the files' volume and surfaces
+    } catch (const std::exception& e) {
+      problem = std::string("reading back the stages' results: ") + e.what();
+    }
   }
   if (problem.empty() && filtered_.bscans() > 0) {
     try {
