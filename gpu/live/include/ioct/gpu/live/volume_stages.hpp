@@ -108,6 +108,8 @@ class VolumeStages final : public LiveStage {
   // The state after finish() (tests).
   const Volume& filtered() const noexcept { return filtered_; }
   const segmentation::Surfaces& surfaces() const noexcept { return surfaces_; }
+  // The last frame read back to the host (after finish(): the last one it rendered).
+  const render::RgbaImage& frame() const noexcept { return image_; }
 
  private:
   struct Figures {
