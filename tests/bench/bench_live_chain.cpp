@@ -341,11 +341,31 @@ int run(const Options& o) {
   recorder.pipeline = pipeline.get();
   recorder.stages = &stages;
 
+  // Polls until the ring is empty and the stages have had every group handed over; throws when
+  // nothing moves for 10 s.
+  const auto settle = [&] {
+    std::uint64_t last = 0;
+    std::uint64_t since = shm::monotonic_ns();
+    for (;;) {
+      const bool idle = pipeline->poll(recorder) == shm::PollStatus::empty;
+      const std::uint64_t through = recorder.groups_through_stages.load();
+      if (idle && through >= recorder.groups_processed.load()) return;
+      if (through != last) {
+        last = through;
+        since = shm::monotonic_ns();
+      } else if (shm::monotonic_ns() - since > 10'000'000'000ull) {
+        throw std::runtime_error("the chain made no progress for 10 s (" +
+                                 std::to_string(through) + " groups through the stages, " +
+                                 std::to_string(recorder.groups_processed.load()) +
+                                 " processed): " + stages.status());
+      }
+    }
+  };
+
   // Catch up with the groups the fill published, then a paced warm-up (graphs, allocations).
   std::atomic<bool> stop{false};
   const auto paced = [&](std::uint32_t groups, std::uint32_t period_us) {
     std::atomic<bool> finished{false};
-    const std::uint64_t target = recorder.groups_through_stages.load() + groups;
     std::thread writer([&] {
       auto next = std::chrono::steady_clock::now();
       for (std::uint32_t i = 0; i < groups; ++i) {
@@ -356,17 +376,17 @@ int run(const Options& o) {
       finished.store(true);
     });
     const std::uint64_t dropped_before = pipeline->reader().counters().dropped();
-    while (recorder.groups_through_stages.load(std::memory_order_acquire) +
-               (pipeline->reader().counters().dropped() - dropped_before) <
-           target) {
-      pipeline->poll(recorder);
-    }
+    while (!finished.load()) pipeline->poll(recorder);
     writer.join();
+    settle();
     return pipeline->reader().counters().dropped() - dropped_before;
   };
-  while (recorder.groups_through_stages.load() < ring.slots()) pipeline->poll(recorder);
+  settle();
+  std::fprintf(stderr, "caught up: %llu groups through the stages; warming up\n",
+               static_cast<unsigned long long>(recorder.groups_through_stages.load()));
   paced(2 * g.bscans_per_volume / g.bscans_per_group, 5000);
   recorder.reset();
+  std::fprintf(stderr, "latency: %u groups, one every %u us\n", o.groups, o.period_us);
 
   // Latency, one group every period.
   const std::uint64_t latency_dropped = paced(o.groups, o.period_us);
@@ -383,12 +403,14 @@ int run(const Options& o) {
   recorder.reset();
 
   // Throughput, closed loop at the maximum rate.
+  std::fprintf(stderr, "throughput: %.1f s closed loop\n", o.seconds);
   const std::uint64_t margin = ring.slots() - 2;
   std::atomic<std::uint64_t> reader_at{pipeline->reader().position()};
   const std::uint64_t base_published = ring.published();
   const std::uint64_t base_staged = recorder.groups_through_stages.load();
   std::thread writer([&] {
     while (!stop.load(std::memory_order_relaxed)) {
+      // (The ring's own slot limit: the reader must have copied all but `margin` groups.)
       const std::uint64_t ahead = (ring.published() - base_published) -
                                   (recorder.groups_through_stages.load(std::memory_order_acquire) -
                                    base_staged);
@@ -421,6 +443,7 @@ int run(const Options& o) {
   stop.store(true);
   writer.join();
   pipeline->drain(recorder);
+  settle();
   const double seconds = static_cast<double>(now - t0) * 1e-9;
   const double ascans_per_s = static_cast<double>(staged * g.ascans_per_group()) / seconds;
   const std::uint64_t dropped = r1.dropped() - r0.dropped();
@@ -520,6 +543,7 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // lines reach a log even if the run is cut short
   Options o;
   CLI::App app{"The live chain of ioct-gpu (CUDA) group by group: publish -> frame latency and "
                "full-chain throughput at the default geometry, beside same-run anchors"};
