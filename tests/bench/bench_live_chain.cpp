@@ -211,8 +211,8 @@ double pinned_h2d_group_ms(std::size_t bytes, int repetitions = 7) {
   for (int r = 0; r < repetitions + 1; ++r) {
     IOCT_CUDA_CHECK(cudaEventRecord(start, stream.get()));
     for (int i = 0; i < kCopies; ++i) {
-      IOCT_CUDA_CHECK(cudaMemcpyAsync(device.data(), host.data(), bytes, cudaMemcpyHostToDevice,
-                                      stream.get()));
+      IOCT_CUDA_CHECK(
+          cudaMemcpyAsync(device.data(), host.data(), bytes, cudaMemcpyHostToDevice, stream.get()));
     }
     IOCT_CUDA_CHECK(cudaEventRecord(stop, stream.get()));
     IOCT_CUDA_CHECK(cudaEventSynchronize(stop));
@@ -277,8 +277,8 @@ KernelAnchors measure_kernels(const shm::RingGeometry& g, const Volume& volume,
     });
   }
   cuda::DeviceArray<std::uint8_t> in(dims.bytes()), out(dims.bytes());
-  IOCT_CUDA_CHECK(cudaMemcpy(in.data(), volume.pixels().data(), dims.bytes(),
-                             cudaMemcpyHostToDevice));
+  IOCT_CUDA_CHECK(
+      cudaMemcpy(in.data(), volume.pixels().data(), dims.bytes(), cudaMemcpyHostToDevice));
   const VolumeRef in_ref = VolumeRef::on_device(in.data(), dims, stream.get());
   const VolumeRef out_ref = VolumeRef::on_device(out.data(), dims, stream.get());
   const MutableVolumeRef out_mut = MutableVolumeRef::on_device(out.data(), dims, stream.get());
@@ -335,9 +335,9 @@ int run(const Options& o) {
   live::VolumeStages stages(config);
   LivePipelineOptions options;
   options.host_volumes = false;
-  auto pipeline = make_live_pipeline(Backend::cuda, OctProcessorConfig{},
-                                     shm::RingReader::attach(ring.name(), {"bench", false}),
-                                     options);
+  auto pipeline =
+      make_live_pipeline(Backend::cuda, OctProcessorConfig{},
+                         shm::RingReader::attach(ring.name(), {"bench", false}), options);
   recorder.pipeline = pipeline.get();
   recorder.stages = &stages;
 
@@ -354,8 +354,8 @@ int run(const Options& o) {
         last = through;
         since = shm::monotonic_ns();
       } else if (shm::monotonic_ns() - since > 10'000'000'000ull) {
-        throw std::runtime_error("the chain made no progress for 10 s (" +
-                                 std::to_string(through) + " groups through the stages, " +
+        throw std::runtime_error("the chain made no progress for 10 s (" + std::to_string(through) +
+                                 " groups through the stages, " +
                                  std::to_string(recorder.groups_processed.load()) +
                                  " processed): " + stages.status());
       }
@@ -411,10 +411,11 @@ int run(const Options& o) {
   std::thread writer([&] {
     while (!stop.load(std::memory_order_relaxed)) {
       // (The ring's own slot limit: the reader must have copied all but `margin` groups.)
-      const std::uint64_t ahead = (ring.published() - base_published) -
-                                  (recorder.groups_through_stages.load(std::memory_order_acquire) -
-                                   base_staged);
-      if (ahead < o.ahead && ring.published() < reader_at.load(std::memory_order_acquire) + margin) {
+      const std::uint64_t ahead =
+          (ring.published() - base_published) -
+          (recorder.groups_through_stages.load(std::memory_order_acquire) - base_staged);
+      if (ahead < o.ahead &&
+          ring.published() < reader_at.load(std::memory_order_acquire) + margin) {
         ring.publish();
       } else {
         std::this_thread::yield();
@@ -471,70 +472,72 @@ int run(const Options& o) {
 
   const Quantiles qp = quantiles(processed), qf = quantiles(filtered), qs = quantiles(segmented),
                   qr = quantiles(rendered);
-  std::printf("\nlatency from publish, one group every %u us (%zu groups, %llu dropped, %llu "
-              "passes folded):\n",
-              o.period_us, rendered.size(), static_cast<unsigned long long>(latency_dropped),
-              static_cast<unsigned long long>(latency_folded));
+  std::printf(
+      "\nlatency from publish, one group every %u us (%zu groups, %llu dropped, %llu "
+      "passes folded):\n",
+      o.period_us, rendered.size(), static_cast<unsigned long long>(latency_dropped),
+      static_cast<unsigned long long>(latency_folded));
   std::printf("  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms\n", "-> processed (device volume)",
               qp.p50, qp.p99, qp.max);
   std::printf("  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms\n", "-> filtered", qf.p50, qf.p99,
               qf.max);
-  std::printf("  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms\n", "-> segmented", qs.p50,
-              qs.p99, qs.max);
+  std::printf("  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms\n", "-> segmented", qs.p50, qs.p99,
+              qs.max);
   std::printf("  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms   target p99 <= 2 ms: %s\n",
               "-> frame rendered (device memory)", qr.p50, qr.p99, qr.max,
               qr.p99 <= 2.0 ? "met" : "NOT met");
-  std::printf("  anchor: pinned H2D copy of a group %.3f ms (%.1f GB/s); stages' own kernels "
-              "per group: processing %.3f + filters %.3f + segmentation %.3f + render %.3f = "
-              "%.3f ms (ratio p50 / sum %.2f)\n",
-              pinned, static_cast<double>(g.group_payload_bytes()) / (pinned * 1e6),
-              k.processing, k.filter, k.segment, k.render, k.sum(), qr.p50 / k.sum());
+  std::printf(
+      "  anchor: pinned H2D copy of a group %.3f ms (%.1f GB/s); stages' own kernels "
+      "per group: processing %.3f + filters %.3f + segmentation %.3f + render %.3f = "
+      "%.3f ms (ratio p50 / sum %.2f)\n",
+      pinned, static_cast<double>(g.group_payload_bytes()) / (pinned * 1e6), k.processing, k.filter,
+      k.segment, k.render, k.sum(), qr.p50 / k.sum());
   const double anchor_rate = static_cast<double>(g.ascans_per_group()) / (k.sum() * 1e-3);
   const double pinned_rate = static_cast<double>(g.ascans_per_group()) / (pinned * 1e-3);
-  std::printf("\nfull chain, closed loop at the maximum rate (at most %u groups ahead of the "
-              "stages):\n  %.2f M A-scans/s with every stage on every group (%llu groups in "
-              "%.2f s, %llu passes folded groups, %llu dropped)   target >= 10 M/s, 0 drops: %s\n",
-              o.ahead, ascans_per_s / 1e6, static_cast<unsigned long long>(staged), seconds,
-              static_cast<unsigned long long>(throughput_folded),
-              static_cast<unsigned long long>(dropped),
-              ascans_per_s >= 10e6 && dropped == 0 && throughput_folded == 0 ? "met" : "NOT met");
-  std::printf("  anchor: the kernels' sum as a rate %.2f M A-scans/s (%.1f %%); pinned H2D alone "
-              "%.2f M A-scans/s\n",
-              anchor_rate / 1e6, 100.0 * ascans_per_s / anchor_rate, pinned_rate / 1e6);
+  std::printf(
+      "\nfull chain, closed loop at the maximum rate (at most %u groups ahead of the "
+      "stages):\n  %.2f M A-scans/s with every stage on every group (%llu groups in "
+      "%.2f s, %llu passes folded groups, %llu dropped)   target >= 10 M/s, 0 drops: %s\n",
+      o.ahead, ascans_per_s / 1e6, static_cast<unsigned long long>(staged), seconds,
+      static_cast<unsigned long long>(throughput_folded), static_cast<unsigned long long>(dropped),
+      ascans_per_s >= 10e6 && dropped == 0 && throughput_folded == 0 ? "met" : "NOT met");
+  std::printf(
+      "  anchor: the kernels' sum as a rate %.2f M A-scans/s (%.1f %%); pinned H2D alone "
+      "%.2f M A-scans/s\n",
+      anchor_rate / 1e6, 100.0 * ascans_per_s / anchor_rate, pinned_rate / 1e6);
   std::printf("stages: %s\n", stages_summary.at("backends").get<std::string>().c_str());
 
   if (!o.json_path.empty()) {
     const auto q = [](const Quantiles& x) {
       return nlohmann::json{{"p50", x.p50}, {"p99", x.p99}, {"max", x.max}};
     };
-    nlohmann::json report = {
-        {"benchmark", "ioct-bench-live-chain"},
-        {"host", bench::to_json(host)},
-        {"gpu", props.name},
-        {"latency",
-         {{"period_us", o.period_us},
-          {"groups", rendered.size()},
-          {"dropped", latency_dropped},
-          {"folded_passes", latency_folded},
-          {"processed_ms", q(qp)},
-          {"filtered_ms", q(qf)},
-          {"segmented_ms", q(qs)},
-          {"rendered_ms", q(qr)}}},
-        {"throughput",
-         {{"ascans_per_s", ascans_per_s},
-          {"groups", staged},
-          {"seconds", seconds},
-          {"folded_passes", throughput_folded},
-          {"dropped", dropped},
-          {"ahead", o.ahead}}},
-        {"anchors",
-         {{"pinned_h2d_group_ms", pinned},
-          {"processing_ms", k.processing},
-          {"filter_ms", k.filter},
-          {"segment_ms", k.segment},
-          {"render_ms", k.render},
-          {"kernel_sum_ms", k.sum()}}},
-        {"stages", stages_summary}};
+    nlohmann::json report = {{"benchmark", "ioct-bench-live-chain"},
+                             {"host", bench::to_json(host)},
+                             {"gpu", props.name},
+                             {"latency",
+                              {{"period_us", o.period_us},
+                               {"groups", rendered.size()},
+                               {"dropped", latency_dropped},
+                               {"folded_passes", latency_folded},
+                               {"processed_ms", q(qp)},
+                               {"filtered_ms", q(qf)},
+                               {"segmented_ms", q(qs)},
+                               {"rendered_ms", q(qr)}}},
+                             {"throughput",
+                              {{"ascans_per_s", ascans_per_s},
+                               {"groups", staged},
+                               {"seconds", seconds},
+                               {"folded_passes", throughput_folded},
+                               {"dropped", dropped},
+                               {"ahead", o.ahead}}},
+                             {"anchors",
+                              {{"pinned_h2d_group_ms", pinned},
+                               {"processing_ms", k.processing},
+                               {"filter_ms", k.filter},
+                               {"segment_ms", k.segment},
+                               {"render_ms", k.render},
+                               {"kernel_sum_ms", k.sum()}}},
+                             {"stages", stages_summary}};
     std::ofstream(o.json_path) << report.dump(2) << "\n";
   }
   return 0;
@@ -545,8 +548,9 @@ int run(const Options& o) {
 int main(int argc, char** argv) {
   std::setvbuf(stdout, nullptr, _IOLBF, 0);  // lines reach a log even if the run is cut short
   Options o;
-  CLI::App app{"The live chain of ioct-gpu (CUDA) group by group: publish -> frame latency and "
-               "full-chain throughput at the default geometry, beside same-run anchors"};
+  CLI::App app{
+      "The live chain of ioct-gpu (CUDA) group by group: publish -> frame latency and "
+      "full-chain throughput at the default geometry, beside same-run anchors"};
   app.add_option("--seconds", o.seconds, "throughput run")->check(CLI::Range(0.5, 600.0));
   app.add_option("--groups", o.groups, "latency samples")->check(CLI::Range(10u, 100000u));
   app.add_option("--period-us", o.period_us, "latency: one group every")

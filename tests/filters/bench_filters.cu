@@ -157,8 +157,9 @@ int main(int argc, char** argv) {
     };
     const Timing anchor =
         time_on_device("anchor: device copy of the volume", stream, warmup, reps, [&] {
-          check_cuda(cudaMemcpyAsync(copy.data(), in.data(), bytes, cudaMemcpyDeviceToDevice, stream),
-                     "copy");
+          check_cuda(
+              cudaMemcpyAsync(copy.data(), in.data(), bytes, cudaMemcpyDeviceToDevice, stream),
+              "copy");
         });
     add(anchor);
 
@@ -237,8 +238,8 @@ int main(int argc, char** argv) {
     add(incremental);
 
     // The full filter once more, then checked against the CPU.
-    enqueue_volume_filter(in.data(), median.data(), out.data(), dims, all, config, taps, best_tuning,
-                          stream);
+    enqueue_volume_filter(in.data(), median.data(), out.data(), dims, all, config, taps,
+                          best_tuning, stream);
     check_cuda(cudaStreamSynchronize(stream), "final filter");
     std::vector<std::uint8_t> filtered(bytes);
     check_cuda(cudaMemcpy(filtered.data(), out.data(), bytes, cudaMemcpyDeviceToHost), "download");

@@ -63,16 +63,16 @@ BscanRange CudaVolumeFilter::filter_group(const Volume& in, Volume& out, std::ui
   return outputs;
 }
 
-BscanRange CudaVolumeFilter::filter_group(VolumeRef in, MutableVolumeRef out,
-                                          BscanRange changed) {
+BscanRange CudaVolumeFilter::filter_group(VolumeRef in, MutableVolumeRef out, BscanRange changed) {
   if (!in.is_device() && !out.is_device()) return VolumeFilter::filter_group(in, out, changed);
   if (!in.is_device() || !out.is_device()) {
     throw std::invalid_argument("volume filter (cuda): a host and a device volume together");
   }
   const VolumeDims& dims = in.dims();
   if (out.dims() != dims) {
-    throw std::invalid_argument("volume filter (cuda): the device output does not have the input's "
-                                "dimensions");
+    throw std::invalid_argument(
+        "volume filter (cuda): the device output does not have the input's "
+        "dimensions");
   }
   if (in.device() == out.device()) {
     throw std::invalid_argument("volume filter: input and output are one volume");

@@ -141,13 +141,15 @@ DeviceStageChain::Taken DeviceStageChain::take(std::uint32_t first, std::uint32_
     first = 0;
     count = m.input_dims.bscans;
   }
-  IOCT_CUDA_CHECK(cudaMemcpyAsync(m.input.data() + first * stride, m.pending.data() + first * stride,
-                                  count * stride, cudaMemcpyDeviceToDevice, stream));
+  IOCT_CUDA_CHECK(cudaMemcpyAsync(m.input.data() + first * stride,
+                                  m.pending.data() + first * stride, count * stride,
+                                  cudaMemcpyDeviceToDevice, stream));
   m.record_taken();
   return {first, count};
 }
 
-DeviceStageChain::Taken DeviceStageChain::take_host(const Volume& pending, std::uint32_t first, std::uint32_t count) {
+DeviceStageChain::Taken DeviceStageChain::take_host(const Volume& pending, std::uint32_t first,
+                                                    std::uint32_t count) {
   Impl& m = *impl_;
   m.pending_dims = VolumeDims::of(pending);
   const bool whole = m.reshape_input();
@@ -180,8 +182,7 @@ DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t first, std:
   const segmentation::BscanSpan affected =
       m.segmenter.segment_group(filtered, {outputs.first, outputs.count}, nullptr);
   m.segmented_done.record(stream);
-  m.renderer.update_bscans(filtered, affected.first, affected.count,
-                           m.segmenter.device_surfaces());
+  m.renderer.update_bscans(filtered, affected.first, affected.count, m.segmenter.device_surfaces());
   if (frame != nullptr) {
     m.renderer.render(view, *frame);
   } else {
@@ -207,7 +208,8 @@ void DeviceStageChain::download(Volume& filtered, segmentation::Surfaces& surfac
   filtered.reshape(d.bscans, d.ascans, d.depth);
   if (d.bytes() == 0) return;
   cuda::copy_async(filtered.pixels().data(), m.filtered.data(), d.bytes(), cudaMemcpyDeviceToHost,
-                   m.stream.get(), cuda::Payload::volume, "copy of the filtered volume to the host");
+                   m.stream.get(), cuda::Payload::volume,
+                   "copy of the filtered volume to the host");
   m.segmenter.download_surfaces(surfaces, m.stream.get());
 }
 

@@ -242,7 +242,7 @@ struct CudaRenderer::State {
   cuda::DeviceArray<float> la_mip;
   bool la_mip_valid = false;
   bool owns_stream = true;
-  cuda::Event volume_ready;  // a device volume's stream, when it is not ours
+  cuda::Event volume_ready;           // a device volume's stream, when it is not ours
   segmentation::Surfaces downloaded;  // the ILM and RPE of device surfaces
 
   void free_volume() {
@@ -329,8 +329,8 @@ struct CudaRenderer::State {
                      "copy of the centre-of-mass sums to the host");
     if (device_surfaces != nullptr) {
       const std::size_t n = std::size_t{dims.bscans} * dims.ascans;
-      const bool usable = device_surfaces->bscans == dims.bscans &&
-                          device_surfaces->ascans == dims.ascans;
+      const bool usable =
+          device_surfaces->bscans == dims.bscans && device_surfaces->ascans == dims.ascans;
       if (usable) {
         if (downloaded.bscans != dims.bscans || downloaded.ascans != dims.ascans ||
             downloaded.depth != dims.depth) {
@@ -371,11 +371,11 @@ struct CudaRenderer::State {
     transfer_lut.resize(tables.transfer_lut.size());
     lab_lut.resize(tables.lab_lut.size());
     IOCT_CUDA_CHECK(cudaMemcpyAsync(transfer_lut.data(), tables.transfer_lut.data(),
-                                     tables.transfer_lut.size() * sizeof(float),
-                                     cudaMemcpyHostToDevice, stream));
+                                    tables.transfer_lut.size() * sizeof(float),
+                                    cudaMemcpyHostToDevice, stream));
     IOCT_CUDA_CHECK(cudaMemcpyAsync(lab_lut.data(), tables.lab_lut.data(),
-                                     tables.lab_lut.size() * sizeof(float), cudaMemcpyHostToDevice,
-                                     stream));
+                                    tables.lab_lut.size() * sizeof(float), cudaMemcpyHostToDevice,
+                                    stream));
     IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
     host_transfer_lut = tables.transfer_lut;
     table_transfer = config.enhanced.transfer;
@@ -503,7 +503,7 @@ void CudaRenderer::render_on_device(const RenderConfig& config) {
                               s.stream>>>(p, s.linear.data(), s.la_mip.data());
       const LaMipBuffer l = la_mip_buffer(p);
       IOCT_CUDA_CHECK(cudaMemsetAsync(s.la_mip.data() + l.across_bscans(), 0,
-                                       (l.size() - l.across_bscans()) * sizeof(float), s.stream));
+                                      (l.size() - l.across_bscans()) * sizeof(float), s.stream));
       const unsigned z_blocks = static_cast<unsigned>((p.dim_d + threads - 1) / threads);
       for (const LaMipAxis axis : {LaMipAxis::across_bscans, LaMipAxis::along_ascans}) {
         const int length = la_mip_curve_length(p, axis);

@@ -915,9 +915,8 @@ BscanSpan CudaSegmenter::segment_group(const Volume& volume, BscanSpan group, Su
   }
   const std::size_t bscan_px = volume.bscan_pixels();
   cuda::copy_async(d.volume.as<std::uint8_t>() + group.first * bscan_px,
-                   volume.bscan(group.first).data(), group.count * bscan_px,
-                   cudaMemcpyHostToDevice, stream_, cuda::Payload::volume,
-                   "copy of the group to the device");
+                   volume.bscan(group.first).data(), group.count * bscan_px, cudaMemcpyHostToDevice,
+                   stream_, cuda::Payload::volume, "copy of the group to the device");
   const BscanSpan outputs = enqueue_group(d.volume.as<std::uint8_t>(), group, stream_);
   const std::size_t offset = surfaces.index(outputs.first, 0);
   const std::size_t n = static_cast<std::size_t>(outputs.count) * volume.ascans();

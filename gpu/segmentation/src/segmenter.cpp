@@ -60,8 +60,8 @@ void check_group_request(VolumeDims volume, BscanSpan group) {
       group.count > volume.bscans - group.first) {
     throw std::out_of_range("segmentation: B-scans [" + std::to_string(group.first) + ", " +
                             std::to_string(std::uint64_t{group.first} + group.count) +
-                            ") are not a group of the volume of " +
-                            std::to_string(volume.bscans) + " B-scans");
+                            ") are not a group of the volume of " + std::to_string(volume.bscans) +
+                            " B-scans");
   }
 }
 

@@ -39,8 +39,9 @@ class LiveVolumeSource {
   // A live volume on the device: calls `enqueue_reads` at once with its view, during which only
   // reads of it may be enqueued on `stream` (they see it as of the last group reported), and
   // returns true. A host live volume returns false and calls nothing.
-  virtual bool read_on_device(CUstream_st* /*stream*/,
-                              const std::function<void(const DeviceVolumeView&)>& /*enqueue_reads*/) {
+  virtual bool read_on_device(
+      CUstream_st* /*stream*/,
+      const std::function<void(const DeviceVolumeView&)>& /*enqueue_reads*/) {
     return false;
   }
 };
