@@ -106,18 +106,27 @@ bool DeviceStageChain::hand_over(LiveVolumeSource& source, const LiveVolumeShape
   Impl& m = *impl_;
   cudaStream_t copy = m.copy_stream.get();
   const VolumeDims dims{shape.bscans, shape.ascans, shape.depth};
-  new_shape = !(dims == m.pending_dims);
+  // New to the stages only when the input has other dimensions; the pending buffer may also be
+  // new when earlier hand-overs came from the host (take_host).
+  new_shape = !(dims == m.input_dims) || m.input.size() != dims.bytes();
+  const bool new_buffer = !(dims == m.pending_dims) || m.pending.size() != dims.bytes();
   // The last pass must have taken its input before these B-scans overwrite the pending ones.
   if (m.input_taken_recorded) IOCT_CUDA_CHECK(cudaStreamWaitEvent(copy, m.input_taken.get(), 0));
   bool device = false;
   const bool enqueued = source.read_on_device(copy, [&](const DeviceVolumeView& view) {
     device = true;
-    if (new_shape) {
-      // The B-scans that have not arrived yet are zero, as on the host path.
+    if (new_buffer) {
       IOCT_CUDA_CHECK(cudaStreamSynchronize(copy));
       m.pending = cuda::DeviceArray<std::uint8_t>(dims.bytes());
       m.pending_dims = dims;
-      IOCT_CUDA_CHECK(cudaMemsetAsync(m.pending.data(), 0, dims.bytes(), copy));
+      if (new_shape) {
+        // The B-scans that have not arrived yet are zero, as on the host path.
+        IOCT_CUDA_CHECK(cudaMemsetAsync(m.pending.data(), 0, dims.bytes(), copy));
+      } else {
+        // What the passes took from the host so far (the copy stream waited for the last take).
+        IOCT_CUDA_CHECK(cudaMemcpyAsync(m.pending.data(), m.input.data(), dims.bytes(),
+                                        cudaMemcpyDeviceToDevice, copy));
+      }
     }
     if (view.bscans != dims.bscans || view.ascans != dims.ascans || view.depth != dims.depth) {
       throw std::logic_error("live stages: the device volume's view disagrees with its shape");

@@ -54,9 +54,10 @@ class DeviceStageChain {
   DeviceStageChain& operator=(const DeviceStageChain&) = delete;
 
   // Live loop's thread, under the stages' lock. Enqueues the copy of B-scans [first, first +
-  // count) of the source's device volume into the pending device volume (reshaped and zeroed
-  // first when `shape` differs from it; `new_shape` says so). False, with nothing done, for a
-  // host source.
+  // count) of the source's device volume into the pending device volume. `new_shape` says when
+  // `shape` differs from the passes' input: the pending volume is then zeroed first (otherwise a
+  // new pending volume starts as the input, which take_host() filled). False, with nothing done,
+  // for a host source.
   bool hand_over(LiveVolumeSource& source, const LiveVolumeShape& shape, std::uint32_t first,
                  std::uint32_t count, bool& new_shape);
 

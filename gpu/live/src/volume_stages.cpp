@@ -101,14 +101,17 @@ VolumeStages::~VolumeStages() {
 void VolumeStages::on_bscans(LiveVolumeSource& source, std::uint32_t first, std::uint32_t count) {
   if (count == 0) return;
   std::unique_lock lock(mutex_);
-  // Where the B-scans go depends on the stages' backends: wait for them once, at the start.
-  wake_.wait(lock, [&] { return backends_made_; });
   if (!accepting_) return;
   const LiveVolumeShape shape = source.shape();
   bool new_shape = false;
-  if (device_ != nullptr && device_->hand_over(source, shape, first, count, new_shape)) {
+  // To the device once the CUDA stages exist and no host hand-over waits for a pass (before
+  // they exist, e.g. at start-up, B-scans wait in pending_ and the pass uploads them).
+  const bool host_pending = dirty_groups_ > 0 && !dirty_on_device_;
+  if (device_ != nullptr && !host_pending &&
+      device_->hand_over(source, shape, first, count, new_shape)) {
     dirty_on_device_ = true;
   } else {
+    dirty_on_device_ = false;
     new_shape = !shape.fits(pending_);
     if (new_shape) {
       // The B-scans that have not arrived yet are zero, and the next pass starts over.
@@ -191,13 +194,8 @@ bool VolumeStages::make_backends() {
                                               config_.cpu_threads);
     renderer_ = render::make_renderer(backend, config_.cpu_threads);
     auto device = DeviceStageChain::make(*filter_, *segmenter_, *renderer_);
-    {
-      std::lock_guard lock(mutex_);
-      device_ = std::move(device);
-      backends_made_ = true;
-    }
-    wake_.notify_all();
     std::lock_guard lock(mutex_);
+    device_ = std::move(device);
     backends_ = "filter " + std::string(filter_->backend_name()) + ", segmentation " +
                 std::string(segmenter_->backend_name()) + ", render " +
                 std::string(renderer_->backend_name());
@@ -213,7 +211,6 @@ void VolumeStages::fail(const std::string& what) {
     std::lock_guard lock(mutex_);
     if (figures_.problem.empty()) figures_.problem = what;
     accepting_ = false;
-    backends_made_ = true;  // nothing to wait for any more
     dirty_groups_ = 0;
   }
   wake_.notify_all();

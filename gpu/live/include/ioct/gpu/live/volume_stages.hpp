@@ -148,7 +148,6 @@ class VolumeStages final : public LiveStage {
   std::uint32_t dirty_end_ = 0;
   std::uint64_t dirty_groups_ = 0;
   bool dirty_on_device_ = false;  // the pending B-scans are in device_'s pending volume
-  bool backends_made_ = false;    // or failed: on_bscans may decide where B-scans go
   bool stop_ = false;
   bool accepting_ = true;  // false once a stage failed
   Figures figures_;
