@@ -4,8 +4,8 @@
 #include <string>
 
 #include "cuda_kernels.cuh"
-#include "cuda_support.hpp"
 #include "ioct/gpu/cuda_oct_processor.hpp"
+#include "ioct/gpu/cuda_support.hpp"
 
 #ifndef IOCT_CUDA_ARCHITECTURES
 #define IOCT_CUDA_ARCHITECTURES "unknown"

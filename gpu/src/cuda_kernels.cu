@@ -1,8 +1,8 @@
 #include <cstdint>
 
 #include "cuda_kernels.cuh"
-#include "cuda_support.hpp"
 #include "ioct/gpu/background_removal.hpp"
+#include "ioct/gpu/cuda_support.hpp"
 #include "ioct/gpu/host_device.hpp"
 
 namespace ioct::gpu::cuda {

@@ -2,9 +2,9 @@
 #include <deque>
 #include <limits>
 
-#include "cuda_support.hpp"
 #include "ioct/gpu/cuda_live_pipeline.hpp"
 #include "ioct/gpu/cuda_oct_processor.hpp"
+#include "ioct/gpu/cuda_support.hpp"
 #include "ioct/gpu/group_check.hpp"
 #include "ioct/gpu/repeats.hpp"
 
@@ -407,6 +407,12 @@ void CudaLivePipeline::read_volume(
   m.reads_pending = true;
 }
 
+bool CudaLivePipeline::read_on_device(
+    CUstream_st* stream, const std::function<void(const DeviceVolumeView&)>& enqueue_reads) {
+  read_volume(stream, enqueue_reads);
+  return true;
+}
+
 LiveVolumeShape CudaLivePipeline::shape() const {
   const Impl& m = *impl_;
   if (m.volume_ascans == 0) return {};  // no volume begun
@@ -420,8 +426,9 @@ void CudaLivePipeline::copy_bscans(std::uint32_t first, std::uint32_t count, Vol
   cudaStream_t stream = m.readback_stream.get();
   read_volume(stream, [&](const DeviceVolumeView& view) {
     const std::size_t stride = std::size_t{view.ascans} * view.depth;
-    IOCT_CUDA_CHECK(cudaMemcpyAsync(out.bscan(first).data(), view.pixels + first * stride,
-                                    count * stride, cudaMemcpyDeviceToHost, stream));
+    cuda::copy_async(out.bscan(first).data(), view.pixels + first * stride, count * stride,
+                     cudaMemcpyDeviceToHost, stream, cuda::Payload::volume,
+                     "copy of live B-scans to the host");
   });
   IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
 }

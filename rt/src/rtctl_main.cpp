@@ -1,18 +1,15 @@
 // ioct-rtctl: one request to ioct-rt's control socket, its reply on stdout.
 //   ioct-rtctl [--socket PATH] status | start | stop | scan KEY=VALUE... | raw 'JSON LINE'
 // Exit status 0 when the reply says "ok": true, 1 when it does not, 2 when there was no reply.
-#include <poll.h>
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <unistd.h>
-
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <cstring>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
+
+#include "ioct/common/line_client.hpp"
 
 namespace {
 
@@ -59,45 +56,14 @@ int main(int argc, char** argv) {
     line = request.dump();
   }
 
-  sockaddr_un address{};
-  address.sun_family = AF_UNIX;
-  if (socket_path.size() >= sizeof(address.sun_path)) {
-    std::fprintf(stderr, "ioct-rtctl: socket path too long\n");
+  ioct::LineClient client(socket_path, std::chrono::milliseconds(static_cast<std::int64_t>(
+                                           std::clamp(timeout_s, 0.001, 3600.0) * 1000.0)));
+  const auto reply = client.request(line);
+  if (!reply) {
+    std::fprintf(stderr, "ioct-rtctl: %s\n", client.last_error().c_str());
     return 2;
   }
-  std::memcpy(address.sun_path, socket_path.c_str(), socket_path.size() + 1);
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (fd < 0 || ::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof(address)) != 0) {
-    std::fprintf(stderr, "ioct-rtctl: cannot connect to %s: %s\n", socket_path.c_str(),
-                 std::strerror(errno));
-    return 2;
-  }
-  line += '\n';
-  if (::send(fd, line.data(), line.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(line.size())) {
-    std::fprintf(stderr, "ioct-rtctl: send failed: %s\n", std::strerror(errno));
-    return 2;
-  }
-  std::string reply;
-  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
-  while (reply.find('\n') == std::string::npos) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
-        end - std::chrono::steady_clock::now());
-    if (left.count() <= 0) break;
-    pollfd p{fd, POLLIN, 0};
-    if (::poll(&p, 1, static_cast<int>(left.count())) <= 0) break;
-    char buffer[4096];
-    const ssize_t got = ::recv(fd, buffer, sizeof(buffer), 0);
-    if (got <= 0) break;
-    reply.append(buffer, static_cast<std::size_t>(got));
-  }
-  ::close(fd);
-  const auto newline = reply.find('\n');
-  if (newline == std::string::npos) {
-    std::fprintf(stderr, "ioct-rtctl: no reply from %s\n", socket_path.c_str());
-    return 2;
-  }
-  reply.resize(newline);
-  std::printf("%s\n", reply.c_str());
-  const nlohmann::json parsed = nlohmann::json::parse(reply, nullptr, false);
+  std::printf("%s\n", reply->c_str());
+  const nlohmann::json parsed = nlohmann::json::parse(*reply, nullptr, false);
   return !parsed.is_discarded() && parsed.value("ok", false) ? 0 : 1;
 }

@@ -140,8 +140,8 @@ int main(int argc, char** argv) {
 
     cudaStream_t stream;
     check_cuda(cudaStreamCreateWithFlags(&stream, cudaStreamNonBlocking), "cudaStreamCreate");
-    DeviceBytes in(bytes), median(bytes), out(bytes), copy(bytes);
-    check_cuda(cudaMemcpy(in.get(), volume.pixels().data(), bytes, cudaMemcpyHostToDevice),
+    cuda::DeviceArray<std::uint8_t> in(bytes), median(bytes), out(bytes), copy(bytes);
+    check_cuda(cudaMemcpy(in.data(), volume.pixels().data(), bytes, cudaMemcpyHostToDevice),
                "upload");
     const VolumeDims dims{d[0], d[1], d[2]};
     const BscanRange all{0, d[0]};
@@ -157,8 +157,9 @@ int main(int argc, char** argv) {
     };
     const Timing anchor =
         time_on_device("anchor: device copy of the volume", stream, warmup, reps, [&] {
-          check_cuda(cudaMemcpyAsync(copy.get(), in.get(), bytes, cudaMemcpyDeviceToDevice, stream),
-                     "copy");
+          check_cuda(
+              cudaMemcpyAsync(copy.data(), in.data(), bytes, cudaMemcpyDeviceToDevice, stream),
+              "copy");
         });
     add(anchor);
 
@@ -184,10 +185,10 @@ int main(int argc, char** argv) {
     bool variants_agree = true;
     for (const Variant& v : variants) {
       const Timing t = time_on_device(v.name, stream, warmup, reps, [&] {
-        enqueue_median(in.get(), median.get(), dims, all, v.tuning, stream);
+        enqueue_median(in.data(), median.data(), dims, all, v.tuning, stream);
       });
       add(t);
-      check_cuda(cudaMemcpy(result.data(), median.get(), bytes, cudaMemcpyDeviceToHost),
+      check_cuda(cudaMemcpy(result.data(), median.data(), bytes, cudaMemcpyDeviceToHost),
                  "download");
       if (reference_median.empty()) {
         reference_median = result;
@@ -207,7 +208,7 @@ int main(int argc, char** argv) {
       tuning.ascans_per_gaussian_thread = walk;
       const Timing t = time_on_device(
           "Gaussian 5x5 per B-scan, walk " + std::to_string(walk), stream, warmup, reps,
-          [&] { enqueue_gaussian(in.get(), out.get(), dims, all, taps, tuning, stream); });
+          [&] { enqueue_gaussian(in.data(), out.data(), dims, all, taps, tuning, stream); });
       add(t);
       if (best_gaussian.name.empty() || t.median_ms < best_gaussian.median_ms) {
         best_gaussian = t;
@@ -220,7 +221,7 @@ int main(int argc, char** argv) {
                                   std::to_string(best_tuning.ascans_per_gaussian_thread);
     const Timing combined =
         time_on_device("median + Gaussian (" + best_name + ")", stream, warmup, reps, [&] {
-          enqueue_volume_filter(in.get(), median.get(), out.get(), dims, all, config, taps,
+          enqueue_volume_filter(in.data(), median.data(), out.data(), dims, all, config, taps,
                                 best_tuning, stream);
         });
     add(combined);
@@ -231,17 +232,17 @@ int main(int argc, char** argv) {
         time_on_device("one group of " + std::to_string(group) + " B-scans (" +
                            std::to_string(outputs.count) + " outputs)",
                        stream, warmup, reps, [&] {
-                         enqueue_volume_filter(in.get(), median.get(), out.get(), dims, outputs,
+                         enqueue_volume_filter(in.data(), median.data(), out.data(), dims, outputs,
                                                config, taps, best_tuning, stream);
                        });
     add(incremental);
 
     // The full filter once more, then checked against the CPU.
-    enqueue_volume_filter(in.get(), median.get(), out.get(), dims, all, config, taps, best_tuning,
-                          stream);
+    enqueue_volume_filter(in.data(), median.data(), out.data(), dims, all, config, taps,
+                          best_tuning, stream);
     check_cuda(cudaStreamSynchronize(stream), "final filter");
     std::vector<std::uint8_t> filtered(bytes);
-    check_cuda(cudaMemcpy(filtered.data(), out.get(), bytes, cudaMemcpyDeviceToHost), "download");
+    check_cuda(cudaMemcpy(filtered.data(), out.data(), bytes, cudaMemcpyDeviceToHost), "download");
     std::string cpu_verdict = "not checked";
     if (cpu_check) {
       CpuVolumeFilter cpu(config, 4);

@@ -92,8 +92,15 @@ fs::path installable_copy(const Scratch& dir, const char* unit) {
   } catch (const std::exception&) {
     gpu = "/bin/true";  // the GPU process is not part of this build
   }
+  std::string view;
+  try {
+    view = test_support::sibling_executable("ioct-view");
+  } catch (const std::exception&) {
+    view = "/bin/true";
+  }
   replace("/usr/bin/ioct-rt", rt);
   replace("/usr/bin/ioct-gpu", gpu);
+  replace("/usr/bin/ioct-view", view);
   const fs::path copy = dir.path() / unit;
   std::ofstream(copy) << text;
   return copy;
@@ -107,7 +114,9 @@ TEST(SystemdUnits, VerifyAcceptsBothServicesWithoutWarnings) {
   const Scratch dir("verify");
   const fs::path rt = installable_copy(dir, "ioct-rt.service");
   const fs::path gpu = installable_copy(dir, "ioct-gpu.service");
-  const Result r = run(analyze + " verify " + rt.string() + " " + gpu.string());
+  const fs::path view = installable_copy(dir, "ioct-view.service");
+  const Result r =
+      run(analyze + " verify " + rt.string() + " " + gpu.string() + " " + view.string());
   if (r.status != 0 && (r.output.find("Failed to initialize manager") != std::string::npos ||
                         r.output.find("Failed to allocate manager") != std::string::npos ||
                         r.output.find("System has not been booted") != std::string::npos)) {
@@ -157,7 +166,12 @@ TEST(SystemdUnits, SysusersAndTmpfilesCreateTheUsersAndTheSocketDirectory) {
   EXPECT_TRUE(std::regex_search(
       group, std::regex("\nioct-render:x:\\d+:(ioct-gpu,ioct-rt|ioct-rt,ioct-gpu)\n")))
       << group;
-  EXPECT_TRUE(std::regex_search(group, std::regex("\nioct-control:x:\\d+:ioct-rt\n"))) << group;
+  EXPECT_TRUE(std::regex_search(
+      group, std::regex("\nioct-control:x:\\d+:(ioct-rt,ioct-view|ioct-view,ioct-rt)\n")))
+      << group;
+  EXPECT_TRUE(std::regex_search(
+      group, std::regex("\nioct-frames:x:\\d+:(ioct-gpu,ioct-view|ioct-view,ioct-gpu)\n")))
+      << group;
   std::smatch rt_user;
   ASSERT_TRUE(std::regex_search(passwd, rt_user, std::regex("\nioct-rt:x:(\\d+):(\\d+):")))
       << passwd;

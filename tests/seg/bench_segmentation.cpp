@@ -137,7 +137,7 @@ int main(int argc, char** argv) {
     std::vector<std::vector<double>> stage_us(CudaSegmenter::kStages);
     const std::size_t group_bytes = static_cast<std::size_t>(group) * volume.bscan_pixels();
     const gpu::filters::GaussianTaps taps = gpu::filters::make_gaussian_taps(1.0);
-    const gpu::filters::VolumeDims dims{volume.bscans(), volume.ascans(), volume.depth()};
+    const gpu::VolumeDims dims{volume.bscans(), volume.ascans(), volume.depth()};
     for (int round = 0; round < rounds; ++round) {
       for (std::uint32_t g = 0; g < groups; ++g) {
         const std::uint32_t first = g * group;

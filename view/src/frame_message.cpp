@@ -30,6 +30,7 @@ FrameMessage make_frame_message(const shm::Frame& frame, std::uint64_t now_ns) {
       {"bscans", m.bscans},
       {"bscan_width", m.bscan_width},
       {"bscan_height", m.bscan_height},
+      {"published_ns", m.t_group_published_ns},  // CLOCK_MONOTONIC: for clients on this machine
       {"age_ms", ms_between(m.t_group_published_ns, now_ns)},
       {"published_to_rendered_ms", ms_between(m.t_group_published_ns, m.t_rendered_ns)},
       {"published_to_sent_ms", ms_between(m.t_group_published_ns, now_ns)}};

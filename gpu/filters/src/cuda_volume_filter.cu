@@ -15,29 +15,6 @@ void check_cuda(cudaError_t status, const char* what) {
   }
 }
 
-DeviceBytes::DeviceBytes(std::size_t bytes) : size_(bytes) {
-  void* pointer = nullptr;
-  check_cuda(cudaMalloc(&pointer, bytes),
-             ("cudaMalloc of " + std::to_string(bytes) + " bytes").c_str());
-  data_ = static_cast<std::uint8_t*>(pointer);
-}
-
-DeviceBytes::DeviceBytes(DeviceBytes&& other) noexcept
-    : data_(std::exchange(other.data_, nullptr)), size_(std::exchange(other.size_, 0)) {}
-
-DeviceBytes& DeviceBytes::operator=(DeviceBytes&& other) noexcept {
-  if (this != &other) {
-    if (data_ != nullptr) cudaFree(data_);
-    data_ = std::exchange(other.data_, nullptr);
-    size_ = std::exchange(other.size_, 0);
-  }
-  return *this;
-}
-
-DeviceBytes::~DeviceBytes() {
-  if (data_ != nullptr) cudaFree(data_);
-}
-
 namespace {
 
 // Why the filters cannot run here, or empty.
@@ -86,14 +63,35 @@ BscanRange CudaVolumeFilter::filter_group(const Volume& in, Volume& out, std::ui
   return outputs;
 }
 
+BscanRange CudaVolumeFilter::filter_group(VolumeRef in, MutableVolumeRef out, BscanRange changed) {
+  if (!in.is_device() && !out.is_device()) return VolumeFilter::filter_group(in, out, changed);
+  if (!in.is_device() || !out.is_device()) {
+    throw std::invalid_argument("volume filter (cuda): a host and a device volume together");
+  }
+  const VolumeDims& dims = in.dims();
+  if (out.dims() != dims) {
+    throw std::invalid_argument(
+        "volume filter (cuda): the device output does not have the input's "
+        "dimensions");
+  }
+  if (in.device() == out.device()) {
+    throw std::invalid_argument("volume filter: input and output are one volume");
+  }
+  const BscanRange outputs = outputs_affected_by(changed, dims.bscans);
+  if (median_.size() < dims.bytes()) median_ = cuda::DeviceArray<std::uint8_t>(dims.bytes());
+  enqueue_volume_filter(in.device(), median_.data(), out.device(), dims, outputs, config_, taps_,
+                        tuning_, in.stream());
+  return outputs;
+}
+
 void CudaVolumeFilter::reserve(std::size_t bytes) {
   if (in_.size() < bytes) {
-    in_ = DeviceBytes();  // free before allocating the larger buffers
-    median_ = DeviceBytes();
-    out_ = DeviceBytes();
-    in_ = DeviceBytes(bytes);
-    median_ = DeviceBytes(bytes);
-    out_ = DeviceBytes(bytes);
+    in_ = {};  // free before allocating the larger buffers
+    median_ = {};
+    out_ = {};
+    in_ = cuda::DeviceArray<std::uint8_t>(bytes);
+    median_ = cuda::DeviceArray<std::uint8_t>(bytes);
+    out_ = cuda::DeviceArray<std::uint8_t>(bytes);
   }
 }
 
@@ -102,17 +100,16 @@ void CudaVolumeFilter::run(const Volume& in, Volume& out, BscanRange outputs) {
   if (bscan_bytes == 0) return;
   reserve(in.pixels().size());
   const BscanRange inputs = inputs_needed_for(outputs, in.bscans());
-  check_cuda(cudaMemcpyAsync(in_.get() + inputs.first * bscan_bytes,
-                             in.pixels().data() + inputs.first * bscan_bytes,
-                             inputs.count * bscan_bytes, cudaMemcpyHostToDevice, stream_),
-             "cudaMemcpyAsync of the input B-scans");
-  enqueue_volume_filter(in_.get(), median_.get(), out_.get(),
+  cuda::copy_async(in_.data() + inputs.first * bscan_bytes,
+                   in.pixels().data() + inputs.first * bscan_bytes, inputs.count * bscan_bytes,
+                   cudaMemcpyHostToDevice, stream_, cuda::Payload::volume,
+                   "copy of the input B-scans to the device");
+  enqueue_volume_filter(in_.data(), median_.data(), out_.data(),
                         {in.bscans(), in.ascans(), in.depth()}, outputs, config_, taps_, tuning_,
                         stream_);
-  check_cuda(
-      cudaMemcpyAsync(out.bscan(outputs.first).data(), out_.get() + outputs.first * bscan_bytes,
-                      outputs.count * bscan_bytes, cudaMemcpyDeviceToHost, stream_),
-      "cudaMemcpyAsync of the filtered B-scans");
+  cuda::copy_async(out.bscan(outputs.first).data(), out_.data() + outputs.first * bscan_bytes,
+                   outputs.count * bscan_bytes, cudaMemcpyDeviceToHost, stream_,
+                   cuda::Payload::volume, "copy of the filtered B-scans to the host");
   check_cuda(cudaStreamSynchronize(stream_), "the volume filter kernels");
 }
 

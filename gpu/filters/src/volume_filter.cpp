@@ -30,6 +30,14 @@ std::unique_ptr<VolumeFilter> make_volume_filter(Backend backend, const VolumeFi
 #endif
 }
 
+BscanRange VolumeFilter::filter_group(VolumeRef in, MutableVolumeRef out, BscanRange changed) {
+  if (in.is_device() || out.is_device()) {
+    throw std::invalid_argument("volume filter (" + std::string(backend_name()) +
+                                "): takes host volumes only; device volumes need the cuda backend");
+  }
+  return filter_group(in.host(), out.host(), changed.first, changed.count);
+}
+
 BscanRange check_group_request(const Volume& in, const Volume& out, std::uint32_t first_bscan,
                                std::uint32_t count) {
   if (&in == &out) throw std::invalid_argument("volume filter: input and output are one volume");

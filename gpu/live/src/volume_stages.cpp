@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "device_stage_chain.hpp"
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
@@ -102,16 +103,26 @@ void VolumeStages::on_bscans(LiveVolumeSource& source, std::uint32_t first, std:
   std::unique_lock lock(mutex_);
   if (!accepting_) return;
   const LiveVolumeShape shape = source.shape();
-  const bool new_shape = !shape.fits(pending_);
-  if (new_shape) {
-    // The B-scans that have not arrived yet are zero, and the next pass starts over.
-    pending_.reshape(shape.bscans, shape.ascans, shape.depth);
-    std::ranges::fill(pending_.pixels(), std::uint8_t{0});
+  bool new_shape = false;
+  // To the device once the CUDA stages exist and no host hand-over waits for a pass (before
+  // they exist, e.g. at start-up, B-scans wait in pending_ and the pass uploads them).
+  const bool host_pending = dirty_groups_ > 0 && !dirty_on_device_;
+  if (device_ != nullptr && !host_pending &&
+      device_->hand_over(source, shape, first, count, new_shape)) {
+    dirty_on_device_ = true;
+  } else {
+    dirty_on_device_ = false;
+    new_shape = !shape.fits(pending_);
+    if (new_shape) {
+      // The B-scans that have not arrived yet are zero, and the next pass starts over.
+      pending_.reshape(shape.bscans, shape.ascans, shape.depth);
+      std::ranges::fill(pending_.pixels(), std::uint8_t{0});
+    }
+    source.copy_bscans(first, count, pending_);
   }
-  source.copy_bscans(first, count, pending_);
   if (new_shape) {
     dirty_first_ = 0;
-    dirty_end_ = pending_.bscans();
+    dirty_end_ = shape.bscans;
   } else if (dirty_groups_ == 0) {
     dirty_first_ = first;
     dirty_end_ = first + count;
@@ -121,7 +132,7 @@ void VolumeStages::on_bscans(LiveVolumeSource& source, std::uint32_t first, std:
   }
   ++dirty_groups_;
   lock.unlock();
-  wake_.notify_one();
+  wake_.notify_all();
 }
 
 void VolumeStages::work() {
@@ -133,11 +144,22 @@ void VolumeStages::work() {
     std::uint32_t first = 0;
     std::uint32_t count = 0;
     std::uint64_t groups = 0;
+    std::uint64_t taken_ns = 0;
     {
       std::unique_lock lock(mutex_);
       wake_.wait(lock, [&] { return stop_ || dirty_groups_ > 0; });
       if (dirty_groups_ == 0) return;  // stopped with nothing pending
-      if (!input_.same_shape(pending_)) {
+      taken_ns = shm::monotonic_ns();
+      if (device_ != nullptr) {
+        // The input is the chain's, on the device; the pending B-scans are in its pending
+        // volume, or in pending_ (a host live volume), uploaded here.
+        const std::uint32_t n = dirty_end_ - dirty_first_;
+        const DeviceStageChain::Taken taken = dirty_on_device_
+                                                  ? device_->take(dirty_first_, n)
+                                                  : device_->take_host(pending_, dirty_first_, n);
+        first = taken.first;
+        count = taken.count;
+      } else if (!input_.same_shape(pending_)) {
         input_ = pending_;
         first = 0;
         count = pending_.bscans();
@@ -151,7 +173,11 @@ void VolumeStages::work() {
       dirty_groups_ = 0;
     }
     try {
-      run_pass(first, count, groups);
+      if (device_ != nullptr) {
+        run_device_pass(first, count, groups, taken_ns);
+      } else {
+        run_pass(first, count, groups);
+      }
     } catch (const std::exception& e) {
       fail(e.what());
       return;
@@ -167,7 +193,9 @@ bool VolumeStages::make_backends() {
     segmenter_ = segmentation::make_segmenter(backend, config_.segmentation, config_.sampling,
                                               config_.cpu_threads);
     renderer_ = render::make_renderer(backend, config_.cpu_threads);
+    auto device = DeviceStageChain::make(*filter_, *segmenter_, *renderer_);
     std::lock_guard lock(mutex_);
+    device_ = std::move(device);
     backends_ = "filter " + std::string(filter_->backend_name()) + ", segmentation " +
                 std::string(segmenter_->backend_name()) + ", render " +
                 std::string(renderer_->backend_name());
@@ -179,10 +207,13 @@ bool VolumeStages::make_backends() {
 }
 
 void VolumeStages::fail(const std::string& what) {
-  std::lock_guard lock(mutex_);
-  if (figures_.problem.empty()) figures_.problem = what;
-  accepting_ = false;
-  dirty_groups_ = 0;
+  {
+    std::lock_guard lock(mutex_);
+    if (figures_.problem.empty()) figures_.problem = what;
+    accepting_ = false;
+    dirty_groups_ = 0;
+  }
+  wake_.notify_all();
 }
 
 render::RenderConfig VolumeStages::live_view() const {
@@ -233,7 +264,45 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
     }
     f.pass.record(t3 - t0);
   }
+  if (config_.on_pass) {
+    config_.on_pass(StagesPass{groups, first, count, false, render_now, t0, t1, t2, t3});
+  }
   if (render_now) write_live_image(t3);
+}
+
+bool VolumeStages::live_image_due(std::uint64_t now_ns) const {
+  if (config_.live_image.empty() || config_.image_interval_s <= 0.0) return false;
+  return last_image_ns_ == 0 ||
+         static_cast<double>(now_ns - last_image_ns_) * 1e-9 >= config_.image_interval_s;
+}
+
+void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups,
+                                   std::uint64_t taken_ns) {
+  // The frame comes back only when the live image is to be written.
+  const bool frame_wanted = live_image_due(shm::monotonic_ns());
+  const DeviceStageChain::PassTimes t =
+      device_->run_pass(first, count, live_view(), frame_wanted ? &image_ : nullptr);
+  last_render_ns_ = t.rendered_ns;
+  const auto ns = [](double ms) { return static_cast<std::uint64_t>(ms * 1e6); };
+  {
+    std::lock_guard lock(mutex_);
+    Figures& f = figures_;
+    ++f.passes;
+    f.groups += groups;
+    f.groups_folded += groups - 1;
+    f.largest_fold = std::max(f.largest_fold, groups);
+    f.bscans += count;
+    f.filter.record(ns(t.filter_ms));
+    f.segment.record(ns(t.segment_ms));
+    ++f.renders;
+    f.render.record(ns(t.render_ms));
+    f.pass.record(t.rendered_ns - taken_ns);
+  }
+  if (config_.on_pass) {
+    config_.on_pass(StagesPass{groups, first, count, true, true, taken_ns, t.filtered_ns,
+                               t.segmented_ns, t.rendered_ns});
+  }
+  if (frame_wanted) write_live_image(t.rendered_ns);
 }
 
 void VolumeStages::write_live_image(std::uint64_t now_ns) {
@@ -270,9 +339,18 @@ nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
 
   nlohmann::json files = nlohmann::json::object();
   std::string problem;
+  std::uint64_t passes = 0;
   {
     std::lock_guard lock(mutex_);
     problem = figures_.problem;
+    passes = figures_.passes;
+  }
+  if (problem.empty() && device_ != nullptr && passes > 0) {
+    try {
+      device_->download(filtered_, surfaces_);  // the files' volume and surfaces
+    } catch (const std::exception& e) {
+      problem = std::string("reading back the stages' results: ") + e.what();
+    }
   }
   if (problem.empty() && filtered_.bscans() > 0) {
     try {

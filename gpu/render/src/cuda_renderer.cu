@@ -6,44 +6,20 @@
 #include <string>
 #include <vector>
 
+#include "ioct/gpu/cuda_support.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
 #include "ioct/gpu/render/frame_setup.hpp"
 #include "ioct/gpu/render/la_mip.hpp"
 #include "ioct/gpu/render/layer_reference.hpp"
 #include "ioct/gpu/render/pixel_shader.hpp"
+#include "ioct/gpu/segmentation/cuda_segmenter.hpp"
 
 namespace ioct::gpu::render {
 
 namespace {
 
-void check(cudaError_t status, const char* what) {
-  if (status != cudaSuccess) {
-    throw std::runtime_error(std::string(what) + " failed: " + cudaGetErrorName(status) + " (" +
-                             cudaGetErrorString(status) + ")");
-  }
-}
-#define IOCT_RENDER_CUDA(call) check((call), #call)
-
 constexpr int kBrick = 8;
 constexpr int kBrickApron = 2;  // trilinear footprint plus the gradient's central differences
-
-template <class T>
-struct DeviceBuffer {
-  T* data = nullptr;
-  std::size_t count = 0;
-  void resize(std::size_t n) {
-    if (n == count) return;
-    release();
-    if (n > 0) IOCT_RENDER_CUDA(cudaMalloc(&data, n * sizeof(T)));
-    count = n;
-  }
-  void release() {
-    if (data != nullptr) cudaFree(data);
-    data = nullptr;
-    count = 0;
-  }
-  ~DeviceBuffer() { release(); }
-};
 
 // Trilinear samples from the 3D texture (x: depth, y: A-scan, z: B-scan; unnormalised, centres at
 // +0.5). Device only: the host instantiation is never called.
@@ -245,26 +221,29 @@ struct CudaRenderer::State {
   cudaArray_t array = nullptr;
   cudaTextureObject_t texture = 0;
   VolumeDims dims;
-  DeviceBuffer<std::uint8_t> linear;  // the volume once more, for bricks and sums
-  DeviceBuffer<std::uint8_t> bricks;  // the largest voxel of each brick
+  cuda::DeviceArray<std::uint8_t> linear;  // the volume once more, for bricks and sums
+  cuda::DeviceArray<std::uint8_t> bricks;  // the largest voxel of each brick
   int nx = 0, ny = 0, nz = 0;
-  DeviceBuffer<unsigned long long> sums;
+  cuda::DeviceArray<unsigned long long> sums;
   std::vector<unsigned long long> host_sums;
-  DeviceBuffer<float> rpe, axial;
+  cuda::DeviceArray<float> rpe, axial;
   LayerReference reference;
   bool has_volume = false;
   // Tables, re-made when their part of the config changes.
-  DeviceBuffer<float> transfer_lut, lab_lut;
+  cuda::DeviceArray<float> transfer_lut, lab_lut;
   std::vector<float> host_transfer_lut;
   bool tables_valid = false;
   TransferFunctions table_transfer;
   LabColorMap table_colors;
   bool table_colorize = true;
-  DeviceBuffer<uchar4> image;
+  cuda::DeviceArray<uchar4> image;
   std::uint32_t width = 0, height = 0;
   // The LA-MIP projections of the current volume and RPE; stale after every upload.
-  DeviceBuffer<float> la_mip;
+  cuda::DeviceArray<float> la_mip;
   bool la_mip_valid = false;
+  bool owns_stream = true;
+  cuda::Event volume_ready;           // a device volume's stream, when it is not ours
+  segmentation::Surfaces downloaded;  // the ILM and RPE of device surfaces
 
   void free_volume() {
     if (texture != 0) cudaDestroyTextureObject(texture);
@@ -280,7 +259,7 @@ struct CudaRenderer::State {
     free_volume();
     dims = d;
     const cudaChannelFormatDesc format = cudaCreateChannelDesc<unsigned char>();
-    IOCT_RENDER_CUDA(
+    IOCT_CUDA_CHECK(
         cudaMalloc3DArray(&array, &format, make_cudaExtent(d.depth, d.ascans, d.bscans)));
     cudaResourceDesc resource{};
     resource.resType = cudaResourceTypeArray;
@@ -290,37 +269,46 @@ struct CudaRenderer::State {
     tex.filterMode = cudaFilterModeLinear;
     tex.readMode = cudaReadModeNormalizedFloat;
     tex.normalizedCoords = 0;
-    IOCT_RENDER_CUDA(cudaCreateTextureObject(&texture, &resource, &tex, nullptr));
+    IOCT_CUDA_CHECK(cudaCreateTextureObject(&texture, &resource, &tex, nullptr));
     linear.resize(std::size_t{d.bscans} * d.ascans * d.depth);
     nx = static_cast<int>((d.ascans + kBrick - 1) / kBrick);
     ny = static_cast<int>((d.bscans + kBrick - 1) / kBrick);
     nz = static_cast<int>((d.depth + kBrick - 1) / kBrick);
     bricks.resize(std::size_t(nx) * ny * nz);
     sums.resize(std::size_t{d.bscans} * 2);
-    IOCT_RENDER_CUDA(
-        cudaMemsetAsync(sums.data, 0, sums.count * sizeof(unsigned long long), stream));
-    host_sums.assign(sums.count, 0);
+    IOCT_CUDA_CHECK(
+        cudaMemsetAsync(sums.data(), 0, sums.size() * sizeof(unsigned long long), stream));
+    host_sums.assign(sums.size(), 0);
     rpe.resize(std::size_t{d.bscans} * d.ascans);
     axial.resize(std::size_t{d.bscans} * d.ascans);
     has_volume = true;
   }
 
-  // Copies B-scans [first, first + count) of the host volume `pixels` and refreshes what
-  // depends on them. They cross the bus once, into the linear copy; the texture's array is
-  // filled from there.
-  void upload(const std::uint8_t* pixels, std::uint32_t first, std::uint32_t count,
-              const segmentation::Surfaces* surfaces) {
+  // Copies B-scans [first, first + count) of `pixels` (host memory, or device memory ordered on
+  // this stream) and refreshes what depends on them. From the host they cross the bus once, into
+  // the linear copy; the texture's array is filled from there. The layer reference is made on
+  // the host from `surfaces`, or from the ILM and RPE of `device_surfaces`, which come over with
+  // the centre-of-mass sums in the one round trip an update makes.
+  void upload(const std::uint8_t* pixels, bool on_device, std::uint32_t first, std::uint32_t count,
+              const segmentation::Surfaces* surfaces,
+              const segmentation::DeviceSurfaceView* device_surfaces) {
     const std::size_t bscan_bytes = std::size_t{dims.ascans} * dims.depth;
-    std::uint8_t* changed = linear.data + first * bscan_bytes;
-    IOCT_RENDER_CUDA(cudaMemcpyAsync(changed, pixels + first * bscan_bytes, count * bscan_bytes,
-                                     cudaMemcpyHostToDevice, stream));
+    std::uint8_t* changed = linear.data() + first * bscan_bytes;
+    if (on_device) {
+      IOCT_CUDA_CHECK(cudaMemcpyAsync(changed, pixels + first * bscan_bytes, count * bscan_bytes,
+                                      cudaMemcpyDeviceToDevice, stream));
+    } else {
+      cuda::copy_async(changed, pixels + first * bscan_bytes, count * bscan_bytes,
+                       cudaMemcpyHostToDevice, stream, cuda::Payload::volume,
+                       "copy of the B-scans to the renderer");
+    }
     cudaMemcpy3DParms copy{};
     copy.srcPtr = make_cudaPitchedPtr(changed, dims.depth, dims.depth, dims.ascans);
     copy.dstArray = array;
     copy.dstPos = make_cudaPos(0, 0, first);
     copy.extent = make_cudaExtent(dims.depth, dims.ascans, count);
     copy.kind = cudaMemcpyDeviceToDevice;
-    IOCT_RENDER_CUDA(cudaMemcpy3DAsync(&copy, stream));
+    IOCT_CUDA_CHECK(cudaMemcpy3DAsync(&copy, stream));
     la_mip_valid = false;
     // Bricks whose voxels or apron reach into the changed B-scans.
     const int by0 = std::max(0, (static_cast<int>(first) - kBrickApron) / kBrick);
@@ -328,29 +316,49 @@ struct CudaRenderer::State {
         std::min(ny, (static_cast<int>(first + count) + kBrickApron + kBrick - 1) / kBrick);
     const dim3 block(32, 1, 4);
     const dim3 grid((nx + 31) / 32, by1 - by0, (nz + 3) / 4);
-    brick_kernel<<<grid, block, 0, stream>>>(linear.data, dims.ascans, dims.bscans, dims.depth, nx,
-                                             ny, nz, by0, by1, bricks.data);
-    IOCT_RENDER_CUDA(cudaGetLastError());
-    IOCT_RENDER_CUDA(
-        cudaMemsetAsync(sums.data + 2 * first, 0, 2 * count * sizeof(unsigned long long), stream));
+    brick_kernel<<<grid, block, 0, stream>>>(linear.data(), dims.ascans, dims.bscans, dims.depth,
+                                             nx, ny, nz, by0, by1, bricks.data());
+    IOCT_CUDA_CHECK(cudaGetLastError());
+    IOCT_CUDA_CHECK(cudaMemsetAsync(sums.data() + 2 * first, 0,
+                                    2 * count * sizeof(unsigned long long), stream));
     centre_of_mass_kernel<<<dim3((dims.ascans + 127) / 128, count), 128, 0, stream>>>(
-        linear.data, dims.ascans, dims.depth, first, sums.data);
-    IOCT_RENDER_CUDA(cudaGetLastError());
-    IOCT_RENDER_CUDA(cudaMemcpyAsync(host_sums.data(), sums.data,
-                                     sums.count * sizeof(unsigned long long),
-                                     cudaMemcpyDeviceToHost, stream));
-    IOCT_RENDER_CUDA(cudaStreamSynchronize(stream));
+        linear.data(), dims.ascans, dims.depth, first, sums.data());
+    IOCT_CUDA_CHECK(cudaGetLastError());
+    cuda::copy_async(host_sums.data(), sums.data(), sums.size() * sizeof(unsigned long long),
+                     cudaMemcpyDeviceToHost, stream, cuda::Payload::other,
+                     "copy of the centre-of-mass sums to the host");
+    if (device_surfaces != nullptr) {
+      const std::size_t n = std::size_t{dims.bscans} * dims.ascans;
+      const bool usable =
+          device_surfaces->bscans == dims.bscans && device_surfaces->ascans == dims.ascans;
+      if (usable) {
+        if (downloaded.bscans != dims.bscans || downloaded.ascans != dims.ascans ||
+            downloaded.depth != dims.depth) {
+          downloaded.reset(dims.bscans, dims.ascans, dims.depth);
+        }
+        cuda::copy_async(downloaded.ilm.data(), device_surfaces->ilm, n * sizeof(float),
+                         cudaMemcpyDeviceToHost, stream, cuda::Payload::other,
+                         "copy of the ILM to the host");
+        cuda::copy_async(downloaded.rpe.data(), device_surfaces->rpe, n * sizeof(float),
+                         cudaMemcpyDeviceToHost, stream, cuda::Payload::other,
+                         "copy of the RPE to the host");
+      }
+      surfaces = usable ? &downloaded : nullptr;
+    }
+    IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
     CentreOfMassSums total;
     for (std::uint32_t b = 0; b < dims.bscans; ++b) {
       total.weighted_depth += host_sums[2 * b];
       total.weight += host_sums[2 * b + 1];
     }
     reference = make_layer_reference(dims.bscans, dims.ascans, dims.depth, surfaces, total);
-    IOCT_RENDER_CUDA(cudaMemcpyAsync(rpe.data, reference.rpe_px.data(), rpe.count * sizeof(float),
-                                     cudaMemcpyHostToDevice, stream));
-    IOCT_RENDER_CUDA(cudaMemcpyAsync(axial.data, reference.axial_plane_px.data(),
-                                     axial.count * sizeof(float), cudaMemcpyHostToDevice, stream));
-    IOCT_RENDER_CUDA(cudaStreamSynchronize(stream));
+    // Pageable host-to-device copies are staged before the call returns: no wait needed here.
+    cuda::copy_async(rpe.data(), reference.rpe_px.data(), rpe.size() * sizeof(float),
+                     cudaMemcpyHostToDevice, stream, cuda::Payload::other,
+                     "copy of the RPE reference to the device");
+    cuda::copy_async(axial.data(), reference.axial_plane_px.data(), axial.size() * sizeof(float),
+                     cudaMemcpyHostToDevice, stream, cuda::Payload::other,
+                     "copy of the axial plane to the device");
   }
 
   void prepare_tables(const RenderConfig& config) {
@@ -362,13 +370,13 @@ struct CudaRenderer::State {
     const RenderTables tables = bake_tables(config);
     transfer_lut.resize(tables.transfer_lut.size());
     lab_lut.resize(tables.lab_lut.size());
-    IOCT_RENDER_CUDA(cudaMemcpyAsync(transfer_lut.data, tables.transfer_lut.data(),
-                                     tables.transfer_lut.size() * sizeof(float),
-                                     cudaMemcpyHostToDevice, stream));
-    IOCT_RENDER_CUDA(cudaMemcpyAsync(lab_lut.data, tables.lab_lut.data(),
-                                     tables.lab_lut.size() * sizeof(float), cudaMemcpyHostToDevice,
-                                     stream));
-    IOCT_RENDER_CUDA(cudaStreamSynchronize(stream));
+    IOCT_CUDA_CHECK(cudaMemcpyAsync(transfer_lut.data(), tables.transfer_lut.data(),
+                                    tables.transfer_lut.size() * sizeof(float),
+                                    cudaMemcpyHostToDevice, stream));
+    IOCT_CUDA_CHECK(cudaMemcpyAsync(lab_lut.data(), tables.lab_lut.data(),
+                                    tables.lab_lut.size() * sizeof(float), cudaMemcpyHostToDevice,
+                                    stream));
+    IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
     host_transfer_lut = tables.transfer_lut;
     table_transfer = config.enhanced.transfer;
     table_colors = config.layer_aware.colors;
@@ -397,18 +405,61 @@ struct CudaRenderer::State {
 };
 
 CudaRenderer::CudaRenderer() : state_(std::make_unique<State>()) {
-  IOCT_RENDER_CUDA(cudaStreamCreateWithFlags(&state_->stream, cudaStreamNonBlocking));
+  IOCT_CUDA_CHECK(cudaStreamCreateWithFlags(&state_->stream, cudaStreamNonBlocking));
 }
 
 CudaRenderer::~CudaRenderer() {
   if (state_->stream != nullptr) cudaStreamSynchronize(state_->stream);
   state_->free_volume();
-  if (state_->stream != nullptr) cudaStreamDestroy(state_->stream);
+  if (state_->stream != nullptr && state_->owns_stream) cudaStreamDestroy(state_->stream);
+}
+
+void CudaRenderer::use_stream(void* stream) {
+  State& s = *state_;
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(s.stream));
+  if (s.owns_stream) IOCT_CUDA_CHECK(cudaStreamDestroy(s.stream));
+  s.stream = static_cast<cudaStream_t>(stream);
+  s.owns_stream = false;
+}
+
+void CudaRenderer::update_bscans(VolumeRef volume, std::uint32_t first, std::uint32_t count,
+                                 const segmentation::Surfaces* surfaces) {
+  if (!volume.is_device()) {
+    update_bscans(volume.host(), first, count, surfaces);
+    return;
+  }
+  update_device(volume, first, count, surfaces, nullptr);
+}
+
+void CudaRenderer::update_bscans(VolumeRef volume, std::uint32_t first, std::uint32_t count,
+                                 const segmentation::DeviceSurfaceView& surfaces) {
+  update_device(volume, first, count, nullptr, &surfaces);
+}
+
+void CudaRenderer::update_device(VolumeRef volume, std::uint32_t first, std::uint32_t count,
+                                 const segmentation::Surfaces* surfaces,
+                                 const segmentation::DeviceSurfaceView* device_surfaces) {
+  State& s = *state_;
+  const VolumeDims& d = volume.dims();
+  const std::uint8_t* pixels = volume.device();
+  if (volume.stream() != s.stream) {
+    IOCT_CUDA_CHECK(cudaEventRecord(s.volume_ready.get(), volume.stream()));
+    IOCT_CUDA_CHECK(cudaStreamWaitEvent(s.stream, s.volume_ready.get(), 0));
+  }
+  if (!s.has_volume || !(s.dims == d)) {
+    IOCT_CUDA_CHECK(cudaStreamSynchronize(s.stream));  // nothing may still read the old texture
+    s.allocate(d);
+    first = 0;
+    count = d.bscans;
+  } else {
+    check_bscan_range(d.bscans, first, count);
+  }
+  s.upload(pixels, true, first, count, surfaces, device_surfaces);
 }
 
 void CudaRenderer::set_volume(const Volume& volume, const segmentation::Surfaces* surfaces) {
-  state_->allocate({volume.bscans(), volume.ascans(), volume.depth()});
-  state_->upload(volume.pixels().data(), 0, volume.bscans(), surfaces);
+  state_->allocate(VolumeDims::of(volume));
+  state_->upload(volume.pixels().data(), false, 0, volume.bscans(), surfaces, nullptr);
 }
 
 void CudaRenderer::update_bscans(const Volume& volume, std::uint32_t first, std::uint32_t count,
@@ -420,7 +471,7 @@ void CudaRenderer::update_bscans(const Volume& volume, std::uint32_t first, std:
     return;
   }
   check_bscan_range(volume.bscans(), first, count);
-  state_->upload(volume.pixels().data(), first, count, surfaces);
+  state_->upload(volume.pixels().data(), false, first, count, surfaces, nullptr);
 }
 
 void CudaRenderer::render_on_device(const RenderConfig& config) {
@@ -428,9 +479,9 @@ void CudaRenderer::render_on_device(const RenderConfig& config) {
   if (!s.has_volume) throw std::logic_error("render() before set_volume()");
   RenderParams p = bake_params(config, s.dims, s.reference);
   s.prepare_tables(config);
-  p.transfer_lut = s.transfer_lut.data;
-  p.lab_lut = s.lab_lut.data;
-  p.reference_px = config.mode == RenderMode::axial_colorization ? s.axial.data : s.rpe.data;
+  p.transfer_lut = s.transfer_lut.data();
+  p.lab_lut = s.lab_lut.data();
+  p.reference_px = config.mode == RenderMode::axial_colorization ? s.axial.data() : s.rpe.data();
   s.width = output_width(p);
   s.height = static_cast<std::uint32_t>(p.height);
   s.image.resize(std::size_t{s.width} * s.height);
@@ -438,49 +489,50 @@ void CudaRenderer::render_on_device(const RenderConfig& config) {
   const dim3 block(16, 8);
   const dim3 grid((p.width + block.x - 1) / block.x, (p.height + block.y - 1) / block.y, p.eyes);
   if (is_volume_mode(config.mode)) {
-    const BrickSkipper skipper{s.bricks.data, s.nx, s.ny, s.nz, s.empty_level(config)};
+    const BrickSkipper skipper{s.bricks.data(), s.nx, s.ny, s.nz, s.empty_level(config)};
     volume_kernel<<<grid, block, 0, s.stream>>>(p, sampler, skipper, skipper.level > 0.0f,
-                                                s.image.data);
+                                                s.image.data());
   } else if (config.mode == RenderMode::la_mip_composite) {
     if (!s.la_mip_valid) {
-      const ColumnSampler column_sampler{s.linear.data, static_cast<int>(s.dims.ascans),
+      const ColumnSampler column_sampler{s.linear.data(), static_cast<int>(s.dims.ascans),
                                          static_cast<int>(s.dims.depth)};
       s.la_mip.resize(la_mip_buffer(p).size());
       const int threads = 128;
       const std::size_t columns = std::size_t(p.dim_a) * p.dim_b;
       la_mip_en_face_kernel<<<static_cast<unsigned>((columns * 32 + 255) / 256), 256, 0,
-                              s.stream>>>(p, s.linear.data, s.la_mip.data);
+                              s.stream>>>(p, s.linear.data(), s.la_mip.data());
       const LaMipBuffer l = la_mip_buffer(p);
-      IOCT_RENDER_CUDA(cudaMemsetAsync(s.la_mip.data + l.across_bscans(), 0,
-                                       (l.size() - l.across_bscans()) * sizeof(float), s.stream));
+      IOCT_CUDA_CHECK(cudaMemsetAsync(s.la_mip.data() + l.across_bscans(), 0,
+                                      (l.size() - l.across_bscans()) * sizeof(float), s.stream));
       const unsigned z_blocks = static_cast<unsigned>((p.dim_d + threads - 1) / threads);
       for (const LaMipAxis axis : {LaMipAxis::across_bscans, LaMipAxis::along_ascans}) {
         const int length = la_mip_curve_length(p, axis);
         const dim3 grid_curves(z_blocks, static_cast<unsigned>(la_mip_positions(p, axis)),
                                static_cast<unsigned>((length + kLaMipPart - 1) / kLaMipPart));
         la_mip_curve_kernel<<<grid_curves, threads, 0, s.stream>>>(p, column_sampler, axis,
-                                                                   s.la_mip.data);
+                                                                   s.la_mip.data());
       }
-      IOCT_RENDER_CUDA(cudaGetLastError());
+      IOCT_CUDA_CHECK(cudaGetLastError());
       s.la_mip_valid = true;
     }
-    la_mip_composite_kernel<<<grid, block, 0, s.stream>>>(p, s.la_mip.data, s.image.data);
+    la_mip_composite_kernel<<<grid, block, 0, s.stream>>>(p, s.la_mip.data(), s.image.data());
   } else {
-    plane_kernel<<<grid, block, 0, s.stream>>>(p, sampler, s.image.data);
+    plane_kernel<<<grid, block, 0, s.stream>>>(p, sampler, s.image.data());
   }
-  IOCT_RENDER_CUDA(cudaGetLastError());
+  IOCT_CUDA_CHECK(cudaGetLastError());
 }
 
 void CudaRenderer::render(const RenderConfig& config, RgbaImage& image) {
   render_on_device(config);
   image.resize(state_->width, state_->height);
-  IOCT_RENDER_CUDA(cudaMemcpyAsync(image.rgba.data(), state_->image.data, image.rgba.size(),
-                                   cudaMemcpyDeviceToHost, state_->stream));
-  IOCT_RENDER_CUDA(cudaStreamSynchronize(state_->stream));
+  cuda::copy_async(image.rgba.data(), state_->image.data(), image.rgba.size(),
+                   cudaMemcpyDeviceToHost, state_->stream, cuda::Payload::other,
+                   "copy of the frame to the host");
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(state_->stream));
 }
 
 void CudaRenderer::synchronize() {
-  IOCT_RENDER_CUDA(cudaStreamSynchronize(state_->stream));
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(state_->stream));
 }
 void* CudaRenderer::stream() const noexcept {
   return state_->stream;

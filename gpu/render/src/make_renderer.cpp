@@ -18,6 +18,15 @@ void check_bscan_range(std::uint32_t bscans, std::uint32_t first, std::uint32_t 
   }
 }
 
+void Renderer::update_bscans(VolumeRef volume, std::uint32_t first, std::uint32_t count,
+                             const segmentation::Surfaces* surfaces) {
+  if (volume.is_device()) {
+    throw std::invalid_argument("renderer (" + std::string(backend_name()) +
+                                "): takes host volumes only; device volumes need the cuda backend");
+  }
+  update_bscans(volume.host(), first, count, surfaces);
+}
+
 std::unique_ptr<Renderer> make_renderer(Backend backend, unsigned cpu_threads) {
   if (backend == Backend::cpu) return std::make_unique<CpuRenderer>(cpu_threads);
   const auto problem = cuda_unavailable_reason();

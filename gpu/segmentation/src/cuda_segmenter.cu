@@ -6,6 +6,7 @@
 #include <utility>
 #include <vector>
 
+#include "ioct/gpu/cuda_support.hpp"
 #include "ioct/gpu/segmentation/column_math.hpp"
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"
 #include "ioct/gpu/segmentation/finishing.hpp"
@@ -913,17 +914,16 @@ BscanSpan CudaSegmenter::segment_group(const Volume& volume, BscanSpan group, Su
     surfaces.reset(volume.bscans(), volume.ascans(), volume.depth());
   }
   const std::size_t bscan_px = volume.bscan_pixels();
-  check_cuda_status(cudaMemcpyAsync(d.volume.as<std::uint8_t>() + group.first * bscan_px,
-                                    volume.bscan(group.first).data(), group.count * bscan_px,
-                                    cudaMemcpyHostToDevice, stream_),
-                    "cudaMemcpyAsync(group to device)");
+  cuda::copy_async(d.volume.as<std::uint8_t>() + group.first * bscan_px,
+                   volume.bscan(group.first).data(), group.count * bscan_px, cudaMemcpyHostToDevice,
+                   stream_, cuda::Payload::volume, "copy of the group to the device");
   const BscanSpan outputs = enqueue_group(d.volume.as<std::uint8_t>(), group, stream_);
   const std::size_t offset = surfaces.index(outputs.first, 0);
   const std::size_t n = static_cast<std::size_t>(outputs.count) * volume.ascans();
   const auto copy_back = [&](void* host, const DeviceBuffer& device, std::size_t element) {
-    check_cuda_status(cudaMemcpyAsync(host, device.as<std::uint8_t>() + offset * element,
-                                      n * element, cudaMemcpyDeviceToHost, stream_),
-                      "cudaMemcpyAsync(surfaces to host)");
+    cuda::copy_async(host, device.as<std::uint8_t>() + offset * element, n * element,
+                     cudaMemcpyDeviceToHost, stream_, cuda::Payload::other,
+                     "copy of the surfaces to the host");
   };
   copy_back(surfaces.ilm.data() + offset, d.ilm, sizeof(float));
   copy_back(surfaces.rpe.data() + offset, d.rpe, sizeof(float));
@@ -936,6 +936,36 @@ BscanSpan CudaSegmenter::segment_group(const Volume& volume, BscanSpan group, Su
                     "cudaMemcpyAsync(verdicts to host)");
   check_cuda_status(cudaStreamSynchronize(stream_), "cudaStreamSynchronize");
   return outputs;
+}
+
+BscanSpan CudaSegmenter::segment_group(VolumeRef volume, BscanSpan group, Surfaces* surfaces) {
+  if (!volume.is_device()) return Segmenter::segment_group(volume, group, surfaces);
+  const VolumeDims& dims = volume.dims();
+  check_group_request(dims, group);
+  const DeviceState& d = *state_;
+  if (d.bscans != dims.bscans || d.ascans != dims.ascans || d.depth != dims.depth) {
+    // The state is about to be replaced: nothing may still be reading it.
+    check_cuda_status(cudaStreamSynchronize(volume.stream()), "cudaStreamSynchronize");
+  }
+  prepare(dims.bscans, dims.ascans, dims.depth);
+  return enqueue_group(volume.device(), group, volume.stream());
+}
+
+void CudaSegmenter::download_surfaces(Surfaces& surfaces, cudaStream_t stream) {
+  const DeviceState& d = *state_;
+  surfaces.reset(d.bscans, d.ascans, d.depth);
+  const std::size_t n = static_cast<std::size_t>(d.bscans) * d.ascans;
+  const auto copy = [&](void* host, const DeviceBuffer& device, std::size_t bytes) {
+    cuda::copy_async(host, device.as<void>(), bytes, cudaMemcpyDeviceToHost, stream,
+                     cuda::Payload::other, "copy of the surfaces to the host");
+  };
+  copy(surfaces.ilm.data(), d.ilm, n * sizeof(float));
+  copy(surfaces.rpe.data(), d.rpe, n * sizeof(float));
+  copy(surfaces.bm.data(), d.bm, n * sizeof(float));
+  copy(surfaces.confidence.data(), d.confidence, n * sizeof(float));
+  copy(surfaces.state.data(), d.state, n);
+  copy(surfaces.verdict.data(), d.verdict, d.bscans);
+  check_cuda_status(cudaStreamSynchronize(stream), "cudaStreamSynchronize");
 }
 
 void CudaSegmenter::download_memory(VolumeMemory& memory) {

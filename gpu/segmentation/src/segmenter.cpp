@@ -27,13 +27,28 @@ BscanSpan Segmenter::outputs_affected(BscanSpan group, std::uint32_t bscans) con
   return {first, end - first};
 }
 
+BscanSpan Segmenter::segment_group(VolumeRef volume, BscanSpan group, Surfaces* surfaces) {
+  if (volume.is_device()) {
+    throw std::invalid_argument("segmentation (" + std::string(backend_name()) +
+                                "): takes host volumes only; device volumes need the cuda backend");
+  }
+  if (surfaces == nullptr) {
+    throw std::invalid_argument("segmentation: a host volume needs surfaces to write into");
+  }
+  return segment_group(volume.host(), group, *surfaces);
+}
+
 void check_group_request(const Volume& volume, BscanSpan group) {
+  check_group_request(VolumeDims::of(volume), group);
+}
+
+void check_group_request(VolumeDims volume, BscanSpan group) {
   const auto dims = [&] {
-    return std::to_string(volume.bscans()) + " x " + std::to_string(volume.ascans()) + " x " +
-           std::to_string(volume.depth());
+    return std::to_string(volume.bscans) + " x " + std::to_string(volume.ascans) + " x " +
+           std::to_string(volume.depth);
   };
-  if (volume.ascans() == 0 || volume.depth() < kMinDepth || volume.depth() > kMaxDepth ||
-      volume.ascans() > kMaxAscans) {
+  if (volume.ascans == 0 || volume.depth < kMinDepth || volume.depth > kMaxDepth ||
+      volume.ascans > kMaxAscans) {
     throw std::invalid_argument("segmentation: a volume of " + dims() +
                                 " (B-scans x A-scans x depth px) cannot be segmented: A-scans "
                                 "must be in [1, " +
@@ -41,12 +56,12 @@ void check_group_request(const Volume& volume, BscanSpan group) {
                                 std::to_string(kMinDepth) + ", " + std::to_string(kMaxDepth) +
                                 "] px");
   }
-  if (group.count == 0 || group.first >= volume.bscans() ||
-      group.count > volume.bscans() - group.first) {
+  if (group.count == 0 || group.first >= volume.bscans ||
+      group.count > volume.bscans - group.first) {
     throw std::out_of_range("segmentation: B-scans [" + std::to_string(group.first) + ", " +
                             std::to_string(std::uint64_t{group.first} + group.count) +
-                            ") are not a group of the volume of " +
-                            std::to_string(volume.bscans()) + " B-scans");
+                            ") are not a group of the volume of " + std::to_string(volume.bscans) +
+                            " B-scans");
   }
 }
 

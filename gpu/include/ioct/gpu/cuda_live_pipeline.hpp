@@ -37,15 +37,6 @@ struct CUstream_st;
 
 namespace ioct::gpu {
 
-// The device volume as a reader sees it.
-struct DeviceVolumeView {
-  const std::uint8_t* pixels = nullptr;  // device memory [bscan][ascan][depth]
-  std::uint32_t bscans = 0;
-  std::uint32_t ascans = 0;
-  std::uint32_t depth = 0;
-  std::uint64_t version = 0;  // groups written into it since the pipeline started
-};
-
 class CudaLivePipeline final : public LivePipeline {
  public:
   // Prepares the chain for the ring's geometry, registers the mapping, allocates everything.
@@ -68,6 +59,9 @@ class CudaLivePipeline final : public LivePipeline {
   // must only enqueue work on `stream` (kernels, copies) that reads the volume. See above.
   void read_volume(CUstream_st* stream,
                    const std::function<void(const DeviceVolumeView&)>& enqueue_reads);
+  // The same, for stages (LiveVolumeSource); always true here.
+  bool read_on_device(CUstream_st* stream,
+                      const std::function<void(const DeviceVolumeView&)>& enqueue_reads) override;
 
   // How the ring mapping is registered ("registered read-only", or the fallback and why).
   const std::string& ingest_note() const noexcept;

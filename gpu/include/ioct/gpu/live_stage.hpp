@@ -7,11 +7,13 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
 #include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume_ref.hpp"
 
 namespace ioct::gpu {
 
@@ -34,6 +36,14 @@ class LiveVolumeSource {
   // B-scans are then unspecified). Throws std::out_of_range for B-scans outside the volume;
   // nothing is copied before a volume has begun (count must then be 0).
   virtual void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) = 0;
+  // A live volume on the device: calls `enqueue_reads` at once with its view, during which only
+  // reads of it may be enqueued on `stream` (they see it as of the last group reported), and
+  // returns true. A host live volume returns false and calls nothing.
+  virtual bool read_on_device(
+      CUstream_st* /*stream*/,
+      const std::function<void(const DeviceVolumeView&)>& /*enqueue_reads*/) {
+    return false;
+  }
 };
 
 // For implementations: reshapes `out` to `shape` and checks that [first, first + count) lies

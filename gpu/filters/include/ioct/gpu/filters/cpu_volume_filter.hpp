@@ -23,6 +23,7 @@ class CpuVolumeFilter final : public VolumeFilter {
   explicit CpuVolumeFilter(const VolumeFilterConfig& config, unsigned threads = 1);
 
   void filter_volume(const Volume& in, Volume& out) override;
+  using VolumeFilter::filter_group;
   BscanRange filter_group(const Volume& in, Volume& out, std::uint32_t first_bscan,
                           std::uint32_t count) override;
   const VolumeFilterConfig& config() const noexcept override { return config_; }

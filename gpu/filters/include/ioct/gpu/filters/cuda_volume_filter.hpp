@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <string_view>
 
+#include "ioct/gpu/cuda_support.hpp"
 #include "ioct/gpu/filters/gaussian_taps.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
 
@@ -38,31 +39,6 @@ struct CudaFilterTuning {
   std::uint32_t bscans_per_thread = 16;
   // A-scans one Gaussian thread walks through (plus 4 rows of halo; 32: +3 %, 64: +19 %).
   std::uint32_t ascans_per_gaussian_thread = 16;
-};
-
-// Dimensions of a device volume [bscan][ascan][depth], depth contiguous, no padding.
-struct VolumeDims {
-  std::uint32_t bscans = 0;
-  std::uint32_t ascans = 0;
-  std::uint32_t depth = 0;
-};
-
-// Device memory that frees itself.
-class DeviceBytes {
- public:
-  DeviceBytes() = default;
-  explicit DeviceBytes(std::size_t bytes);
-  DeviceBytes(DeviceBytes&& other) noexcept;
-  DeviceBytes& operator=(DeviceBytes&& other) noexcept;
-  DeviceBytes(const DeviceBytes&) = delete;
-  DeviceBytes& operator=(const DeviceBytes&) = delete;
-  ~DeviceBytes();
-  std::uint8_t* get() const noexcept { return data_; }
-  std::size_t size() const noexcept { return size_; }
-
- private:
-  std::uint8_t* data_ = nullptr;
-  std::size_t size_ = 0;
 };
 
 // Throws std::runtime_error naming `what` and CUDA's message unless `status` is cudaSuccess.
@@ -97,6 +73,9 @@ class CudaVolumeFilter final : public VolumeFilter {
   void filter_volume(const Volume& in, Volume& out) override;
   BscanRange filter_group(const Volume& in, Volume& out, std::uint32_t first_bscan,
                           std::uint32_t count) override;
+  // Device refs: enqueued on in's stream (the median's scratch is the filter's own, grown with a
+  // synchronising allocation only when a larger volume comes); host refs as above.
+  BscanRange filter_group(VolumeRef in, MutableVolumeRef out, BscanRange changed) override;
   const VolumeFilterConfig& config() const noexcept override { return config_; }
   std::string_view backend_name() const noexcept override { return "cuda"; }
 
@@ -108,9 +87,9 @@ class CudaVolumeFilter final : public VolumeFilter {
   CudaFilterTuning tuning_;
   GaussianTaps taps_;
   cudaStream_t stream_ = nullptr;
-  DeviceBytes in_;
-  DeviceBytes median_;
-  DeviceBytes out_;
+  cuda::DeviceArray<std::uint8_t> in_;
+  cuda::DeviceArray<std::uint8_t> median_;
+  cuda::DeviceArray<std::uint8_t> out_;
 };
 
 }  // namespace ioct::gpu::filters

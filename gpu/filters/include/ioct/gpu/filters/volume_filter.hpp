@@ -14,6 +14,7 @@
 #include "ioct/gpu/filters/filter_config.hpp"
 #include "ioct/gpu/oct_processor.hpp"  // Backend, BackendUnavailable
 #include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume_ref.hpp"
 
 namespace ioct::gpu::filters {
 
@@ -33,6 +34,13 @@ class VolumeFilter {
   // for a range outside the volume.
   virtual BscanRange filter_group(const Volume& in, Volume& out, std::uint32_t first_bscan,
                                   std::uint32_t count) = 0;
+
+  // filter_group on refs: host refs as above (returns when `out` holds the result). Device refs
+  // (the CUDA filter) are filtered where they are: enqueued on in's stream, nothing copied to the
+  // host and nothing synchronised; `out` is another device volume of in's dimensions. Throws
+  // std::invalid_argument for a host and a device ref together, or device refs on a backend that
+  // has no device memory.
+  virtual BscanRange filter_group(VolumeRef in, MutableVolumeRef out, BscanRange changed);
 
   virtual const VolumeFilterConfig& config() const noexcept = 0;
   virtual std::string_view backend_name() const noexcept = 0;

@@ -9,6 +9,11 @@
 // up the ring, and says how many it folded. Nothing is skipped: every B-scan handed over is
 // filtered, segmented and rendered by some pass.
 //
+// Where the bytes live: with CUDA stages and a live volume on the device (the CUDA live pipeline),
+// the hand-over is a device-to-device copy and a pass enqueues filter -> segment -> render on one
+// stream, the volume never crossing to the host (DeviceStageChain); otherwise the stages work on
+// host volumes as above (a host live volume with CUDA stages is uploaded by the pass).
+//
 // At the end: surfaces.csv, bscan-overlay.png (the centre filtered B-scan with its surfaces),
 // render.png (the live view) and one PNG per further mode, and the figures for summary.json.
 #pragma once
@@ -16,6 +21,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -44,6 +50,18 @@ class Renderer;
 
 namespace ioct::gpu::live {
 
+class DeviceStageChain;
+
+// One pass, as the benchmarks see it: CLOCK_MONOTONIC ns when it took its B-scans and when each
+// stage's work was done (on the device: when the device finished it).
+struct StagesPass {
+  std::uint64_t groups = 0;  // hand-overs taken by the pass
+  std::uint32_t first = 0, count = 0;
+  bool on_device = false;
+  bool rendered = false;
+  std::uint64_t taken_ns = 0, filtered_ns = 0, segmented_ns = 0, rendered_ns = 0;
+};
+
 struct VolumeStagesConfig {
   Backend backend = Backend::automatic;  // of all three stages
   unsigned cpu_threads = 2;              // of each CPU stage
@@ -66,6 +84,8 @@ struct VolumeStagesConfig {
   // Lower scheduling priority (nice) of the stages' threads, so the processing of the ring always
   // wins the CPU over them.
   int nice = 10;
+  // Called on the stages' thread after every pass (benchmarks, tests); keep it short.
+  std::function<void(const StagesPass&)> on_pass;
 
   // Throws ConfigError naming the first bad key.
   void validate() const;
@@ -88,6 +108,8 @@ class VolumeStages final : public LiveStage {
   // The state after finish() (tests).
   const Volume& filtered() const noexcept { return filtered_; }
   const segmentation::Surfaces& surfaces() const noexcept { return surfaces_; }
+  // The last frame read back to the host (after finish(): the last one it rendered).
+  const render::RgbaImage& frame() const noexcept { return image_; }
 
  private:
   struct Figures {
@@ -108,6 +130,9 @@ class VolumeStages final : public LiveStage {
   void work();
   bool make_backends();
   void run_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups);
+  void run_device_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups,
+                       std::uint64_t taken_ns);
+  bool live_image_due(std::uint64_t now_ns) const;
   render::RenderConfig live_view() const;
   void write_live_image(std::uint64_t now_ns);
   void fail(const std::string& what);
@@ -122,12 +147,15 @@ class VolumeStages final : public LiveStage {
   std::uint32_t dirty_first_ = 0;
   std::uint32_t dirty_end_ = 0;
   std::uint64_t dirty_groups_ = 0;
+  bool dirty_on_device_ = false;  // the pending B-scans are in device_'s pending volume
   bool stop_ = false;
   bool accepting_ = true;  // false once a stage failed
   Figures figures_;
   std::string backends_;  // "filter cuda, segmentation cuda, render cuda"
 
-  // The stages' own, touched only by their thread (and by finish() after it ended).
+  // The stages' own, touched only by their thread (and by finish() after it ended); device_
+  // also by on_bscans, under mutex_. It outlives the renderer, which works on its stream.
+  std::unique_ptr<DeviceStageChain> device_;
   std::unique_ptr<filters::VolumeFilter> filter_;
   std::unique_ptr<segmentation::Segmenter> segmenter_;
   std::unique_ptr<render::Renderer> renderer_;

@@ -50,6 +50,7 @@ class CpuRenderer final : public Renderer {
   explicit CpuRenderer(unsigned threads = 0);
 
   void set_volume(const Volume& volume, const segmentation::Surfaces* surfaces) override;
+  using Renderer::update_bscans;
   void update_bscans(const Volume& volume, std::uint32_t first, std::uint32_t count,
                      const segmentation::Surfaces* surfaces) override;
   void render(const RenderConfig& config, RgbaImage& image) override;

@@ -9,6 +9,10 @@
 
 #include "ioct/gpu/render/renderer.hpp"
 
+namespace ioct::gpu::segmentation {
+struct DeviceSurfaceView;
+}
+
 namespace ioct::gpu::render {
 
 class CudaRenderer final : public Renderer {
@@ -20,8 +24,17 @@ class CudaRenderer final : public Renderer {
   CudaRenderer& operator=(const CudaRenderer&) = delete;
 
   void set_volume(const Volume& volume, const segmentation::Surfaces* surfaces) override;
+  using Renderer::update_bscans;
   void update_bscans(const Volume& volume, std::uint32_t first, std::uint32_t count,
                      const segmentation::Surfaces* surfaces) override;
+  // Device refs are waited for (their stream) and copied device to device.
+  void update_bscans(VolumeRef volume, std::uint32_t first, std::uint32_t count,
+                     const segmentation::Surfaces* surfaces) override;
+  // The live chain: a device volume with the segmenter's device surfaces; only their ILM and RPE
+  // come to the host (for the layer reference), with the centre-of-mass sums, in the update's one
+  // round trip to the host.
+  void update_bscans(VolumeRef volume, std::uint32_t first, std::uint32_t count,
+                     const segmentation::DeviceSurfaceView& surfaces);
   void render(const RenderConfig& config, RgbaImage& image) override;
   std::string_view backend_name() const noexcept override { return "cuda"; }
 
@@ -30,8 +43,15 @@ class CudaRenderer final : public Renderer {
   void synchronize();
   // The stream the renderer works on (a cudaStream_t).
   void* stream() const noexcept;
+  // Works on the caller's `stream` (a cudaStream_t that outlives the renderer) from now on, so
+  // that its work queues behind the caller's without events.
+  void use_stream(void* stream);
 
  private:
+  void update_device(VolumeRef volume, std::uint32_t first, std::uint32_t count,
+                     const segmentation::Surfaces* surfaces,
+                     const segmentation::DeviceSurfaceView* device_surfaces);
+
   struct State;
   std::unique_ptr<State> state_;
 };

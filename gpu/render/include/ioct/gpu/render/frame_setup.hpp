@@ -9,12 +9,9 @@
 #include "ioct/gpu/render/layer_reference.hpp"
 #include "ioct/gpu/render/render_config.hpp"
 #include "ioct/gpu/render/render_params.hpp"
+#include "ioct/gpu/volume_ref.hpp"  // VolumeDims
 
 namespace ioct::gpu::render {
-
-struct VolumeDims {
-  std::uint32_t bscans = 0, ascans = 0, depth = 0;
-};
 
 // Throws ConfigError for a bad config; std::invalid_argument for an empty volume.
 RenderParams bake_params(const RenderConfig& config, VolumeDims dims,

@@ -18,6 +18,7 @@
 #include "ioct/gpu/render/rgba_image.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
 #include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume_ref.hpp"
 
 namespace ioct::gpu::render {
 
@@ -35,6 +36,13 @@ class Renderer {
   // taken whole. Throws std::out_of_range for B-scans outside the volume.
   virtual void update_bscans(const Volume& volume, std::uint32_t first, std::uint32_t count,
                              const segmentation::Surfaces* surfaces) = 0;
+
+  // update_bscans on a ref: a host ref as above. A device ref (the CUDA renderer) is read where it
+  // is, after the work enqueued on its stream, with no copy of the volume to the host; a ref of
+  // other dimensions than the last is a new volume (all its B-scans are taken). Throws
+  // std::invalid_argument for a device ref on a backend without device memory.
+  virtual void update_bscans(VolumeRef volume, std::uint32_t first, std::uint32_t count,
+                             const segmentation::Surfaces* surfaces);
 
   // Renders the current state into `image` (resized to output_width x eyes by output_height).
   // Throws ConfigError for a bad config, std::logic_error before any set_volume().

@@ -18,6 +18,7 @@ class CpuSegmenter final : public Segmenter {
   CpuSegmenter(const SegmentationConfig& config, const VolumeSampling& sampling,
                unsigned threads = 1);
 
+  using Segmenter::segment_group;
   BscanSpan segment_group(const Volume& volume, BscanSpan group, Surfaces& surfaces) override;
   void forget() override { memory_ = {}; }
   const SegmentationConfig& config() const noexcept override { return config_; }

@@ -70,6 +70,9 @@ class CudaSegmenter final : public Segmenter {
   // Host volumes: the group's B-scans are copied to the device, segmented, and the affected
   // B-scans' surfaces copied back; returns when they are in `surfaces`.
   BscanSpan segment_group(const Volume& volume, BscanSpan group, Surfaces& surfaces) override;
+  // Device refs: prepare() for their dimensions (after waiting for their stream when those
+  // change), then enqueue_group() on their stream.
+  BscanSpan segment_group(VolumeRef volume, BscanSpan group, Surfaces* surfaces) override;
   void forget() override;
   const SegmentationConfig& config() const noexcept override { return config_; }
   const VolumeSampling& sampling() const noexcept override { return sampling_; }
@@ -82,6 +85,9 @@ class CudaSegmenter final : public Segmenter {
   void prepare(std::uint32_t bscans, std::uint32_t ascans, std::uint32_t depth);
   BscanSpan enqueue_group(const std::uint8_t* device_volume, BscanSpan group, cudaStream_t stream);
   DeviceSurfaceView device_surfaces() const noexcept;
+  // Copies every surface of the device into `surfaces` (reset to the volume's dimensions) once
+  // `stream` has reached this point; returns when they are there.
+  void download_surfaces(Surfaces& surfaces, cudaStream_t stream);
 
   // The intermediate results on the device, copied into `memory` (tests compare them with the
   // CPU's). Synchronises the segmenter's stream.

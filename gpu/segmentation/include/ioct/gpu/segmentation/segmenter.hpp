@@ -30,6 +30,7 @@
 #include "ioct/gpu/segmentation/segmentation_config.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
 #include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume_ref.hpp"
 
 namespace ioct::gpu::segmentation {
 
@@ -53,6 +54,14 @@ class Segmenter {
   // (fewer than kMinDepth or more than kMaxDepth px deep, no A-scans or more than kMaxAscans, a
   // band larger than kMaxBand for this sampling), std::out_of_range for a group outside it.
   virtual BscanSpan segment_group(const Volume& volume, BscanSpan group, Surfaces& surfaces) = 0;
+
+  // segment_group on a ref: a host ref as above, into `surfaces` (required). A device ref (the
+  // CUDA segmenter) is segmented where it is, enqueued on its stream with no host copy and no
+  // synchronisation; its surfaces stay on the device (CudaSegmenter::device_surfaces(),
+  // download_surfaces()) and `surfaces` is not touched (may be null). A device ref of other
+  // dimensions than the last starts a new volume. Throws std::invalid_argument for a missing
+  // `surfaces` or a device ref on a backend without device memory, else as segment_group.
+  virtual BscanSpan segment_group(VolumeRef volume, BscanSpan group, Surfaces* surfaces);
 
   // Every B-scan of `volume`, from nothing: forgets earlier volumes first. A volume of no B-scans
   // gives empty surfaces.
@@ -79,5 +88,6 @@ std::unique_ptr<Segmenter> make_segmenter(Backend backend, const SegmentationCon
 // the volume cannot be segmented (see segment_group) and std::out_of_range for a group that is
 // empty or reaches past the volume.
 void check_group_request(const Volume& volume, BscanSpan group);
+void check_group_request(VolumeDims volume, BscanSpan group);
 
 }  // namespace ioct::gpu::segmentation

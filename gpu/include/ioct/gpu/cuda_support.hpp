@@ -1,12 +1,16 @@
-// CUDA plumbing of the gpu library (only compiled when the build has CUDA): checked calls that
-// name what failed, and owners of device memory, pinned memory, streams and events so that every
-// exit path gives them back.
+// The CUDA support every CUDA part of gpu/ shares (only included when the build has CUDA): checked
+// calls that name what failed and where, owners of device memory, pinned memory, streams and
+// events so that every exit path gives them back (move-only: a copy would free twice), and the
+// one copy wrapper through which the stages move bytes between host and device, counted so that
+// tests can tell what crossed the bus.
 #pragma once
 
 #include <cuda_runtime.h>
 #include <cufft.h>
 
+#include <atomic>
 #include <cstddef>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -27,7 +31,21 @@ inline void check(cufftResult status, const char* what) {
   }
 }
 
-#define IOCT_CUDA_CHECK(call) ::ioct::gpu::cuda::check((call), #call)
+// Throws std::runtime_error "<file>:<line>: <what> failed: <error name> (<error text>)".
+inline void check(cudaError_t status, const char* what, const char* file, int line) {
+  if (status != cudaSuccess) {
+    throw std::runtime_error(std::string(file) + ":" + std::to_string(line) + ": " + what +
+                             " failed: " + describe(status));
+  }
+}
+inline void check(cufftResult status, const char* what, const char* file, int line) {
+  if (status != CUFFT_SUCCESS) {
+    throw std::runtime_error(std::string(file) + ":" + std::to_string(line) + ": " + what +
+                             " failed: " + describe(status));
+  }
+}
+
+#define IOCT_CUDA_CHECK(call) ::ioct::gpu::cuda::check((call), #call, __FILE__, __LINE__)
 
 // The last launch's error, if any (launches return nothing themselves).
 inline void check_launch(const char* kernel) {
@@ -59,6 +77,12 @@ class DeviceArray {
   T* data() const noexcept { return data_; }
   std::size_t size() const noexcept { return count_; }
   std::size_t bytes() const noexcept { return count_ * sizeof(T); }
+  // `count` elements, reallocated (contents lost) only when the count changes.
+  void resize(std::size_t count) {
+    if (count == count_) return;
+    *this = DeviceArray();
+    *this = DeviceArray(count);
+  }
 
  private:
   T* data_ = nullptr;
@@ -130,5 +154,21 @@ class Event {
  private:
   cudaEvent_t event_ = nullptr;
 };
+
+// What a copy between host and device carries: volume pixels, or anything else (surfaces,
+// tables, sums, images).
+enum class Payload { volume, other };
+
+// Bytes copied through copy_async since the process started, by direction and payload.
+struct BusTraffic {
+  std::uint64_t volume_to_device = 0, volume_to_host = 0;
+  std::uint64_t other_to_device = 0, other_to_host = 0;
+};
+BusTraffic bus_traffic() noexcept;
+
+// cudaMemcpyAsync on `stream`, checked (naming `what`), host <-> device copies counted in
+// bus_traffic(); device-to-device copies are not counted.
+void copy_async(void* dst, const void* src, std::size_t bytes, cudaMemcpyKind kind,
+                cudaStream_t stream, Payload payload, const char* what);
 
 }  // namespace ioct::gpu::cuda

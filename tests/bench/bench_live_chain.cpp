@@ -1,0 +1,578 @@
+// ioct-bench-live-chain: the whole live chain of ioct-gpu --backend cuda at the default geometry
+// (1376 samples x 512 A-scans x 16 B-scans per group, 128 B-scans per volume), group by group:
+// ring -> device (DMA from the registered ring) -> processed into the live volume -> filtered ->
+// segmented -> the live view rendered into device memory, the volume never leaving the device.
+//
+// A ring of 8 slots is filled once with simulated retina groups; a writer thread re-publishes
+// them (headers only), so the simulator's CPU cost is not in the figures. The reader is
+// CudaLivePipeline and the stages are VolumeStages (CUDA), as in ioct-gpu.
+//   latency      one group every --period-us: per group, publish -> processed (in the device
+//                volume), -> filtered, -> segmented, -> frame rendered in device memory
+//                (p50 / p99 / max over --groups groups; a stage's time is when the device
+//                finished it).
+//   throughput   a closed loop at the maximum rate: the writer publishes as soon as the stages
+//                are at most --ahead groups behind (and a ring slot is free), so every group gets
+//                processing, filters, segmentation and a render; A-scans/s over --seconds, with
+//                the passes that folded groups (should be none) and the drops.
+// Anchors measured in the same run: the pinned host -> device copy of one group, and each stage's
+// own kernels on a group already on the device (processing, filters, segmentation, one render of
+// the live view), whose sum is what the chain would take with nothing between the kernels.
+#include <cuda_runtime.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <deque>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "host_description.hpp"
+#include "ioct/gpu/cuda_oct_processor.hpp"
+#include "ioct/gpu/cuda_support.hpp"
+#include "ioct/gpu/filters/cuda_volume_filter.hpp"
+#include "ioct/gpu/live/volume_stages.hpp"
+#include "ioct/gpu/live_pipeline.hpp"
+#include "ioct/gpu/render/cuda_renderer.hpp"
+#include "ioct/gpu/segmentation/cuda_segmenter.hpp"
+#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/shm/ring_error.hpp"
+#include "ioct/shm/ring_writer.hpp"
+#include "ioct/sim/simulated_digitizer.hpp"
+#include "latency_summary.hpp"
+
+namespace {
+
+using namespace ioct;
+using namespace ioct::gpu;
+
+struct Options {
+  double seconds = 5.0;
+  std::uint32_t slots = 8;
+  std::uint32_t groups = 1000;
+  std::uint32_t period_us = 5000;
+  std::uint32_t ahead = 2;
+  std::string json_path;
+};
+
+void fill_header(shm::SlotHeader& h, const shm::RingGeometry& g, std::uint64_t group) {
+  h.bscan_count = g.bscans_per_group;
+  h.active_ascan_begin = 0;
+  h.active_ascan_end = g.ascans_per_bscan;
+  h.status_flags = shm::kStatusSimulated;
+  const std::uint64_t first = group * g.bscans_per_group;
+  for (std::uint32_t b = 0; b < g.bscans_per_group; ++b) {
+    shm::BscanMarker& m = h.bscans[b];
+    m = {};
+    m.volume_index = (first + b) / g.bscans_per_volume;
+    m.bscan_in_volume = static_cast<std::uint32_t>((first + b) % g.bscans_per_volume);
+    if (m.bscan_in_volume == 0) m.flags |= shm::kBscanVolumeStart;
+    if (m.bscan_in_volume + 1 == g.bscans_per_volume) m.flags |= shm::kBscanVolumeEnd;
+  }
+}
+
+// A ring whose slots all hold simulated groups; publish() re-publishes them (headers only).
+class FilledRing {
+ public:
+  FilledRing(const shm::RingGeometry& g, std::uint32_t slots)
+      : name_("ioct-bench-live-" + std::to_string(::getpid())), geometry_(g) {
+    shm::RingConfig config;
+    config.name = name_;
+    config.geometry = g;
+    config.slot_count = slots;
+    config.memory_lock = shm::MemoryLock::best_effort;
+    writer_.emplace(shm::RingWriter::create(config));
+    slots_ = slots;
+    hal::DigitizerConfig acquisition;
+    acquisition.samples_per_ascan = g.samples_per_ascan;
+    acquisition.ascans_per_bscan = g.ascans_per_bscan;
+    acquisition.bscans_per_group = g.bscans_per_group;
+    sim::SimulationConfig simulation;
+    simulation.scan.ascans_per_bscan = g.ascans_per_bscan;
+    simulation.scan.bscans_per_volume = g.bscans_per_volume;
+    sim::SimulatedDigitizer digitizer(simulation);
+    digitizer.prepare(acquisition);
+    digitizer.start();
+    for (std::uint32_t s = 0; s < slots; ++s) {
+      shm::RingWriter::Claim claim = writer_->claim();
+      hal::GroupInfo info;
+      digitizer.acquire_group(std::span(reinterpret_cast<std::uint16_t*>(claim.payload.data()),
+                                        claim.payload.size() / 2),
+                              info);
+      fill_header(*claim.header, g, claim.group);
+      writer_->publish(claim);
+    }
+  }
+  ~FilledRing() {
+    writer_.reset();
+    shm::ShmObject::remove(name_);
+  }
+  void publish() {
+    shm::RingWriter::Claim claim = writer_->claim();
+    fill_header(*claim.header, geometry_, claim.group);
+    writer_->publish(claim);
+  }
+  std::uint64_t published() const { return writer_->published(); }
+  std::uint32_t slots() const { return slots_; }
+  const std::string& name() const { return name_; }
+
+ private:
+  std::string name_;
+  shm::RingGeometry geometry_;
+  std::uint32_t slots_ = 0;
+  std::optional<shm::RingWriter> writer_;
+};
+
+// Per group: publish and processed times from the live loop, the stages' times from their pass.
+class ChainRecorder final : public LiveEvents {
+ public:
+  LivePipeline* pipeline = nullptr;
+  live::VolumeStages* stages = nullptr;
+
+  void on_volume(const Volume&, const VolumeInfo&) override {}
+  void on_group(const shm::SlotHeader& h, const PlacementResult& placed) override {
+    const std::uint64_t now = shm::monotonic_ns();
+    {
+      std::lock_guard lock(mutex_);
+      waiting_.push_back({h.t_publish_ns, now});
+    }
+    ++groups_processed;
+    if (placed.end_position > placed.first_position) {
+      stages->on_bscans(*pipeline, placed.first_position,
+                        placed.end_position - placed.first_position);
+    }
+  }
+  void on_rejected(const shm::SlotHeader&, const std::string& problem) override {
+    throw std::runtime_error("bench group rejected: " + problem);
+  }
+  void on_restart(bool) override {}
+
+  // The stages' thread.
+  void on_pass(const live::StagesPass& pass) {
+    std::lock_guard lock(mutex_);
+    if (pass.groups > 1) ++folded_passes;
+    for (std::uint64_t i = 0; i < pass.groups && !waiting_.empty(); ++i) {
+      const Waiting w = waiting_.front();
+      waiting_.pop_front();
+      const auto since = [&](std::uint64_t t) { return t > w.publish_ns ? t - w.publish_ns : 0; };
+      processed.push_back(since(w.processed_ns));
+      filtered.push_back(since(pass.filtered_ns));
+      segmented.push_back(since(pass.segmented_ns));
+      rendered.push_back(since(pass.rendered_ns));
+    }
+    groups_through_stages.fetch_add(pass.groups, std::memory_order_release);
+  }
+
+  void reset() {
+    std::lock_guard lock(mutex_);
+    processed.clear();
+    filtered.clear();
+    segmented.clear();
+    rendered.clear();
+    folded_passes = 0;
+  }
+
+  std::atomic<std::uint64_t> groups_processed{0};
+  std::atomic<std::uint64_t> groups_through_stages{0};
+  std::vector<std::uint64_t> processed, filtered, segmented, rendered;  // ns since publish
+  std::uint64_t folded_passes = 0;
+  std::mutex mutex_;
+
+ private:
+  struct Waiting {
+    std::uint64_t publish_ns, processed_ns;
+  };
+  std::deque<Waiting> waiting_;
+};
+
+double ms(double ns) {
+  return ns * 1e-6;
+}
+
+// Median of `repetitions` batches of 40 pinned host -> device copies of one group, ms per copy.
+double pinned_h2d_group_ms(std::size_t bytes, int repetitions = 7) {
+  cuda::PinnedArray<std::uint8_t> host(bytes);
+  cuda::DeviceArray<std::uint8_t> device(bytes);
+  cuda::Stream stream;
+  cudaEvent_t start, stop;
+  IOCT_CUDA_CHECK(cudaEventCreate(&start));
+  IOCT_CUDA_CHECK(cudaEventCreate(&stop));
+  constexpr int kCopies = 40;
+  std::vector<double> per_copy;
+  for (int r = 0; r < repetitions + 1; ++r) {
+    IOCT_CUDA_CHECK(cudaEventRecord(start, stream.get()));
+    for (int i = 0; i < kCopies; ++i) {
+      IOCT_CUDA_CHECK(
+          cudaMemcpyAsync(device.data(), host.data(), bytes, cudaMemcpyHostToDevice, stream.get()));
+    }
+    IOCT_CUDA_CHECK(cudaEventRecord(stop, stream.get()));
+    IOCT_CUDA_CHECK(cudaEventSynchronize(stop));
+    float elapsed = 0;
+    IOCT_CUDA_CHECK(cudaEventElapsedTime(&elapsed, start, stop));
+    if (r > 0) per_copy.push_back(elapsed / kCopies);  // the first batch warms up
+  }
+  cudaEventDestroy(start);
+  cudaEventDestroy(stop);
+  return bench::median(per_copy);
+}
+
+// Median device time of `work` enqueued on `stream`, over `repetitions` (after one warm-up).
+template <class Work>
+double kernel_ms(cudaStream_t stream, int repetitions, Work&& work) {
+  cudaEvent_t start, stop;
+  IOCT_CUDA_CHECK(cudaEventCreate(&start));
+  IOCT_CUDA_CHECK(cudaEventCreate(&stop));
+  std::vector<double> times;
+  for (int r = 0; r < repetitions + 1; ++r) {
+    IOCT_CUDA_CHECK(cudaEventRecord(start, stream));
+    work(r);
+    IOCT_CUDA_CHECK(cudaEventRecord(stop, stream));
+    IOCT_CUDA_CHECK(cudaEventSynchronize(stop));
+    float elapsed = 0;
+    IOCT_CUDA_CHECK(cudaEventElapsedTime(&elapsed, start, stop));
+    if (r > 0) times.push_back(elapsed);
+  }
+  cudaEventDestroy(start);
+  cudaEventDestroy(stop);
+  return bench::median(times);
+}
+
+struct KernelAnchors {
+  double processing = 0, filter = 0, segment = 0, render = 0;
+  double render_update = 0;  // not a kernel: the renderer's update, its host round trip included
+  double sum() const { return processing + filter + segment + render; }
+};
+
+// Each stage's own kernels for one group of `volume` (the live volume after the run, so the
+// segmentation and the renderer see a real retina), the data already on the device.
+KernelAnchors measure_kernels(const shm::RingGeometry& g, const Volume& volume,
+                              const live::VolumeStagesConfig& config) {
+  KernelAnchors k;
+  const VolumeDims dims = VolumeDims::of(volume);
+  cuda::Stream stream;
+  {
+    CudaOctProcessor processor(OctProcessorConfig{});
+    processor.prepare(g);
+    cuda::DeviceArray<std::uint16_t> raw(g.group_payload_bytes() / 2);
+    IOCT_CUDA_CHECK(cudaMemset(raw.data(), 0x11, raw.bytes()));
+    cuda::DeviceArray<std::uint8_t> pixels(dims.bytes());
+    shm::SlotHeader header{};
+    DevicePixelTarget target;
+    target.pixels = pixels.data();
+    k.processing = kernel_ms(processor.stream(), 20, [&](int r) {
+      fill_header(header, g, static_cast<std::uint64_t>(r % 8));
+      for (std::uint32_t b = 0; b < g.bscans_per_group; ++b) {
+        target.position[b] = static_cast<std::int32_t>(header.bscans[b].bscan_in_volume);
+      }
+      processor.enqueue_transform(header, raw.data(), nullptr);
+      processor.enqueue_pixels(header, 0, g.bscans_per_group, target);
+    });
+  }
+  cuda::DeviceArray<std::uint8_t> in(dims.bytes()), out(dims.bytes());
+  IOCT_CUDA_CHECK(
+      cudaMemcpy(in.data(), volume.pixels().data(), dims.bytes(), cudaMemcpyHostToDevice));
+  const VolumeRef in_ref = VolumeRef::on_device(in.data(), dims, stream.get());
+  const VolumeRef out_ref = VolumeRef::on_device(out.data(), dims, stream.get());
+  const MutableVolumeRef out_mut = MutableVolumeRef::on_device(out.data(), dims, stream.get());
+  const std::uint32_t group = g.bscans_per_group;
+  const std::uint32_t groups = dims.bscans / group;
+  filters::CudaVolumeFilter filter(config.filter);
+  filter.filter_group(in_ref, out_mut, {0, dims.bscans});
+  k.filter = kernel_ms(stream.get(), 40, [&](int r) {
+    filter.filter_group(in_ref, out_mut, {(r % groups) * group, group});
+  });
+  segmentation::CudaSegmenter segmenter(config.segmentation, config.sampling);
+  for (std::uint32_t b = 0; b < dims.bscans; b += group) {
+    segmenter.segment_group(out_ref, {b, group}, nullptr);
+  }
+  k.segment = kernel_ms(stream.get(), 40, [&](int r) {
+    segmenter.segment_group(out_ref, {(r % groups) * group, group}, nullptr);
+  });
+  render::CudaRenderer renderer;
+  renderer.use_stream(stream.get());
+  renderer.update_bscans(out_ref, 0, dims.bscans, segmenter.device_surfaces());
+  k.render_update = kernel_ms(stream.get(), 40, [&](int r) {
+    renderer.update_bscans(out_ref, (r % groups) * group, group, segmenter.device_surfaces());
+  });
+  k.render = kernel_ms(stream.get(), 40, [&](int) { renderer.render_on_device(config.render); });
+  return k;
+}
+
+struct Quantiles {
+  double p50, p99, max;
+};
+Quantiles quantiles(const std::vector<std::uint64_t>& samples) {
+  const bench::LatencySummary s = bench::summarize(samples);
+  return {ms(s.p50_ns), ms(s.p99_ns), ms(s.max_ns)};
+}
+
+int run(const Options& o) {
+  if (const std::optional<std::string> problem = cuda_device_problem()) {
+    std::fprintf(stderr, "ioct-bench-live-chain: %s\n", problem->c_str());
+    return 2;
+  }
+  cudaDeviceProp props{};
+  IOCT_CUDA_CHECK(cudaGetDeviceProperties(&props, 0));
+  const bench::HostDescription host = bench::describe_host();
+  std::printf("ioct-bench-live-chain\n%sGPU: %s, %d SMs\n", bench::to_text(host).c_str(),
+              props.name, props.multiProcessorCount);
+  const shm::RingGeometry g;  // the default geometry
+  std::printf("geometry: %u samples x %u A-scans x %u B-scans per group, %u per volume\n",
+              g.samples_per_ascan, g.ascans_per_bscan, g.bscans_per_group, g.bscans_per_volume);
+  FilledRing ring(g, o.slots);
+
+  ChainRecorder recorder;
+  live::VolumeStagesConfig config;
+  config.backend = Backend::cuda;
+  config.final_modes = {};
+  config.nice = 0;
+  config.on_pass = [&recorder](const live::StagesPass& pass) { recorder.on_pass(pass); };
+  live::VolumeStages stages(config);
+  LivePipelineOptions options;
+  options.host_volumes = false;
+  auto pipeline =
+      make_live_pipeline(Backend::cuda, OctProcessorConfig{},
+                         shm::RingReader::attach(ring.name(), {"bench", false}), options);
+  recorder.pipeline = pipeline.get();
+  recorder.stages = &stages;
+
+  // Polls until the ring is empty and the stages have had every group handed over; throws when
+  // nothing moves for 10 s.
+  const auto settle = [&] {
+    std::uint64_t last = 0;
+    std::uint64_t since = shm::monotonic_ns();
+    for (;;) {
+      const bool idle = pipeline->poll(recorder) == shm::PollStatus::empty;
+      const std::uint64_t through = recorder.groups_through_stages.load();
+      if (idle && through >= recorder.groups_processed.load()) return;
+      if (through != last) {
+        last = through;
+        since = shm::monotonic_ns();
+      } else if (shm::monotonic_ns() - since > 10'000'000'000ull) {
+        throw std::runtime_error("the chain made no progress for 10 s (" + std::to_string(through) +
+                                 " groups through the stages, " +
+                                 std::to_string(recorder.groups_processed.load()) +
+                                 " processed): " + stages.status());
+      }
+    }
+  };
+
+  // Catch up with the groups the fill published, then a paced warm-up (graphs, allocations).
+  std::atomic<bool> stop{false};
+  const auto paced = [&](std::uint32_t groups, std::uint32_t period_us) {
+    std::atomic<bool> finished{false};
+    std::thread writer([&] {
+      auto next = std::chrono::steady_clock::now();
+      for (std::uint32_t i = 0; i < groups; ++i) {
+        next += std::chrono::microseconds(period_us);
+        std::this_thread::sleep_until(next);
+        ring.publish();
+      }
+      finished.store(true);
+    });
+    const std::uint64_t dropped_before = pipeline->reader().counters().dropped();
+    while (!finished.load()) pipeline->poll(recorder);
+    writer.join();
+    settle();
+    return pipeline->reader().counters().dropped() - dropped_before;
+  };
+  settle();
+  std::fprintf(stderr, "caught up: %llu groups through the stages; warming up\n",
+               static_cast<unsigned long long>(recorder.groups_through_stages.load()));
+  paced(2 * g.bscans_per_volume / g.bscans_per_group, 5000);
+  recorder.reset();
+  std::fprintf(stderr, "latency: %u groups, one every %u us\n", o.groups, o.period_us);
+
+  // Latency, one group every period.
+  const std::uint64_t latency_dropped = paced(o.groups, o.period_us);
+  std::vector<std::uint64_t> processed, filtered, segmented, rendered;
+  std::uint64_t latency_folded = 0;
+  {
+    std::lock_guard lock(recorder.mutex_);
+    processed = recorder.processed;
+    filtered = recorder.filtered;
+    segmented = recorder.segmented;
+    rendered = recorder.rendered;
+    latency_folded = recorder.folded_passes;
+  }
+  recorder.reset();
+
+  // Throughput, closed loop at the maximum rate.
+  std::fprintf(stderr, "throughput: %.1f s closed loop\n", o.seconds);
+  const std::uint64_t margin = ring.slots() - 2;
+  std::atomic<std::uint64_t> reader_at{pipeline->reader().position()};
+  const std::uint64_t base_published = ring.published();
+  const std::uint64_t base_staged = recorder.groups_through_stages.load();
+  std::thread writer([&] {
+    while (!stop.load(std::memory_order_relaxed)) {
+      // (The ring's own slot limit: the reader must have copied all but `margin` groups.)
+      const std::uint64_t ahead =
+          (ring.published() - base_published) -
+          (recorder.groups_through_stages.load(std::memory_order_acquire) - base_staged);
+      if (ahead < o.ahead &&
+          ring.published() < reader_at.load(std::memory_order_acquire) + margin) {
+        ring.publish();
+      } else {
+        std::this_thread::yield();
+      }
+    }
+  });
+  const auto step = [&] {
+    pipeline->poll(recorder);
+    reader_at.store(pipeline->reader().position(), std::memory_order_release);
+  };
+  for (const std::uint64_t warm = recorder.groups_through_stages.load() + 50;
+       recorder.groups_through_stages.load() < warm;) {
+    step();
+  }
+  recorder.reset();
+  const shm::ReaderCounters r0 = pipeline->reader().counters();
+  const std::uint64_t s0 = recorder.groups_through_stages.load();
+  const std::uint64_t t0 = shm::monotonic_ns();
+  std::uint64_t now = t0;
+  while (now - t0 < static_cast<std::uint64_t>(o.seconds * 1e9)) {
+    step();
+    now = shm::monotonic_ns();
+  }
+  const std::uint64_t staged = recorder.groups_through_stages.load() - s0;
+  const shm::ReaderCounters r1 = pipeline->reader().counters();
+  stop.store(true);
+  writer.join();
+  pipeline->drain(recorder);
+  settle();
+  const double seconds = static_cast<double>(now - t0) * 1e-9;
+  const double ascans_per_s = static_cast<double>(staged * g.ascans_per_group()) / seconds;
+  const std::uint64_t dropped = r1.dropped() - r0.dropped();
+  std::uint64_t throughput_folded = 0;
+  {
+    std::lock_guard lock(recorder.mutex_);
+    throughput_folded = recorder.folded_passes;
+  }
+
+  // The live volume as it ended, for the kernel anchors.
+  Volume live_volume;
+  pipeline->copy_bscans(0, pipeline->shape().bscans, live_volume);
+  const std::filesystem::path out =
+      std::filesystem::temp_directory_path() / ("ioct-bench-live-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(out);
+  const nlohmann::json stages_summary = stages.finish(out);
+  std::filesystem::remove_all(out);
+  if (!stages_summary.at("problem").get<std::string>().empty()) {
+    std::fprintf(stderr, "stages failed: %s\n", stages_summary.at("problem").dump().c_str());
+    return 1;
+  }
+
+  const double pinned = pinned_h2d_group_ms(g.group_payload_bytes());
+  const KernelAnchors k = measure_kernels(g, live_volume, config);
+
+  const Quantiles qp = quantiles(processed), qf = quantiles(filtered), qs = quantiles(segmented),
+                  qr = quantiles(rendered);
+  std::printf(
+      "\nlatency from publish, one group every %u us (%zu groups, %llu dropped, %llu "
+      "passes folded):\n",
+      o.period_us, rendered.size(), static_cast<unsigned long long>(latency_dropped),
+      static_cast<unsigned long long>(latency_folded));
+  std::printf("  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms\n", "-> processed (device volume)",
+              qp.p50, qp.p99, qp.max);
+  std::printf("  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms\n", "-> filtered", qf.p50, qf.p99,
+              qf.max);
+  std::printf("  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms\n", "-> segmented", qs.p50, qs.p99,
+              qs.max);
+  std::printf("  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms   target p99 <= 2 ms: %s\n",
+              "-> frame rendered (device memory)", qr.p50, qr.p99, qr.max,
+              qr.p99 <= 2.0 ? "met" : "NOT met");
+  std::printf(
+      "  anchor: pinned H2D copy of a group %.3f ms (%.1f GB/s); stages' own kernels "
+      "per group: processing %.3f + filters %.3f + segmentation %.3f + render %.3f = "
+      "%.3f ms (ratio p50 / sum %.2f)\n",
+      pinned, static_cast<double>(g.group_payload_bytes()) / (pinned * 1e6), k.processing, k.filter,
+      k.segment, k.render, k.sum(), qr.p50 / k.sum());
+  std::printf(
+      "  the renderer's update of a group alone (texture, bricks, sums, the layer reference "
+      "with its round trip to the host): %.3f ms\n",
+      k.render_update);
+  const double anchor_rate = static_cast<double>(g.ascans_per_group()) / (k.sum() * 1e-3);
+  const double pinned_rate = static_cast<double>(g.ascans_per_group()) / (pinned * 1e-3);
+  std::printf(
+      "\nfull chain, closed loop at the maximum rate (at most %u groups ahead of the "
+      "stages):\n  %.2f M A-scans/s with every stage on every group (%llu groups in "
+      "%.2f s, %llu passes folded groups, %llu dropped)   target >= 10 M/s, 0 drops: %s\n",
+      o.ahead, ascans_per_s / 1e6, static_cast<unsigned long long>(staged), seconds,
+      static_cast<unsigned long long>(throughput_folded), static_cast<unsigned long long>(dropped),
+      ascans_per_s >= 10e6 && dropped == 0 && throughput_folded == 0 ? "met" : "NOT met");
+  std::printf(
+      "  anchor: the kernels' sum as a rate %.2f M A-scans/s (%.1f %%); pinned H2D alone "
+      "%.2f M A-scans/s\n",
+      anchor_rate / 1e6, 100.0 * ascans_per_s / anchor_rate, pinned_rate / 1e6);
+  std::printf("stages: %s\n", stages_summary.at("backends").get<std::string>().c_str());
+
+  if (!o.json_path.empty()) {
+    const auto q = [](const Quantiles& x) {
+      return nlohmann::json{{"p50", x.p50}, {"p99", x.p99}, {"max", x.max}};
+    };
+    nlohmann::json report = {{"benchmark", "ioct-bench-live-chain"},
+                             {"host", bench::to_json(host)},
+                             {"gpu", props.name},
+                             {"latency",
+                              {{"period_us", o.period_us},
+                               {"groups", rendered.size()},
+                               {"dropped", latency_dropped},
+                               {"folded_passes", latency_folded},
+                               {"processed_ms", q(qp)},
+                               {"filtered_ms", q(qf)},
+                               {"segmented_ms", q(qs)},
+                               {"rendered_ms", q(qr)}}},
+                             {"throughput",
+                              {{"ascans_per_s", ascans_per_s},
+                               {"groups", staged},
+                               {"seconds", seconds},
+                               {"folded_passes", throughput_folded},
+                               {"dropped", dropped},
+                               {"ahead", o.ahead}}},
+                             {"anchors",
+                              {{"pinned_h2d_group_ms", pinned},
+                               {"processing_ms", k.processing},
+                               {"filter_ms", k.filter},
+                               {"segment_ms", k.segment},
+                               {"render_ms", k.render},
+                               {"render_update_ms", k.render_update},
+                               {"kernel_sum_ms", k.sum()}}},
+                             {"stages", stages_summary}};
+    std::ofstream(o.json_path) << report.dump(2) << "\n";
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);  // lines reach a log even if the run is cut short
+  Options o;
+  CLI::App app{
+      "The live chain of ioct-gpu (CUDA) group by group: publish -> frame latency and "
+      "full-chain throughput at the default geometry, beside same-run anchors"};
+  app.add_option("--seconds", o.seconds, "throughput run")->check(CLI::Range(0.5, 600.0));
+  app.add_option("--groups", o.groups, "latency samples")->check(CLI::Range(10u, 100000u));
+  app.add_option("--period-us", o.period_us, "latency: one group every")
+      ->check(CLI::Range(500u, 1000000u));
+  app.add_option("--ahead", o.ahead, "throughput: groups the writer may be ahead of the stages")
+      ->check(CLI::Range(1u, 6u));
+  app.add_option("--slots", o.slots, "ring slots")->check(CLI::Range(4u, 64u));
+  app.add_option("--json", o.json_path, "also write the figures as JSON");
+  CLI11_PARSE(app, argc, argv);
+  try {
+    return run(o);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "ioct-bench-live-chain: %s\n", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,114 @@
+// ioct-bench-view: how old a group is when its frame reaches the viewers of ioct-view, with 1 or
+// N viewers on the same machine, against the running appliance (ioct-rt, ioct-gpu, ioct-view).
+// Each viewer reads every frame it is sent, measures group published → frame received with
+// CLOCK_MONOTONIC (the frame carries the publish time), and reports "drawn" back as a page does.
+// Printed beside the anchor from the same frames: group published → frame rendered by ioct-gpu,
+// so the view's own share reads as the difference.
+//
+//   ioct-bench-view --port 8080 --viewers 1,8 --seconds 10 [--json FILE]
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <cstdio>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <thread>
+#include <vector>
+
+#include "ioct/shm/monotonic_clock.hpp"
+#include "latency_summary.hpp"
+#include "view_client.hpp"
+
+namespace {
+
+using ioct::view::testing::WsViewer;
+
+struct ViewerFigures {
+  std::vector<std::uint64_t> received_ns;  // group published → frame received
+  std::vector<std::uint64_t> rendered_ns;  // group published → frame rendered (anchor)
+  std::uint64_t frames = 0;
+  std::uint64_t bytes = 0;
+};
+
+ViewerFigures watch(std::uint16_t port, double seconds) {
+  ViewerFigures f;
+  WsViewer viewer(port);
+  const std::uint64_t end = ioct::shm::monotonic_ns() + static_cast<std::uint64_t>(seconds * 1e9);
+  while (ioct::shm::monotonic_ns() < end) {
+    auto frame = viewer.next_frame(std::chrono::milliseconds(2000));
+    if (!frame) break;
+    const std::uint64_t now = ioct::shm::monotonic_ns();
+    const std::uint64_t published = frame->description.value("published_ns", std::uint64_t{0});
+    ++f.frames;
+    f.bytes += frame->render.size() + frame->bscan.size();
+    viewer.send({{"type", "drawn"}, {"frame", frame->description["frame"]}});
+    if (published == 0 || now < published) continue;
+    f.received_ns.push_back(now - published);
+    const double rendered_ms = frame->description.value("published_to_rendered_ms", 0.0);
+    f.rendered_ns.push_back(static_cast<std::uint64_t>(rendered_ms * 1e6));
+  }
+  return f;
+}
+
+std::string ms(double ns) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.2f", ns * 1e-6);
+  return text;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"ioct-bench-view: group published -> frame received by 1..N viewers of ioct-view"};
+  std::uint16_t port = 8080;
+  std::vector<unsigned> viewer_counts{1, 8};
+  double seconds = 10.0;
+  std::string json_path;
+  app.add_option("--port", port, "ioct-view's port on 127.0.0.1")->capture_default_str();
+  app.add_option("--viewers", viewer_counts, "viewer counts to measure, in turn")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--seconds", seconds, "seconds per viewer count")->capture_default_str();
+  app.add_option("--json", json_path, "also write the figures as JSON");
+  CLI11_PARSE(app, argc, argv);
+
+  nlohmann::json runs = nlohmann::json::array();
+  std::printf("%-8s %8s %10s %10s %10s %10s | %s\n", "viewers", "fps/view", "recv p50", "recv p99",
+              "recv max", "MB/s", "anchor: published->rendered p50 / p99 (ms)");
+  for (const unsigned n : viewer_counts) {
+    std::vector<ViewerFigures> figures(n);
+    std::vector<std::thread> threads;
+    for (unsigned i = 0; i < n; ++i) {
+      threads.emplace_back([&, i] { figures[i] = watch(port, seconds); });
+    }
+    for (auto& t : threads) t.join();
+    std::vector<std::uint64_t> received;
+    std::vector<std::uint64_t> rendered;
+    std::uint64_t frames = 0;
+    std::uint64_t bytes = 0;
+    for (const auto& f : figures) {
+      received.insert(received.end(), f.received_ns.begin(), f.received_ns.end());
+      rendered.insert(rendered.end(), f.rendered_ns.begin(), f.rendered_ns.end());
+      frames += f.frames;
+      bytes += f.bytes;
+    }
+    if (frames == 0) {
+      std::fprintf(stderr, "ioct-bench-view: no frame arrived from 127.0.0.1:%u in %.0f s\n",
+                   static_cast<unsigned>(port), seconds);
+      return 1;
+    }
+    const auto r = ioct::bench::summarize(received);
+    const auto a = ioct::bench::summarize(rendered);
+    const double fps = static_cast<double>(frames) / n / seconds;
+    std::printf("%-8u %8.1f %10s %10s %10s %10.1f | %s / %s\n", n, fps, ms(r.p50_ns).c_str(),
+                ms(r.p99_ns).c_str(), ms(r.max_ns).c_str(),
+                static_cast<double>(bytes) / seconds * 1e-6, ms(a.p50_ns).c_str(),
+                ms(a.p99_ns).c_str());
+    runs.push_back({{"viewers", n},
+                    {"frames_per_s_per_viewer", fps},
+                    {"published_to_received", ioct::bench::to_json(r)},
+                    {"anchor_published_to_rendered", ioct::bench::to_json(a)}});
+  }
+  if (!json_path.empty()) std::ofstream(json_path) << runs.dump(2) << "\n";
+  return 0;
+}

@@ -1,0 +1,324 @@
+// The live stages with the live volume on the device (as the CUDA live pipeline hands it over)
+// against the CPU reference fed the same groups in the same passes: the filtered volume and the
+// surfaces equal, the live frame within the renderers' tolerance (docs/rendering.md), through
+// single groups, folded groups, a second lap and a geometry change; and no pass copies volume
+// bytes between host and device. GPU only: skipped, saying why, without one.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <condition_variable>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "ioct/gpu/live/volume_stages.hpp"
+#include "ioct/gpu/oct_processor.hpp"
+#include "layered_volume.hpp"
+
+#if IOCT_GPU_WITH_CUDA
+#include <cuda_runtime.h>
+
+#include "ioct/gpu/cuda_support.hpp"
+#endif
+
+namespace ioct::gpu::live {
+namespace {
+
+// A live volume the test writes into; with `on_device`, also kept on the device and read there
+// (read_on_device), as the CUDA live pipeline's volume is.
+class TestLiveVolume final : public LiveVolumeSource {
+ public:
+  explicit TestLiveVolume(bool on_device) : on_device_(on_device) {}
+  ~TestLiveVolume() override {
+#if IOCT_GPU_WITH_CUDA
+    if (device_ != nullptr) cudaFree(device_);
+#endif
+  }
+  TestLiveVolume(const TestLiveVolume&) = delete;
+  TestLiveVolume& operator=(const TestLiveVolume&) = delete;
+
+  Volume volume;
+
+  // B-scans [first, first + count) of `volume` were written: the device copy follows (plain
+  // cudaMemcpy, outside the stages' counted copies: this is the pipeline's ingest).
+  void written(std::uint32_t first, std::uint32_t count) {
+#if IOCT_GPU_WITH_CUDA
+    if (!on_device_) return;
+    if (device_bytes_ != volume.pixels().size()) {
+      if (device_ != nullptr) cudaFree(device_);
+      device_ = nullptr;
+      ASSERT_EQ(cudaMalloc(&device_, volume.pixels().size()), cudaSuccess);
+      device_bytes_ = volume.pixels().size();
+      first = 0;
+      count = volume.bscans();
+    }
+    const std::size_t n = volume.bscan_pixels();
+    ASSERT_EQ(cudaMemcpy(device_ + first * n, volume.bscan(first).data(), count * n,
+                         cudaMemcpyHostToDevice),
+              cudaSuccess);
+#else
+    (void)first;
+    (void)count;
+#endif
+  }
+
+  LiveVolumeShape shape() const override {
+    return {volume.bscans(), volume.ascans(), volume.depth()};
+  }
+  void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) override {
+    prepare_bscan_copy(shape(), first, count, out);
+    const std::size_t n = volume.bscan_pixels();
+    std::copy_n(volume.bscan(first).data(), count * n, out.bscan(first).data());
+  }
+  bool read_on_device(CUstream_st* /*stream*/,
+                      const std::function<void(const DeviceVolumeView&)>& enqueue_reads) override {
+    if (!on_device_) return false;
+    enqueue_reads({device_, volume.bscans(), volume.ascans(), volume.depth(), 0});
+    return true;
+  }
+
+ private:
+  bool on_device_;
+  std::uint8_t* device_ = nullptr;
+  std::size_t device_bytes_ = 0;
+};
+
+// Counts passes; while closed, holds the stages' thread at the end of a pass, so that the groups
+// handed over meanwhile fold into the next pass (the same passes on every backend).
+class PassGate {
+ public:
+  void on_pass(const StagesPass& pass) {
+    std::unique_lock lock(mutex_);
+    ++passes_;
+    groups_ += pass.groups;
+    if (pass.groups > 1) ++folded_passes_;
+    changed_.notify_all();
+    changed_.wait(lock, [&] { return open_; });
+  }
+  void close() {
+    std::lock_guard lock(mutex_);
+    open_ = false;
+  }
+  void open() {
+    {
+      std::lock_guard lock(mutex_);
+      open_ = true;
+    }
+    changed_.notify_all();
+  }
+  // Waits until `groups` hand-overs have been through passes.
+  void wait_for_groups(std::uint64_t groups) {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return groups_ >= groups; });
+  }
+  std::uint64_t passes() const {
+    std::lock_guard lock(mutex_);
+    return passes_;
+  }
+  std::uint64_t folded_passes() const {
+    std::lock_guard lock(mutex_);
+    return folded_passes_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::condition_variable changed_;
+  bool open_ = true;
+  std::uint64_t passes_ = 0, groups_ = 0, folded_passes_ = 0;
+};
+
+struct StagesRun {
+  Volume filtered;
+  segmentation::Surfaces surfaces;
+  render::RgbaImage frame;
+  nlohmann::json summary;
+  std::uint64_t passes = 0, folded_passes = 0;
+#if IOCT_GPU_WITH_CUDA
+  cuda::BusTraffic traffic;  // during the passes
+#endif
+};
+
+// The same hand-overs for every backend: single groups, folded groups, a second lap over the
+// first half, then a volume of other dimensions group by group.
+StagesRun run_stages(Backend backend, bool device_source, const std::filesystem::path& dir) {
+  PassGate gate;
+  VolumeStagesConfig config;
+  config.backend = backend;
+  config.cpu_threads = 2;
+  config.render.view.output_width = 160;
+  config.render.view.output_height = 120;
+  config.render.view.rotation_deg_per_s = 0.0;  // the same view whenever it is rendered
+  config.cpu_render_interval_s = 0.0;
+  config.final_modes = {};
+  config.on_pass = [&gate](const StagesPass& pass) { gate.on_pass(pass); };
+  VolumeStages stages(config);
+
+  TestLiveVolume live(device_source);
+  std::uint64_t handed = 0;
+  const auto hand = [&](std::uint32_t first, std::uint32_t count) {
+    live.written(first, count);
+    stages.on_bscans(live, first, count);
+    ++handed;
+  };
+#if IOCT_GPU_WITH_CUDA
+  const cuda::BusTraffic before = cuda::bus_traffic();
+#endif
+  constexpr std::uint32_t kGroup = 4;
+  live.volume = layered_volume(32, 96, 256, 11);
+  for (std::uint32_t first = 0; first < 12; first += kGroup) {
+    hand(first, kGroup);
+    gate.wait_for_groups(handed);
+  }
+  // Folded: the pass of B-scans 12-15 is held while 16-27 are handed over in three groups.
+  gate.close();
+  hand(12, kGroup);
+  gate.wait_for_groups(handed);  // its pass is done and held
+  for (std::uint32_t first = 16; first < 28; first += kGroup) hand(first, kGroup);
+  gate.open();
+  gate.wait_for_groups(handed);
+  hand(28, kGroup);
+  gate.wait_for_groups(handed);
+  // A second lap overwrites the first half, as the next volume does.
+  const Volume second = layered_volume(32, 96, 256, 12);
+  std::copy_n(second.pixels().data(), 16 * second.bscan_pixels(), live.volume.pixels().data());
+  hand(0, 16);
+  gate.wait_for_groups(handed);
+  // A new geometry: the stages start over on it.
+  live.volume = layered_volume(24, 80, 200, 13);
+  for (std::uint32_t first = 0; first < 24; first += kGroup) {
+    hand(first, kGroup);
+    gate.wait_for_groups(handed);
+  }
+
+  StagesRun run;
+#if IOCT_GPU_WITH_CUDA
+  const cuda::BusTraffic after = cuda::bus_traffic();
+  run.traffic.volume_to_device = after.volume_to_device - before.volume_to_device;
+  run.traffic.volume_to_host = after.volume_to_host - before.volume_to_host;
+  run.traffic.other_to_device = after.other_to_device - before.other_to_device;
+  run.traffic.other_to_host = after.other_to_host - before.other_to_host;
+#endif
+  run.passes = gate.passes();
+  run.folded_passes = gate.folded_passes();
+  run.summary = stages.finish(dir);
+  run.filtered = stages.filtered();
+  run.surfaces = stages.surfaces();
+  run.frame = stages.frame();
+  return run;
+}
+
+bool same_floats(const std::vector<float>& a, const std::vector<float>& b) {
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](float x, float y) {
+           return x == y || (std::isnan(x) && std::isnan(y));
+         });
+}
+
+class DeviceChainTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (const auto why = cuda_unavailable_reason()) GTEST_SKIP() << "no CUDA: " << *why;
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::filesystem::path dir(const std::string& name) const {
+    const std::filesystem::path d = dir_ / name;
+    std::filesystem::create_directories(d);
+    return d;
+  }
+  const std::filesystem::path dir_ =
+      std::filesystem::temp_directory_path() /
+      ("ioct-device-chain-" +
+       std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "-" +
+       std::to_string(::getpid()));
+};
+
+void expect_same_results(const StagesRun& cpu, const StagesRun& cuda, const std::string& what) {
+  ASSERT_EQ(cpu.summary.at("problem"), "") << cpu.summary.dump(2);
+  ASSERT_EQ(cuda.summary.at("problem"), "") << cuda.summary.dump(2);
+  EXPECT_EQ(cuda.passes, cpu.passes) << what;
+  EXPECT_EQ(cuda.folded_passes, 1u) << what << ": the held pass folds three groups";
+  ASSERT_TRUE(cpu.filtered.same_shape(cuda.filtered)) << what;
+  EXPECT_EQ(cuda.filtered.bscans(), 24u) << what << ": the new geometry";
+  EXPECT_TRUE(std::ranges::equal(cpu.filtered.pixels(), cuda.filtered.pixels()))
+      << what << ": filtered volume";
+  EXPECT_TRUE(same_floats(cpu.surfaces.ilm, cuda.surfaces.ilm)) << what << ": ILM";
+  EXPECT_TRUE(same_floats(cpu.surfaces.rpe, cuda.surfaces.rpe)) << what << ": RPE";
+  EXPECT_TRUE(same_floats(cpu.surfaces.bm, cuda.surfaces.bm)) << what << ": BM";
+  EXPECT_EQ(cpu.surfaces.state, cuda.surfaces.state) << what << ": states";
+  EXPECT_EQ(cpu.surfaces.verdict, cuda.surfaces.verdict) << what << ": verdicts";
+
+  ASSERT_EQ(cpu.frame.width, cuda.frame.width) << what;
+  ASSERT_EQ(cpu.frame.height, cuda.frame.height) << what;
+  ASSERT_GT(cpu.frame.rgba.size(), 0u) << what;
+  std::vector<int> d(cpu.frame.rgba.size());
+  double sum = 0.0;
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    d[i] = std::abs(int{cpu.frame.rgba[i]} - int{cuda.frame.rgba[i]});
+    sum += d[i];
+  }
+  std::ranges::sort(d);
+  const double mean = sum / static_cast<double>(d.size());
+  const int p99 = d[static_cast<std::size_t>(0.99 * static_cast<double>(d.size() - 1))];
+  // The renderers' tolerance (tests/render/cuda_vs_cpu_test.cpp).
+  EXPECT_LT(mean, 1.0) << what << ": frame";
+  EXPECT_LE(p99, 8) << what << ": frame";
+  std::printf("%s: %llu passes, frame mean %.3f p99 %d max %d\n", what.c_str(),
+              static_cast<unsigned long long>(cuda.passes), mean, p99, d.back());
+}
+
+// The plan of hand-overs itself, on the CPU reference: the held pass folds three groups and every
+// other hand-over gets a pass of its own (3 + 1 + 1 + 1 lap + 1 second lap + 6 new geometry).
+TEST(DeviceChainPlan, HeldPassFoldsThreeGroupsOnTheCpuReference) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("ioct-device-chain-plan-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const StagesRun cpu = run_stages(Backend::cpu, false, dir);
+  std::filesystem::remove_all(dir);
+  ASSERT_EQ(cpu.summary.at("problem"), "") << cpu.summary.dump(2);
+  EXPECT_EQ(cpu.passes, 13u);
+  EXPECT_EQ(cpu.folded_passes, 1u);
+  EXPECT_EQ(cpu.summary.at("groups").get<std::uint64_t>(), 15u);
+  EXPECT_EQ(cpu.filtered.bscans(), 24u);
+  EXPECT_EQ(cpu.surfaces.bscans, 24u);
+}
+
+TEST_F(DeviceChainTest, DeviceVolumeGivesTheCpuReferenceResultsWithoutCopyingTheVolume) {
+  const StagesRun cpu = run_stages(Backend::cpu, false, dir("cpu"));
+  const StagesRun cuda = run_stages(Backend::cuda, true, dir("cuda"));
+  EXPECT_NE(cuda.summary.at("backends").get<std::string>().find("filter cuda"), std::string::npos);
+  expect_same_results(cpu, cuda, "device live volume");
+#if IOCT_GPU_WITH_CUDA
+  // Nothing of the volume crossed; what did (sums, ILM and RPE, the layer reference) is smaller
+  // per pass than the smallest group handed over (4 B-scans of the second geometry).
+  EXPECT_EQ(cuda.traffic.volume_to_host, 0u);
+  EXPECT_EQ(cuda.traffic.volume_to_device, 0u);
+  const std::uint64_t smallest_group = 4ull * 80 * 200;
+  EXPECT_LT((cuda.traffic.other_to_host + cuda.traffic.other_to_device) / cuda.passes,
+            smallest_group)
+      << "to host " << cuda.traffic.other_to_host << " B, to device "
+      << cuda.traffic.other_to_device << " B in " << cuda.passes << " passes";
+  std::printf("bus per pass: %.1f kB to host, %.1f kB to device (no volume bytes)\n",
+              cuda.traffic.other_to_host / 1e3 / cuda.passes,
+              cuda.traffic.other_to_device / 1e3 / cuda.passes);
+#endif
+}
+
+TEST_F(DeviceChainTest, HostVolumeIsUploadedAndGivesTheSameResults) {
+  const StagesRun cpu = run_stages(Backend::cpu, false, dir("cpu"));
+  const StagesRun cuda = run_stages(Backend::cuda, false, dir("cuda"));
+  expect_same_results(cpu, cuda, "host live volume");
+#if IOCT_GPU_WITH_CUDA
+  // The counter sees an upload: the test above would notice volume bytes crossing.
+  EXPECT_GT(cuda.traffic.volume_to_device, 0u);
+  EXPECT_EQ(cuda.traffic.volume_to_host, 0u);
+#endif
+}
+
+}  // namespace
+}  // namespace ioct::gpu::live
