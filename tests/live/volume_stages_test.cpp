@@ -13,44 +13,10 @@
 #include "ioct/gpu/filters/volume_filter.hpp"
 #include "ioct/gpu/live/volume_stages.hpp"
 #include "ioct/gpu/oct_processor.hpp"
+#include "live_volumes.hpp"
 
 namespace ioct::gpu::live {
 namespace {
-
-// A live volume the test writes into: copy_bscans as the pipelines do it.
-class FakeLiveVolume final : public LiveVolumeSource {
- public:
-  Volume volume;
-  LiveVolumeShape shape() const override {
-    return {volume.bscans(), volume.ascans(), volume.depth()};
-  }
-  void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) override {
-    prepare_bscan_copy(shape(), first, count, out);
-    const std::size_t n = volume.bscan_pixels();
-    std::copy_n(volume.bscan(first).data(), count * n, out.bscan(first).data());
-  }
-};
-
-// Speckled layers: a bright band (the "RPE") under a dimmer one, on noise, slowly curving.
-Volume layered_volume(std::uint32_t bscans, std::uint32_t ascans, std::uint32_t depth,
-                      std::uint32_t seed) {
-  Volume v(bscans, ascans, depth);
-  std::mt19937 rng(seed);
-  std::uniform_int_distribution<int> noise(0, 40);
-  for (std::uint32_t b = 0; b < bscans; ++b) {
-    for (std::uint32_t a = 0; a < ascans; ++a) {
-      const int ilm = static_cast<int>(depth / 3 + 10 * std::sin(a * 0.02 + b * 0.05));
-      for (std::uint32_t d = 0; d < depth; ++d) {
-        int value = noise(rng);
-        const int z = static_cast<int>(d);
-        if (z >= ilm && z < ilm + 40) value += 110;
-        if (z >= ilm + 40 && z < ilm + 48) value += 200;
-        v.bscan(b)[std::size_t{a} * depth + d] = static_cast<std::uint8_t>(std::min(value, 255));
-      }
-    }
-  }
-  return v;
-}
 
 class VolumeStagesTest : public ::testing::TestWithParam<Backend> {
  protected:
@@ -86,12 +52,13 @@ TEST_P(VolumeStagesTest, FoldedGroupsEndAsTheWholeVolumeFilteredAndSegmented) {
   live.volume = layered_volume(32, 96, 256, 11);
   constexpr std::uint32_t kGroup = 4;
   for (std::uint32_t first = 0; first < live.volume.bscans(); first += kGroup) {
-    stages.on_bscans(live, first, kGroup);  // no waiting: later groups fold into one pass
+    stages.on_bscans(live, first, kGroup,
+                     GroupStamp{});  // no waiting: later groups fold into one pass
   }
   // A second lap overwrites the first half, as the next volume does.
   const Volume second = layered_volume(32, 96, 256, 12);
   std::copy_n(second.pixels().data(), 16 * second.bscan_pixels(), live.volume.pixels().data());
-  stages.on_bscans(live, 0, 16);
+  stages.on_bscans(live, 0, 16, GroupStamp{});
 
   const nlohmann::json summary = stages.finish(dir_);
   ASSERT_EQ(summary.at("problem"), "") << summary.dump(2);

@@ -119,24 +119,6 @@ void ViewSocket::serve() {
     }
     if (fds[0].revents != 0) break;
 
-    if ((fds[1].revents & POLLIN) != 0) {
-      const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
-      if (fd >= 0) {
-        Client client;
-        client.fd = fd;
-        if (clients.size() >= config_.max_clients) {
-          reply(client, {{"ok", false},
-                         {"error",
-                          "too many clients (at most " + std::to_string(config_.max_clients) + ")"},
-                         {"key", "request"}});
-          (void)!::send(fd, client.out.data(), client.out.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
-          ::close(fd);
-        } else {
-          clients.emplace(next_client++, std::move(client));
-        }
-      }
-    }
-
     for (std::size_t i = 0; i < ids.size(); ++i) {
       Client& client = clients.at(ids[i]);
       const short revents = fds[i + 2].revents;
@@ -188,6 +170,24 @@ void ViewSocket::serve() {
         ::close(client.fd);
         requests.client_gone(ids[i]);
         clients.erase(ids[i]);
+      }
+    }
+    // After the clients: one that just went makes room for one that comes.
+    if ((fds[1].revents & POLLIN) != 0) {
+      const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC | SOCK_NONBLOCK);
+      if (fd >= 0) {
+        Client client;
+        client.fd = fd;
+        if (clients.size() >= config_.max_clients) {
+          reply(client, {{"ok", false},
+                         {"error",
+                          "too many clients (at most " + std::to_string(config_.max_clients) + ")"},
+                         {"key", "request"}});
+          (void)!::send(fd, client.out.data(), client.out.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+          ::close(fd);
+        } else {
+          clients.emplace(next_client++, std::move(client));
+        }
       }
     }
   }
