@@ -105,6 +105,9 @@ int main(int argc, char** argv) {
   app.add_option("--snapshot-dir", snapshot_dir, "folder the view socket's snapshots go to");
   app.add_option("--frame-rate", stages.frame_rate_hz,
                  "renders per second of a moving view at most (auto-rotation, interaction)");
+  app.add_option("--cpu-moving-scale", stages.cpu_moving_scale,
+                 "CPU renderer: size of a moving view's frames, as a fraction of the output "
+                 "(full size once it stops)");
   app.add_option("--axial-um", stages.sampling.axial_um_per_px, "depth pixel size, um");
   app.add_option("--ascan-spacing-um", stages.sampling.ascan_spacing_um,
                  "distance between neighbouring A-scans, um");

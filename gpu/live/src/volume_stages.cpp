@@ -171,6 +171,9 @@ void VolumeStages::work() {
   // threads made from here inherit it.
   (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), config_.nice);
   if (!make_backends()) return;
+  // Views due get their turn between passes, so a CPU that folds pass after pass still answers
+  // the viewers.
+  bool pass_last = false;
   for (;;) {
     std::uint32_t first = 0;
     std::uint32_t count = 0;
@@ -181,40 +184,43 @@ void VolumeStages::work() {
       std::unique_lock lock(mutex_);
       // New groups, a change, the next frame due (auto-rotation, a view that stopped moving) or
       // the stop, whichever comes first.
+      bool views_due = false;
       for (;;) {
-        if (stop_ || dirty_groups_ > 0) break;
         const std::uint64_t now = shm::monotonic_ns();
         const std::uint64_t due = have_volume_ ? views_.next_due_ns(now) : UINT64_MAX;
-        if (due <= now) break;
+        views_due = due <= now;
+        if (stop_ || dirty_groups_ > 0 || views_due) break;
         if (due == UINT64_MAX) {
           wake_.wait(lock);
         } else {
           wake_.wait_for(lock, std::chrono::nanoseconds(due - now));
         }
       }
-      if (dirty_groups_ == 0) {
-        if (stop_) return;  // stopped with nothing pending
+      if (dirty_groups_ == 0 && stop_) return;  // stopped with nothing pending
+      if (dirty_groups_ == 0 || (pass_last && views_due && !stop_)) {
         renders = views_.take_due(shm::monotonic_ns());
         if (std::ranges::any_of(renders,
                                 [](const DueRender& r) { return r.view_id == kSharedView; })) {
           waiters.swap(snapshot_waiters_);
         }
-      } else if (!input_.same_shape(pending_)) {
-        input_ = pending_;
-        first = 0;
-        count = pending_.bscans();
-      } else {
-        first = dirty_first_;
-        count = dirty_end_ - dirty_first_;
-        const std::size_t n = input_.bscan_pixels();
-        std::copy_n(pending_.bscan(first).data(), count * n, input_.bscan(first).data());
       }
-      if (dirty_groups_ > 0) {
+      if (renders.empty() && dirty_groups_ > 0) {
+        if (!input_.same_shape(pending_)) {
+          input_ = pending_;
+          first = 0;
+          count = pending_.bscans();
+        } else {
+          first = dirty_first_;
+          count = dirty_end_ - dirty_first_;
+          const std::size_t n = input_.bscan_pixels();
+          std::copy_n(pending_.bscan(first).data(), count * n, input_.bscan(first).data());
+        }
         groups = dirty_groups_;
         dirty_groups_ = 0;
         shown_stamp_ = pending_stamp_;
       }
     }
+    pass_last = groups > 0;
     try {
       if (groups > 0) {
         run_pass(first, count, groups);
