@@ -135,10 +135,12 @@ TEST_F(LiveFramesTest, FramesCarryTheirGroupAndAThresholdChangesTheNextFrame) {
   EXPECT_EQ(status.groups_consumed, 6u);
   EXPECT_EQ(status.groups_dropped, 2u);
 
-  // No new group: the change alone brings the next frame, and it looks different.
+  // No new group: the change alone brings the next frames (on the CPU small at first, as the
+  // view counts as moving just after a change, then full size), and they look different.
   const std::uint64_t generation = stages.set_params({{"enhanced", {{"threshold", 0.6}}}});
-  ASSERT_TRUE(wait_for_frame(
-      reader, frame, [&](const shm::Frame& f) { return f.meta.params_generation >= generation; }));
+  ASSERT_TRUE(wait_for_frame(reader, frame, [&](const shm::Frame& f) {
+    return f.meta.params_generation >= generation && f.meta.width == 96;
+  }));
   EXPECT_EQ(frame.meta.group_index, 5u);
   const Decoded after = decode(frame.render());
   EXPECT_GT(difference(before, after), 1.0) << "the threshold changed nothing visible";
@@ -191,8 +193,9 @@ TEST_F(LiveFramesTest, APrivateViewGetsFramesOfItsOwnCamera) {
   }));
   const Decoded shared = decode(frame.render());
   stages.open_view(7, {{"view", {{"azimuth_deg", 150}}}});
-  ASSERT_TRUE(
-      wait_for_frame(reader, frame, [](const shm::Frame& f) { return f.meta.view_id == 7; }));
+  ASSERT_TRUE(wait_for_frame(reader, frame, [](const shm::Frame& f) {
+    return f.meta.view_id == 7 && f.meta.width == 96;  // full size once it stood still
+  }));
   EXPECT_GT(difference(shared, decode(frame.render())), 1.0) << "the same camera as view 0";
   // A new group: both views get a frame of it.
   stages.on_bscans(live_, 0, 8, stamp(2));
