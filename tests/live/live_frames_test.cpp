@@ -60,6 +60,7 @@ class LiveFramesTest : public ::testing::Test {
     config_.render.view.output_height = 72;
     config_.render.view.auto_rotate = false;
     config_.cpu_render_interval_s = 0.0;
+    config_.cpu_moving_scale = 0.5;  // moving frames 48x36
     config_.nice = 0;
     config_.frame_ring = "ioct-test-frames-" + std::to_string(::getpid()) + "-" +
                          ::testing::UnitTest::GetInstance()->current_test_info()->name();

@@ -79,8 +79,9 @@ struct VolumeStagesConfig {
   // Renders of one view per second at most (auto-rotation, interaction).
   double frame_rate_hz = 60.0;
   // The CPU renderer renders at this fraction of the output size while a view moves, and at full
-  // size once it stops (1: always full size).
-  double cpu_moving_scale = 0.5;
+  // size once it stops (1: always full size). A quarter: 1024x768 takes seconds on two cores,
+  // 256x192 a fraction of one (docs/live-view.md).
+  double cpu_moving_scale = 0.25;
   // Lower scheduling priority (nice) of the stages' threads, so the processing of the ring always
   // wins the CPU over them.
   int nice = 10;
