@@ -297,19 +297,19 @@ void VolumeStages::render_views(const std::vector<DueRender>& renders, SnapshotW
 
 void VolumeStages::deliver(const DueRender& render, std::uint64_t rendered_ns,
                            SnapshotWaiters& waiters) {
-  if (render.view_id == kSharedView) {
-    if (!render.reduced) write_live_image(rendered_ns);
-    if (!waiters.empty()) {
-      ViewSnapshot shot;
-      shot.image = image_;
-      shot.params = render::to_json(render.config);
-      shot.generation = render.generation;
-      shot.group_index = shown_stamp_.group_index;
-      for (const auto& waiter : waiters) waiter->set_value(shot);
-      waiters.clear();
-    }
-  }
+  // The viewers first: the files can wait.
   if (publisher_) publish_frame(render, rendered_ns);
+  if (render.view_id != kSharedView) return;
+  if (!waiters.empty()) {
+    ViewSnapshot shot;
+    shot.image = image_;
+    shot.params = render::to_json(render.config);
+    shot.generation = render.generation;
+    shot.group_index = shown_stamp_.group_index;
+    for (const auto& waiter : waiters) waiter->set_value(shot);
+    waiters.clear();
+  }
+  write_live_image(rendered_ns);
 }
 
 void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered_ns) {
