@@ -150,8 +150,9 @@ int main(int argc, char** argv) {
       }
       live::ViewSocketConfig socket_config;
       socket_config.path = view_socket;
-      socket_config.snapshot_dir =
-          snapshot_dir == "<out>/snapshots" ? config.out_dir / "snapshots" : snapshot_dir;
+      socket_config.snapshot_dir = snapshot_dir == "<out>/snapshots"
+                                       ? config.out_dir / "snapshots"
+                                       : std::filesystem::path(snapshot_dir);
       socket = std::make_unique<live::ViewSocket>(socket_config, *volume_stages);
     }
     processor.set_status_stream(&std::cerr);
