@@ -113,7 +113,6 @@ VolumeStages::VolumeStages(VolumeStagesConfig config)
     ring.name = config_.frame_ring;
     publisher_ = std::make_unique<FramePublisher>(ring);
   }
-  started_ns_ = shm::monotonic_ns();
   thread_ = std::thread([this] { work(); });
 }
 
@@ -242,9 +241,9 @@ bool VolumeStages::make_backends() {
     segmenter_ = segmentation::make_segmenter(backend, config_.segmentation, config_.sampling,
                                               config_.cpu_threads);
     renderer_ = render::make_renderer(backend, config_.cpu_threads);
-    cpu_renderer_ = renderer_->backend_name() == "cpu";
+    const bool cpu_renderer = renderer_->backend_name() == "cpu";
     std::lock_guard lock(mutex_);
-    views_.set_timing(view_timing(config_, cpu_renderer_));
+    views_.set_timing(view_timing(config_, cpu_renderer));
     backends_ = "filter " + std::string(filter_->backend_name()) + ", segmentation " +
                 std::string(segmenter_->backend_name()) + ", render " +
                 std::string(renderer_->backend_name());

@@ -186,8 +186,6 @@ class VolumeStages final : public LiveStage, public ViewControl {
   GroupStamp shown_stamp_;   // the newest group in the volume the renderer has
   bool bscan_stale_ = true;  // the publisher's B-scan is older than the last pass
   std::uint32_t bscan_shown_ = 0;
-  bool cpu_renderer_ = false;
-  std::uint64_t started_ns_ = 0;
   std::uint64_t last_render_ns_ = 0;
   std::uint64_t last_image_ns_ = 0;
 
