@@ -40,11 +40,11 @@ enum class SourceState : std::uint32_t {
 
 // One frame's description. Trivially copyable; copied out whole by readers.
 struct FrameMeta {
-  std::uint64_t frame_index;        // set by the writer: 0, 1, 2, ... per writer epoch
-  std::uint64_t view_id;            // 0: the shared (operator's) view; others: a viewer's own
-  std::uint64_t params_generation;  // the render parameters' generation this frame shows
-  std::uint64_t group_index;        // newest ring group in the volume state shown
-  std::uint64_t volume_index;       // that group's volume
+  std::uint64_t frame_index;           // set by the writer: 0, 1, 2, ... per writer epoch
+  std::uint64_t view_id;               // 0: the shared (operator's) view; others: a viewer's own
+  std::uint64_t params_generation;     // the render parameters' generation this frame shows
+  std::uint64_t group_index;           // newest ring group in the volume state shown
+  std::uint64_t volume_index;          // that group's volume
   std::uint64_t t_group_published_ns;  // CLOCK_MONOTONIC, from the group's slot header
   std::uint64_t t_group_processed_ns;  // the group placed into the live volume
   std::uint64_t t_rendered_ns;         // the render finished (before encoding)
@@ -52,21 +52,21 @@ struct FrameMeta {
   std::uint32_t format;                // FrameFormat
   std::uint32_t width;                 // the render, px (stereo: both eyes side by side)
   std::uint32_t height;
-  std::uint32_t render_bytes;  // payload [0, render_bytes): the render, encoded
-  std::uint32_t bscan_bytes;   // payload [render_bytes, + bscan_bytes): the B-scan, or 0
-  std::uint32_t bscan_width;   // A-scans
-  std::uint32_t bscan_height;  // depth px
-  std::uint32_t bscan_index;   // which B-scan of the volume (its position, 0 = first)
-  std::uint32_t bscans;        // B-scans in the volume
-  std::uint32_t stereo;        // 1: left | right eye side by side
+  std::uint32_t render_bytes;      // payload [0, render_bytes): the render, encoded
+  std::uint32_t bscan_bytes;       // payload [render_bytes, + bscan_bytes): the B-scan, or 0
+  std::uint32_t bscan_width;       // A-scans
+  std::uint32_t bscan_height;      // depth px
+  std::uint32_t bscan_index;       // which B-scan of the volume (its position, 0 = first)
+  std::uint32_t bscans;            // B-scans in the volume
+  std::uint32_t stereo;            // 1: left | right eye side by side
   char mode[kFrameModeNameBytes];  // render mode name, NUL-terminated ("enhanced", ...)
 };
 
 // The pipeline's figures as the writer last reported them (FrameRingWriter::set_status).
 struct FrameRingStatus {
-  std::uint64_t source_state;             // SourceState
-  std::uint64_t groups_consumed;          // ring groups read intact
-  std::uint64_t groups_dropped;           // lapped + behind
+  std::uint64_t source_state;     // SourceState
+  std::uint64_t groups_consumed;  // ring groups read intact
+  std::uint64_t groups_dropped;   // lapped + behind
   std::uint64_t volumes_completed;
   std::uint64_t last_group_index;         // newest group processed
   std::uint64_t last_group_published_ns;  // its publish time (CLOCK_MONOTONIC); 0: none yet
@@ -85,10 +85,10 @@ struct FrameRingHeader {
   std::uint64_t writer_pid;
   std::uint64_t writer_start_ticks;
   // Live words (atomic access only).
-  std::uint64_t epoch;         // a new writer (restart) takes a new epoch
-  std::uint64_t closed;        // 1 once the writer closed it on an orderly exit
-  std::uint64_t published;     // frames published in this epoch
-  std::uint64_t heartbeat_ns;  // CLOCK_MONOTONIC; the writer beats while alive, frames or not
+  std::uint64_t epoch;            // a new writer (restart) takes a new epoch
+  std::uint64_t closed;           // 1 once the writer closed it on an orderly exit
+  std::uint64_t published;        // frames published in this epoch
+  std::uint64_t heartbeat_ns;     // CLOCK_MONOTONIC; the writer beats while alive, frames or not
   std::uint64_t status_sequence;  // seqlock of `status`: odd while it is written
   FrameRingStatus status;
 };
@@ -106,7 +106,7 @@ struct FrameRingConfig {
   unsigned mode = 0640;  // the writer writes, the view's group reads
   std::string group;     // owning group; empty: the writer's
 
-  void validate() const;  // ConfigError "frames.<key>"
+  void validate() const;  // RingError(bad_config) naming "frames.<key>"
 };
 
 // ioct-gpu's side. Not thread-safe: one thread publishes (the live stages' thread); heartbeat()
@@ -150,7 +150,7 @@ struct Frame {
 
 // What a reader sees of the writer.
 struct FrameWriterHealth {
-  bool alive = false;                 // the writer's process is running and the ring not closed
+  bool alive = false;  // the writer's process is running and the ring not closed
   std::uint64_t heartbeat_age_ns = 0;
   std::uint64_t epoch = 0;
   std::uint64_t published = 0;

@@ -1,0 +1,408 @@
+// ioct-view end to end without a browser: a frame ring written here, stand-ins for ioct-gpu's
+// view socket and ioct-rt's control socket, and Beast clients as browsers.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <thread>
+
+#include "ioct/shm/frame_ring.hpp"
+#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/test_support/scoped_shm_name.hpp"
+#include "line_service.hpp"
+#include "view_client.hpp"
+#include "view_server.hpp"
+
+namespace ioct::view {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using testing::http_request;
+using testing::LineService;
+using testing::WsViewer;
+
+constexpr const char* kToken = "test-operator-token-0123456789";
+
+class ViewServerTest : public ::testing::Test {
+ protected:
+  void start(std::uint32_t max_connections = 64) {
+    dir_ = fs::temp_directory_path() /
+           ("ioct-view-test-" + std::to_string(::getpid()) + "-" + std::to_string(counter_++));
+    fs::create_directories(dir_ / "www");
+    std::ofstream(dir_ / "www" / "index.html") << "<p>surgeon";
+    {
+      std::ofstream token(dir_ / "token");
+      token << kToken << "\n";
+    }
+    fs::permissions(dir_ / "token", fs::perms::owner_read | fs::perms::owner_write);
+
+    params_ = {{"mode", "enhanced"}, {"enhanced", {{"threshold", 0.35}}}};
+    gpu_ = std::make_unique<LineService>((dir_ / "gpu.sock").string(),
+                                         [this](const nlohmann::json& r) { return gpu_reply(r); });
+    rt_ = std::make_unique<LineService>((dir_ / "rt.sock").string(), [](const nlohmann::json& r) {
+      if (r.value("cmd", "") == "status") {
+        return nlohmann::json{
+            {"ok", true},
+            {"status", {{"state", "scanning"}, {"acquisition", {{"groups_published", 5}}}}}};
+      }
+      return nlohmann::json{{"ok", true}, {"cmd", r.value("cmd", "")}};
+    });
+    writer_ = std::make_unique<shm::FrameRingWriter>(frame_config());
+
+    ViewConfig config;
+    config.port = 0;
+    config.frames = frames_.str();
+    config.view_socket = dir_ / "gpu.sock";
+    config.control_socket = dir_ / "rt.sock";
+    config.www_dir = dir_ / "www";
+    config.state_dir = dir_ / "state";
+    config.max_connections = max_connections;
+    config.rt_status_interval_s = 0.1;
+    server_ = std::make_unique<ViewServer>(config, OperatorToken::read(dir_ / "token"));
+    port_ = server_->port();
+    thread_ = std::thread([this] { server_->run(); });
+  }
+
+  void TearDown() override {
+    if (server_) {
+      server_->stop();
+      thread_.join();
+      server_.reset();
+    }
+    writer_.reset();
+    gpu_.reset();
+    rt_.reset();
+    if (!dir_.empty()) fs::remove_all(dir_);
+  }
+
+  shm::FrameRingConfig frame_config() const {
+    shm::FrameRingConfig c;
+    c.name = frames_.str();
+    c.slots = 8;
+    c.max_payload_bytes = 1 << 20;
+    return c;
+  }
+
+  nlohmann::json gpu_reply(const nlohmann::json& r) {
+    const std::string cmd = r.value("cmd", "");
+    if (cmd == "get")
+      return {{"ok", true}, {"generation", generation_.load()}, {"params", params_}};
+    if (cmd == "set") {
+      const auto& changes = r["changes"];
+      if (changes.contains("enhanced") && changes["enhanced"].value("threshold", 0.0) > 1.0) {
+        return {{"ok", false},
+                {"error", "render.enhanced.threshold = 2: must be in [0, 1]"},
+                {"key", "render.enhanced.threshold"}};
+      }
+      if (!r.contains("view")) {
+        params_.merge_patch(changes);
+        ++generation_;
+      }
+      return {{"ok", true}, {"generation", generation_.load()}};
+    }
+    return {{"ok", true}};
+  }
+
+  // The pipeline as ioct-gpu reports it: live, newest group published `age` ago.
+  void report_live(std::uint64_t group, std::chrono::nanoseconds age = 0ns) {
+    shm::FrameRingStatus s{};
+    s.source_state = static_cast<std::uint64_t>(shm::SourceState::live);
+    s.groups_consumed = group + 1;
+    s.last_group_index = group;
+    s.last_group_published_ns = shm::monotonic_ns() - static_cast<std::uint64_t>(age.count());
+    s.group_period_ns = 86'000'000;
+    writer_->set_status(s);
+    writer_->heartbeat(shm::monotonic_ns());
+  }
+
+  void publish(std::uint64_t group, std::uint64_t view = 0, std::size_t render_bytes = 1000) {
+    report_live(group);
+    shm::FrameMeta m{};
+    m.group_index = group;
+    m.view_id = view;
+    m.t_group_published_ns = shm::monotonic_ns();
+    m.format = static_cast<std::uint32_t>(shm::FrameFormat::jpeg);
+    m.width = 64;
+    m.height = 48;
+    std::strncpy(m.mode, "enhanced", sizeof m.mode - 1);
+    const std::vector<std::byte> render(render_bytes, static_cast<std::byte>(group & 0xff));
+    const std::vector<std::byte> bscan(100, std::byte{7});
+    writer_->publish(m, render, bscan);
+  }
+
+  // Polls /api/state until `pred` holds or 3 s pass.
+  nlohmann::json state_when(const std::function<bool(const nlohmann::json&)>& pred) {
+    nlohmann::json state;
+    for (int i = 0; i < 150; ++i) {
+      state = http_request(port_, "GET", "/api/state").json();
+      if (pred(state)) return state;
+      std::this_thread::sleep_for(20ms);
+    }
+    return state;
+  }
+
+  test_support::ScopedShmName frames_{"view-frames"};
+  fs::path dir_;
+  static inline int counter_ = 0;
+  nlohmann::json params_;
+  std::atomic<std::uint64_t> generation_{1};
+  std::unique_ptr<LineService> gpu_;
+  std::unique_ptr<LineService> rt_;
+  std::unique_ptr<shm::FrameRingWriter> writer_;
+  std::unique_ptr<ViewServer> server_;
+  std::uint16_t port_ = 0;
+  std::thread thread_;
+};
+
+std::size_t count_cmd(const std::vector<nlohmann::json>& requests, const std::string& cmd) {
+  return static_cast<std::size_t>(std::count_if(
+      requests.begin(), requests.end(), [&](auto& r) { return r.value("cmd", "") == cmd; }));
+}
+
+TEST_F(ViewServerTest, StateIsLiveWithTheParametersAndTheScanStatus) {
+  start();
+  report_live(3);
+  const auto state = state_when([](const nlohmann::json& s) {
+    return s.value("signal", "") == "live" && s["params"].is_object() && s["rt"].is_object();
+  });
+  EXPECT_EQ(state["signal"], "live");
+  EXPECT_EQ(state["params"]["mode"], "enhanced");
+  EXPECT_EQ(state["rt"]["state"], "scanning");
+  EXPECT_EQ(state["role"], "viewer");
+  EXPECT_NEAR(state["groups_per_s"].get<double>(), 1e9 / 86e6, 1e-6);
+}
+
+TEST_F(ViewServerTest, StaleAfterThreeGroupPeriodsAndNoSignalWhenTheWriterGoes) {
+  start();
+  report_live(3, 300ms);  // 3 x 86 ms = 258 ms
+  auto state = state_when([](const nlohmann::json& s) { return s["signal"] == "stale"; });
+  EXPECT_EQ(state["signal"], "stale");
+  EXPECT_GE(state["age_ms"].get<double>(), 300.0);
+
+  WsViewer viewer(port_);
+  writer_.reset();  // ioct-gpu gone
+  auto pushed = viewer.next_text("state", 2s);
+  while (pushed && (*pushed)["signal"] != "no_signal") pushed = viewer.next_text("state", 2s);
+  ASSERT_TRUE(pushed) << "the page must be told NO SIGNAL without asking";
+  EXPECT_EQ((*pushed)["reason"], "ioct-gpu is not running");
+
+  writer_ = std::make_unique<shm::FrameRingWriter>(frame_config());  // ioct-gpu back
+  publish(10);
+  state = state_when([](const nlohmann::json& s) { return s["signal"] == "live"; });
+  EXPECT_EQ(state["signal"], "live");
+  auto frame = viewer.next_frame(2s);
+  ASSERT_TRUE(frame) << "frames flow again after ioct-gpu restarted";
+  EXPECT_EQ(frame->description["group"], 10);
+}
+
+TEST_F(ViewServerTest, EightViewersKeepTheirFramesWhileANinthNeverReads) {
+  start();
+  WsViewer idle(port_);  // connected, never reads
+  std::vector<std::unique_ptr<WsViewer>> viewers;
+  for (int i = 0; i < 8; ++i) viewers.push_back(std::make_unique<WsViewer>(port_));
+  std::this_thread::sleep_for(100ms);  // all joined
+  constexpr std::uint64_t kFrames = 40;
+  for (std::uint64_t g = 0; g < kFrames; ++g) {
+    publish(g, 0, 400'000);  // large frames, so the idle viewer's socket fills up
+    std::this_thread::sleep_for(5ms);
+  }
+  for (auto& v : viewers) {
+    std::uint64_t last = 0;
+    bool any = false;
+    while (auto frame = v->next_frame(3s)) {
+      const std::uint64_t g = frame->description["group"];
+      if (any) {
+        EXPECT_GT(g, last) << "a viewer gets newer frames only";
+      }
+      last = g;
+      any = true;
+      EXPECT_EQ(frame->render.size(), 400'000u);
+      EXPECT_EQ(frame->bscan.size(), 100u);
+      EXPECT_EQ(static_cast<unsigned char>(frame->render[0]), g & 0xff);
+      if (g == kFrames - 1) break;
+    }
+    EXPECT_EQ(last, kFrames - 1) << "every reading viewer reaches the newest frame";
+  }
+  const std::string metrics = http_request(port_, "GET", "/metrics").body;
+  const auto at = metrics.find("\nioct_view_frames_replaced_total ");
+  ASSERT_NE(at, std::string::npos);
+  EXPECT_GT(std::stod(metrics.substr(at + 33)), 0.0)
+      << "the idle viewer's frames were replaced, not queued";
+}
+
+TEST_F(ViewServerTest, OnlyOperatorsChangeTheRenderAndTheirErrorsNameTheKey) {
+  start();
+  const std::string change = R"({"enhanced":{"threshold":0.5}})";
+  EXPECT_EQ(http_request(port_, "POST", "/api/params", change).status, 401u);
+  EXPECT_EQ(http_request(port_, "POST", "/api/params", change, "wrong-token-0000000").status, 401u);
+  WsViewer viewer(port_);
+  viewer.send({{"type", "params"}, {"id", 1}, {"changes", {{"enhanced", {{"threshold", 0.5}}}}}});
+  auto reply = viewer.next_text("reply", 2s);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ((*reply)["status"], 401);
+  viewer.send({{"type", "hello"}, {"id", 2}, {"token", "not-the-token-000000"}});
+  reply = viewer.next_text("reply", 2s);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ((*reply)["ok"], false);
+  EXPECT_EQ(count_cmd(gpu_->requests(), "set"), 0u) << "nothing reached ioct-gpu";
+
+  const auto ok = http_request(port_, "POST", "/api/params", change, kToken);
+  EXPECT_EQ(ok.status, 200u) << ok.body;
+  const auto bad =
+      http_request(port_, "POST", "/api/params", R"({"enhanced":{"threshold":2}})", kToken);
+  EXPECT_EQ(bad.status, 400u);
+  EXPECT_EQ(bad.json()["key"], "render.enhanced.threshold");
+
+  viewer.send({{"type", "hello"}, {"id", 3}, {"token", kToken}});
+  reply = viewer.next_text("reply", 2s);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ((*reply)["role"], "operator");
+  viewer.send({{"type", "params"}, {"id", 4}, {"changes", {{"mode", "layer-aware"}}}});
+  reply = viewer.next_text("reply", 2s);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ((*reply)["ok"], true);
+  EXPECT_EQ(count_cmd(gpu_->requests(), "set"), 3u);
+  const auto state = state_when([](const nlohmann::json& s) {
+    return s["params"].is_object() && s["params"]["mode"] == "layer-aware";
+  });
+  EXPECT_EQ(state["params"]["mode"], "layer-aware") << "the state follows the change";
+  EXPECT_TRUE(fs::exists(dir_ / "state" / "params.json")) << "the change persists";
+}
+
+TEST_F(ViewServerTest, ScanCommandsReachIoctRtAndBadOnesDoNot) {
+  start();
+  auto r = http_request(port_, "POST", "/api/scan", R"({"cmd":"start"})", kToken);
+  EXPECT_EQ(r.status, 200u) << r.body;
+  r = http_request(port_, "POST", "/api/scan", R"({"cmd":"stop","cmd":"start"})", kToken);
+  EXPECT_EQ(r.status, 400u);
+  EXPECT_NE(r.json()["error"].get<std::string>().find("appears twice"), std::string::npos);
+  r = http_request(port_, "POST", "/api/scan", R"({"cmd":"start","laser":1})", kToken);
+  EXPECT_EQ(r.status, 400u);
+  EXPECT_EQ(r.json()["key"], "laser");
+  r = http_request(port_, "POST", "/api/scan", R"({"cmd":"start"})");
+  EXPECT_EQ(r.status, 401u);
+  EXPECT_EQ(count_cmd(rt_->requests(), "start"), 1u) << "only the valid operator's start";
+}
+
+TEST_F(ViewServerTest, MalformedOversizedAndFloodingMessages) {
+  start();
+  WsViewer good(port_);
+  WsViewer malformed(port_);
+  malformed.send_raw("{not json");
+  auto reply = malformed.next_text("reply", 2s);
+  ASSERT_TRUE(reply);
+  EXPECT_NE((*reply)["error"].get<std::string>().find("not valid JSON"), std::string::npos);
+  malformed.send_raw(R"({"type":"launch"})");
+  reply = malformed.next_text("reply", 2s);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ((*reply)["key"], "type");
+
+  WsViewer oversized(port_);
+  oversized.send_raw(std::string(70'000, ' '));
+  EXPECT_FALSE(oversized.next_text("reply", 2s));
+  EXPECT_TRUE(oversized.closed());
+
+  WsViewer flood(port_);
+  for (int i = 0; i < 1000 && !flood.closed(); ++i) {
+    try {
+      flood.send_raw(R"({"type":"follow"})");
+    } catch (const std::exception&) {
+      break;  // the server closed it
+    }
+  }
+  bool closed = false;
+  for (int i = 0; i < 2000 && !closed; ++i) closed = !flood.next(2s).has_value();
+  EXPECT_TRUE(closed) << "a flooding client is closed";
+
+  publish(1);
+  auto frame = good.next_frame(2s);
+  ASSERT_TRUE(frame) << "the well-behaved viewer is unaffected";
+  EXPECT_EQ(frame->description["group"], 1);
+  const std::string metrics = http_request(port_, "GET", "/metrics").body;
+  EXPECT_NE(metrics.find("ioct_view_messages_refused_total"), std::string::npos);
+}
+
+TEST_F(ViewServerTest, ConnectionsBeyondTheLimitAreRefused) {
+  start(4);
+  std::vector<std::unique_ptr<WsViewer>> viewers;
+  for (int i = 0; i < 4; ++i) viewers.push_back(std::make_unique<WsViewer>(port_));
+  std::this_thread::sleep_for(100ms);
+  EXPECT_ANY_THROW(WsViewer extra(port_));
+  viewers.pop_back();
+  std::this_thread::sleep_for(200ms);
+  const std::string metrics = http_request(port_, "GET", "/metrics").body;
+  EXPECT_NE(metrics.find("ioct_view_connections_refused_total 1"), std::string::npos) << metrics;
+}
+
+TEST_F(ViewServerTest, AViewerMayOrbitItsOwnCameraOnly) {
+  start();
+  WsViewer viewer(port_);
+  viewer.send({{"type", "own_view"}, {"id", 1}, {"changes", {{"view", {{"azimuth_deg", 10}}}}}});
+  auto reply = viewer.next_text("reply", 2s);
+  ASSERT_TRUE(reply);
+  ASSERT_EQ((*reply)["ok"], true) << reply->dump();
+  const std::uint64_t view = (*reply)["view"];
+  EXPECT_GT(view, 0u);
+  EXPECT_EQ(count_cmd(gpu_->requests(), "open_view"), 1u);
+
+  viewer.send({{"type", "own_view"}, {"id", 2}, {"changes", {{"enhanced", {{"kg1", 1}}}}}});
+  reply = viewer.next_text("reply", 2s);
+  ASSERT_TRUE(reply);
+  EXPECT_EQ((*reply)["ok"], false) << "render parameters are for operators";
+
+  WsViewer other(port_);
+  publish(5, 0);
+  publish(6, view);
+  auto frame = viewer.next_frame(2s);
+  ASSERT_TRUE(frame);
+  EXPECT_EQ(frame->description["view"], view);
+  EXPECT_EQ(frame->description["group"], 6);
+  frame = other.next_frame(2s);
+  ASSERT_TRUE(frame);
+  EXPECT_EQ(frame->description["view"], 0) << "the others follow the shared view";
+}
+
+TEST_F(ViewServerTest, PresetsAreSavedRecalledAndNamedSafely) {
+  start();
+  state_when([](const nlohmann::json& s) { return s["params"].is_object(); });
+  EXPECT_EQ(http_request(port_, "PUT", "/api/presets/night").status, 401u);
+  EXPECT_EQ(http_request(port_, "PUT", "/api/presets/night", "", kToken).status, 200u);
+  EXPECT_EQ(http_request(port_, "GET", "/api/presets").json()["presets"],
+            nlohmann::json::array({"night"}));
+  EXPECT_EQ(http_request(port_, "PUT", "/api/presets/..%2Fescape", "", kToken).status, 400u);
+  EXPECT_EQ(http_request(port_, "POST", "/api/presets/night/recall", "", kToken).status, 200u);
+  EXPECT_EQ(http_request(port_, "POST", "/api/presets/none/recall", "", kToken).status, 404u);
+  EXPECT_EQ(http_request(port_, "DELETE", "/api/presets/night", "", kToken).status, 200u);
+  EXPECT_TRUE(http_request(port_, "GET", "/api/presets").json()["presets"].empty());
+}
+
+TEST_F(ViewServerTest, PagesAndMetricsAreServed) {
+  start();
+  auto page = http_request(port_, "GET", "/");
+  EXPECT_EQ(page.status, 200u);
+  EXPECT_EQ(page.body, "<p>surgeon");
+  EXPECT_EQ(http_request(port_, "GET", "/../token").status, 404u);
+  EXPECT_EQ(http_request(port_, "POST", "/").status, 405u);
+  report_live(2);
+  std::string metrics;
+  for (int i = 0; i < 100; ++i) {
+    metrics = http_request(port_, "GET", "/metrics").body;
+    if (metrics.find("ioct_rt_acquisition_groups_published 5") != std::string::npos &&
+        metrics.find("ioct_gpu_groups_consumed_total 3") != std::string::npos) {
+      break;
+    }
+    std::this_thread::sleep_for(20ms);
+  }
+  EXPECT_NE(metrics.find("ioct_rt_acquisition_groups_published 5"), std::string::npos) << metrics;
+  EXPECT_NE(metrics.find("ioct_gpu_groups_consumed_total 3"), std::string::npos);
+  EXPECT_NE(metrics.find("ioct_view_published_to_sent_seconds_count"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace ioct::view

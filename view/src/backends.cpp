@@ -1,0 +1,161 @@
+#include "backends.hpp"
+
+#include <chrono>
+
+#include "ioct/common/line_client.hpp"
+
+namespace ioct::view {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+nlohmann::json unavailable(const std::string& who, const std::string& why) {
+  return {{"ok", false}, {"error", who + " is not reachable: " + why}, {"unavailable", true}};
+}
+
+// One request over `client`; the reply parsed, or the reason it failed as an error object.
+nlohmann::json call(LineClient& client, const std::string& who, const nlohmann::json& request) {
+  if (client.path().empty()) return unavailable(who, "no socket configured");
+  const auto line = client.request(request.dump());
+  if (!line) return unavailable(who, client.last_error());
+  nlohmann::json reply = nlohmann::json::parse(*line, nullptr, false);
+  if (reply.is_discarded() || !reply.is_object()) {
+    return {{"ok", false}, {"error", who + " sent a reply that is not a JSON object"}};
+  }
+  return reply;
+}
+
+}  // namespace
+
+Backends::Backends(const ViewConfig& config, PresetStore& presets, Deliver deliver,
+                   OnSnapshot on_snapshot)
+    : config_(config),
+      presets_(presets),
+      deliver_(std::move(deliver)),
+      on_snapshot_(std::move(on_snapshot)) {
+  thread_ = std::thread([this] { run(); });
+}
+
+Backends::~Backends() {
+  shutdown();
+}
+
+void Backends::shutdown() {
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+bool Backends::gpu(nlohmann::json request, Reply reply) {
+  return enqueue({true, std::move(request), std::move(reply)});
+}
+
+bool Backends::rt(nlohmann::json request, Reply reply) {
+  return enqueue({false, std::move(request), std::move(reply)});
+}
+
+bool Backends::enqueue(Job job) {
+  {
+    std::lock_guard lock(mutex_);
+    if (stop_ || jobs_.size() >= kMaxQueued) return false;
+    jobs_.push_back(std::move(job));
+  }
+  wake_.notify_one();
+  return true;
+}
+
+void Backends::poll_rt(LineClient& client, BackendsSnapshot& snap) {
+  if (client.path().empty()) {
+    snap.rt_status = nullptr;
+    snap.rt_error = "no control socket configured";
+    return;
+  }
+  const nlohmann::json reply = call(client, "ioct-rt", {{"cmd", "status"}});
+  if (reply.value("ok", false) && reply.contains("status")) {
+    snap.rt_status = reply["status"];
+    snap.rt_error.clear();
+  } else {
+    snap.rt_status = nullptr;
+    snap.rt_error = reply.value("error", std::string("no status"));
+  }
+}
+
+void Backends::poll_gpu(LineClient& client, BackendsSnapshot& snap) {
+  if (client.path().empty()) {
+    snap.gpu_error = "no view socket configured";
+    return;
+  }
+  nlohmann::json reply = call(client, "ioct-gpu", {{"cmd", "get"}});
+  if (!reply.value("ok", false)) {
+    snap.params = nullptr;
+    snap.gpu_error = reply.value("error", std::string("no parameters"));
+    gpu_was_connected_ = false;
+    return;
+  }
+  if (!gpu_was_connected_) {
+    // ioct-gpu is (back): give it the parameters the operators last chose.
+    gpu_was_connected_ = true;
+    if (const auto last = presets_.load_last(); last && *last != reply["params"]) {
+      const nlohmann::json set = call(client, "ioct-gpu", {{"cmd", "set"}, {"changes", *last}});
+      if (set.value("ok", false)) reply = call(client, "ioct-gpu", {{"cmd", "get"}});
+    }
+  }
+  if (reply.value("ok", false)) {
+    snap.params = reply.value("params", nlohmann::json());
+    snap.generation = reply.value("generation", std::uint64_t{0});
+    snap.gpu_error.clear();
+  }
+}
+
+void Backends::run() {
+  const auto timeout =
+      std::chrono::milliseconds(static_cast<std::int64_t>(config_.backend_timeout_s * 1000.0));
+  LineClient gpu(config_.view_socket.string(), timeout);
+  LineClient rt(config_.control_socket.string(), timeout);
+  BackendsSnapshot snap;
+  const auto interval = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(config_.rt_status_interval_s));
+  Clock::time_point next_poll = Clock::now();
+  std::unique_lock lock(mutex_);
+  while (!stop_) {
+    if (jobs_.empty()) wake_.wait_until(lock, next_poll, [&] { return stop_ || !jobs_.empty(); });
+    if (stop_) break;
+    if (!jobs_.empty()) {
+      Job job = std::move(jobs_.front());
+      jobs_.pop_front();
+      lock.unlock();
+      nlohmann::json reply =
+          job.to_gpu ? call(gpu, "ioct-gpu", job.request) : call(rt, "ioct-rt", job.request);
+      const bool changed_params = job.to_gpu && reply.value("ok", false) &&
+                                  job.request.value("cmd", "") == "set" &&
+                                  !job.request.contains("view");
+      if (changed_params) {
+        poll_gpu(gpu, snap);
+        if (snap.params.is_object()) {
+          try {
+            presets_.save_last(snap.params);
+          } catch (const std::exception& e) {
+            snap.gpu_error = std::string("the parameters could not be kept: ") + e.what();
+          }
+        }
+        deliver_([cb = on_snapshot_, snap] { cb(snap); });
+      }
+      deliver_([cb = std::move(job.reply), r = std::move(reply)]() mutable { cb(std::move(r)); });
+      lock.lock();
+      continue;
+    }
+    if (Clock::now() >= next_poll) {
+      next_poll = Clock::now() + interval;
+      lock.unlock();
+      poll_rt(rt, snap);
+      poll_gpu(gpu, snap);
+      deliver_([cb = on_snapshot_, snap] { cb(snap); });
+      lock.lock();
+    }
+  }
+}
+
+}  // namespace ioct::view

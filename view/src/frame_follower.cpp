@@ -1,0 +1,76 @@
+#include "frame_follower.hpp"
+
+#include <chrono>
+#include <optional>
+
+#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/shm/ring_error.hpp"
+
+namespace ioct::view {
+
+FrameFollower::FrameFollower(std::string ring_name, StalePolicy policy, FrameCallback on_frame,
+                             TickCallback on_tick)
+    : ring_name_(std::move(ring_name)),
+      policy_(policy),
+      on_frame_(std::move(on_frame)),
+      on_tick_(std::move(on_tick)) {
+  thread_ = std::thread([this] { run(); });
+}
+
+FrameFollower::~FrameFollower() {
+  stop_.store(true, std::memory_order_relaxed);
+  if (thread_.joinable()) thread_.join();
+}
+
+void FrameFollower::run() {
+  std::optional<shm::FrameRingReader> reader;
+  FollowerSnapshot snap;
+  std::uint64_t next_attach_ns = 0;
+  std::uint64_t next_tick_ns = 0;
+  auto frame = std::make_shared<shm::Frame>();
+  while (!stop_.load(std::memory_order_relaxed)) {
+    const std::uint64_t now = shm::monotonic_ns();
+    if (!reader && now >= next_attach_ns) {
+      next_attach_ns = now + kAttachNs;
+      try {
+        reader.emplace(shm::FrameRingReader::attach(ring_name_));
+        ++snap.attaches;
+        snap.attach_error.clear();
+      } catch (const shm::RingError& e) {
+        snap.attach_error = e.what();
+      }
+    }
+    if (reader) {
+      while (reader->read_next(*frame)) {
+        ++snap.frames_read;
+        on_frame_(std::move(frame));
+        frame = std::make_shared<shm::Frame>();
+      }
+      snap.frames_skipped = reader->frames_skipped();
+    }
+    if (now >= next_tick_ns) {
+      next_tick_ns = now + kTickNs;
+      SignalInputs in;
+      in.now_ns = now;
+      in.attached = reader.has_value();
+      if (reader) {
+        in.health = reader->health();
+        for (int tries = 0; tries < 3 && !reader->read_status(in.status); ++tries) {
+        }
+        if (!in.health.alive) {
+          // Closed or its writer died: a restarted ioct-gpu makes a new object under the name.
+          reader.reset();
+          next_attach_ns = now;
+        }
+      }
+      snap.attached = in.attached;
+      snap.health = in.health;
+      snap.status = in.status;
+      snap.verdict = judge_signal(in, policy_);
+      on_tick_(snap);
+    }
+    std::this_thread::sleep_for(std::chrono::nanoseconds(kPollNs));
+  }
+}
+
+}  // namespace ioct::view

@@ -1,0 +1,46 @@
+#include "frame_message.hpp"
+
+#include <nlohmann/json.hpp>
+
+namespace ioct::view {
+namespace {
+
+double ms_between(std::uint64_t from, std::uint64_t to) {
+  return from != 0 && to >= from ? static_cast<double>(to - from) * 1e-6 : 0.0;
+}
+
+}  // namespace
+
+FrameMessage make_frame_message(const shm::Frame& frame, std::uint64_t now_ns) {
+  const shm::FrameMeta& m = frame.meta;
+  const nlohmann::json description = {
+      {"type", "frame"},
+      {"frame", m.frame_index},
+      {"view", m.view_id},
+      {"group", m.group_index},
+      {"volume", m.volume_index},
+      {"generation", m.params_generation},
+      {"mode", std::string(m.mode)},
+      {"width", m.width},
+      {"height", m.height},
+      {"stereo", m.stereo != 0},
+      {"render_bytes", m.render_bytes},
+      {"bscan_bytes", m.bscan_bytes},
+      {"bscan_index", m.bscan_index},
+      {"bscans", m.bscans},
+      {"bscan_width", m.bscan_width},
+      {"bscan_height", m.bscan_height},
+      {"age_ms", ms_between(m.t_group_published_ns, now_ns)},
+      {"published_to_rendered_ms", ms_between(m.t_group_published_ns, m.t_rendered_ns)},
+      {"published_to_sent_ms", ms_between(m.t_group_published_ns, now_ns)}};
+  const std::string json = description.dump();
+  auto bytes = std::make_shared<std::string>();
+  bytes->reserve(4 + json.size() + frame.payload.size());
+  const auto n = static_cast<std::uint32_t>(json.size());
+  for (int i = 0; i < 4; ++i) bytes->push_back(static_cast<char>((n >> (8 * i)) & 0xff));
+  bytes->append(json);
+  bytes->append(reinterpret_cast<const char*>(frame.payload.data()), frame.payload.size());
+  return {std::move(bytes), m.frame_index, m.view_id, m.t_group_published_ns};
+}
+
+}  // namespace ioct::view

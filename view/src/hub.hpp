@@ -1,0 +1,82 @@
+// The meeting point on ioct-view's io thread: the newest frames from the follower, the state of
+// the pipeline and of the scan, and every connected viewer. A frame is offered to the viewers of
+// its view; each viewer keeps only the newest one it has not sent (its own queue of one), so a slow
+// viewer drops frames and never holds up another. Single-threaded: everything runs on the io
+// thread, so nothing here takes a lock.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "backends.hpp"
+#include "frame_follower.hpp"
+#include "frame_message.hpp"
+#include "latency_record.hpp"
+
+namespace ioct::view {
+
+// A connected browser as the hub sees it (a WebSocket session).
+class Viewer {
+ public:
+  virtual ~Viewer() = default;
+  virtual std::uint64_t watched_view() const = 0;  // 0: the shared view
+  virtual bool is_operator() const = 0;
+  virtual void offer_frame(const FrameMessage& frame) = 0;
+  virtual void offer_state(std::shared_ptr<const std::string> state) = 0;
+};
+
+struct HubCounters {
+  std::uint64_t frames_in = 0;
+  std::uint64_t frames_offered = 0;  // frames x viewers
+  std::uint64_t frames_sent = 0;
+  std::uint64_t frames_replaced = 0;  // dropped for a viewer because a newer one came first
+  std::uint64_t viewers_total = 0;
+  std::uint64_t messages_refused = 0;
+  std::uint64_t connections_refused = 0;
+};
+
+class Hub {
+ public:
+  Hub() = default;
+
+  void join(const std::shared_ptr<Viewer>& viewer);
+  void leave(const Viewer* viewer);
+  std::size_t viewers() const noexcept { return viewers_.size(); }
+
+  void on_frame(const std::shared_ptr<const shm::Frame>& frame, std::uint64_t now_ns);
+  void on_follower(const FollowerSnapshot& snapshot);
+  void on_backends(const BackendsSnapshot& snapshot);
+  // Sends the state to every viewer (the io thread's 4 Hz timer, and at every signal change).
+  void broadcast_state();
+
+  // {"type":"state", ...} as in docs/live-view.md; `role` "viewer" or "operator".
+  nlohmann::json state(const std::string& role) const;
+  const BackendsSnapshot& backends() const noexcept { return backends_; }
+  const FollowerSnapshot& follower() const noexcept { return follower_; }
+
+  std::uint64_t new_view_id() noexcept { return next_view_id_++; }
+
+  // Latencies measured here (ms figures in the metrics): group published → frame sent to a viewer,
+  // and → frame drawn by the page (reported back by it).
+  LatencyRecord& published_to_sent() noexcept { return published_to_sent_; }
+  LatencyRecord& published_to_drawn() noexcept { return published_to_drawn_; }
+  HubCounters& counters() noexcept { return counters_; }
+  // Open connections, HTTP and WebSocket (the listener's limit).
+  int& connections() noexcept { return connections_; }
+
+ private:
+  std::map<const Viewer*, std::weak_ptr<Viewer>> viewers_;
+  FollowerSnapshot follower_;
+  BackendsSnapshot backends_;
+  Signal last_signal_ = Signal::no_signal;
+  std::uint64_t next_view_id_ = 1;
+  LatencyRecord published_to_sent_;
+  LatencyRecord published_to_drawn_;
+  HubCounters counters_;
+  int connections_ = 0;
+};
+
+}  // namespace ioct::view

@@ -1,0 +1,27 @@
+#include "view_config.hpp"
+
+#include <boost/asio/ip/address.hpp>
+
+#include "ioct/common/config_error.hpp"
+
+namespace ioct::view {
+
+void ViewConfig::validate() const {
+  boost::system::error_code ec;
+  (void)boost::asio::ip::make_address(listen_address, ec);
+  if (ec) {
+    throw ConfigError("view.listen", "'" + listen_address + "'", "must be an IPv4 or IPv6 address");
+  }
+  if (frames.empty() || frames.size() > 200 || frames.find('/') != std::string::npos) {
+    throw ConfigError("view.frames", "'" + frames + "'", "must be 1 to 200 characters without '/'");
+  }
+  require_real_in_range("view.stale_after", stale_after_s, 0.0, 3600.0);
+  require_real_in_range("view.stale_after_periods", stale_after_periods, 1.0, 100.0);
+  require_integer_in_range("view.max_connections", max_connections, 1, 4096);
+  require_integer_in_range("view.max_message_bytes", max_message_bytes, 1024, 16u << 20);
+  require_real_in_range("view.backend_timeout", backend_timeout_s, 0.01, 10.0);
+  require_real_in_range("view.rt_status_interval", rt_status_interval_s, 0.05, 60.0);
+  if (state_dir.empty()) throw ConfigError("view.state_dir", "''", "must name a folder");
+}
+
+}  // namespace ioct::view
