@@ -165,7 +165,7 @@ class LiveProcessor::Session final : public LiveEvents {
     counters_.bscans_rejected += placed.bscans_rejected;
     counters_.volumes_abandoned += placed.volumes_abandoned;
     write_pending_images();
-    hand_to_stage(placed);
+    hand_to_stage(header, placed);
   }
 
   void on_rejected(const shm::SlotHeader& header, const std::string& problem) override {
@@ -186,7 +186,7 @@ class LiveProcessor::Session final : public LiveEvents {
   };
 
   // The B-scans the group wrote (or the whole volume after gaps were zeroed) to the stage.
-  void hand_to_stage(const PlacementResult& placed) {
+  void hand_to_stage(const shm::SlotHeader& header, const PlacementResult& placed) {
     LiveStage* stage = owner_.stage_;
     if (stage == nullptr) return;
     std::uint32_t first = placed.first_position;
@@ -197,8 +197,17 @@ class LiveProcessor::Session final : public LiveEvents {
       stage_needs_whole_volume_ = false;
     }
     if (end <= first) return;
+    const LiveCounters c = counters();
+    GroupStamp stamp;
+    stamp.group_index = header.group_index;
+    stamp.volume_index = header.bscan_count > 0 ? header.bscans[0].volume_index : 0;
+    stamp.t_published_ns = header.t_publish_ns;
+    stamp.t_processed_ns = shm::monotonic_ns();
+    stamp.groups_consumed = c.groups_consumed;
+    stamp.groups_dropped = c.dropped();
+    stamp.volumes_completed = c.volumes_completed;
     try {
-      stage->on_bscans(*pipeline_, first, end - first);
+      stage->on_bscans(*pipeline_, first, end - first, stamp);
     } catch (const std::exception& e) {
       ++counters_.stage_errors;
       note_problem(std::string("live stage: ") + e.what());

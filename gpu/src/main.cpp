@@ -10,6 +10,7 @@
 #include <string>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/gpu/live/view_socket.hpp"
 #include "ioct/gpu/live/volume_stages.hpp"
 #include "ioct/gpu/live_processor.hpp"
 #include "ioct/shm/ring_error.hpp"
@@ -94,6 +95,19 @@ int main(int argc, char** argv) {
   app.add_option("--render-height", stages.render.view.output_height, "live view height, px");
   app.add_option("--cpu-render-interval", stages.cpu_render_interval_s,
                  "seconds between live renders on the CPU (the GPU renders every new group)");
+  std::string frames = "<ring>.frames";
+  std::string view_socket;
+  std::string snapshot_dir = "<out>/snapshots";
+  app.add_option("--frames", frames,
+                 "frame ring for ioct-view (shared-memory name); empty or 'none': no frames");
+  app.add_option("--view-socket", view_socket,
+                 "Unix socket for render-parameter requests (JSON lines); empty: none");
+  app.add_option("--snapshot-dir", snapshot_dir, "folder the view socket's snapshots go to");
+  app.add_option("--frame-rate", stages.frame_rate_hz,
+                 "renders per second of a moving view at most (auto-rotation, interaction)");
+  app.add_option("--cpu-moving-scale", stages.cpu_moving_scale,
+                 "CPU renderer: size of a moving view's frames, as a fraction of the output "
+                 "(full size once it stops)");
   app.add_option("--axial-um", stages.sampling.axial_um_per_px, "depth pixel size, um");
   app.add_option("--ascan-spacing-um", stages.sampling.ascan_spacing_um,
                  "distance between neighbouring A-scans, um");
@@ -123,14 +137,30 @@ int main(int argc, char** argv) {
       stages.render.spacing = {stages.sampling.ascan_spacing_um, stages.sampling.bscan_spacing_um,
                                stages.sampling.axial_um_per_px};
       stages.live_image = config.out_dir / "render.png";
+      if (frames == "<ring>.frames") frames = config.ring_name + ".frames";
+      stages.frame_ring = frames == "none" ? "" : frames;
       volume_stages = std::make_unique<live::VolumeStages>(stages);
       processor.set_stage(volume_stages.get());
+    }
+    std::unique_ptr<live::ViewSocket> socket;
+    if (!view_socket.empty()) {
+      if (!volume_stages) {
+        throw ioct::ConfigError("view-socket", "'" + view_socket + "'",
+                                "needs the live stages (not with --no-stages)");
+      }
+      live::ViewSocketConfig socket_config;
+      socket_config.path = view_socket;
+      socket_config.snapshot_dir = snapshot_dir == "<out>/snapshots"
+                                       ? config.out_dir / "snapshots"
+                                       : std::filesystem::path(snapshot_dir);
+      socket = std::make_unique<live::ViewSocket>(socket_config, *volume_stages);
     }
     processor.set_status_stream(&std::cerr);
     g_processor = &processor;
     install_stop_handlers();
     const RunSummary summary = processor.run();
     g_processor = nullptr;
+    socket.reset();
 
     std::cerr << "ioct-gpu: stopped (" << to_string(summary.stop_reason) << ") after "
               << summary.counters.groups_processed << " groups, "

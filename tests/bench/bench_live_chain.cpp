@@ -147,8 +147,12 @@ class ChainRecorder final : public LiveEvents {
     }
     ++groups_processed;
     if (placed.end_position > placed.first_position) {
+      GroupStamp stamp;
+      stamp.group_index = h.group_index;
+      stamp.t_published_ns = h.t_publish_ns;
+      stamp.t_processed_ns = now;
       stages->on_bscans(*pipeline, placed.first_position,
-                        placed.end_position - placed.first_position);
+                        placed.end_position - placed.first_position, stamp);
     }
   }
   void on_rejected(const shm::SlotHeader&, const std::string& problem) override {

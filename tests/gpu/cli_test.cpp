@@ -132,6 +132,19 @@ TEST_F(Cli, BadOptionsExitNonZeroWithAClearMessage) {
   const std::string absent = "ioct-gtest-gpu-absent-" + std::to_string(::getpid());
   EXPECT_EQ(run({"--ring", absent, "--out", (dir_ / "o").string(), "--wait", "0.1"}, &err), 1);
   EXPECT_NE(err.find(absent), std::string::npos) << err;
+  // The live view's options.
+  EXPECT_EQ(run({"--frame-rate", "0"}, &err), 2);
+  EXPECT_NE(err.find("stages.frame_rate = 0"), std::string::npos) << err;
+  EXPECT_EQ(run({"--frames", "a/b"}, &err), 2);
+  EXPECT_NE(err.find("stages.frames = 'a/b'"), std::string::npos) << err;
+  EXPECT_EQ(run({"--no-stages", "--view-socket", (dir_ / "view.sock").string()}, &err), 2);
+  EXPECT_NE(err.find("view-socket"), std::string::npos) << err;
+  std::ofstream(dir_ / "not-a-socket") << "x";
+  EXPECT_EQ(run({"--ring", absent, "--out", (dir_ / "o").string(), "--wait", "0.1",
+                 "--view-socket", (dir_ / "not-a-socket").string()},
+                &err),
+            1);
+  EXPECT_NE(err.find("not a socket"), std::string::npos) << err;
 }
 
 TEST_F(Cli, ProcessesARingUntilTheProducerClosesIt) {

@@ -164,7 +164,9 @@ StagesRun run_stages(Backend backend, bool device_source, const std::filesystem:
   std::uint64_t handed = 0;
   const auto hand = [&](std::uint32_t first, std::uint32_t count) {
     live.written(first, count);
-    stages.on_bscans(live, first, count);
+    GroupStamp stamp;
+    stamp.group_index = handed;
+    stages.on_bscans(live, first, count, stamp);
     ++handed;
   };
 #if IOCT_GPU_WITH_CUDA

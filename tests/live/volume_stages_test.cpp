@@ -13,24 +13,10 @@
 #include "ioct/gpu/filters/volume_filter.hpp"
 #include "ioct/gpu/live/volume_stages.hpp"
 #include "ioct/gpu/oct_processor.hpp"
-#include "layered_volume.hpp"
+#include "live_volumes.hpp"
 
 namespace ioct::gpu::live {
 namespace {
-
-// A live volume the test writes into: copy_bscans as the pipelines do it.
-class FakeLiveVolume final : public LiveVolumeSource {
- public:
-  Volume volume;
-  LiveVolumeShape shape() const override {
-    return {volume.bscans(), volume.ascans(), volume.depth()};
-  }
-  void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) override {
-    prepare_bscan_copy(shape(), first, count, out);
-    const std::size_t n = volume.bscan_pixels();
-    std::copy_n(volume.bscan(first).data(), count * n, out.bscan(first).data());
-  }
-};
 
 class VolumeStagesTest : public ::testing::TestWithParam<Backend> {
  protected:
@@ -66,12 +52,13 @@ TEST_P(VolumeStagesTest, FoldedGroupsEndAsTheWholeVolumeFilteredAndSegmented) {
   live.volume = layered_volume(32, 96, 256, 11);
   constexpr std::uint32_t kGroup = 4;
   for (std::uint32_t first = 0; first < live.volume.bscans(); first += kGroup) {
-    stages.on_bscans(live, first, kGroup);  // no waiting: later groups fold into one pass
+    stages.on_bscans(live, first, kGroup,
+                     GroupStamp{});  // no waiting: later groups fold into one pass
   }
   // A second lap overwrites the first half, as the next volume does.
   const Volume second = layered_volume(32, 96, 256, 12);
   std::copy_n(second.pixels().data(), 16 * second.bscan_pixels(), live.volume.pixels().data());
-  stages.on_bscans(live, 0, 16);
+  stages.on_bscans(live, 0, 16, GroupStamp{});
 
   const nlohmann::json summary = stages.finish(dir_);
   ASSERT_EQ(summary.at("problem"), "") << summary.dump(2);

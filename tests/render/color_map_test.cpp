@@ -83,7 +83,8 @@ TEST(LabLut, HoldsTheExactConversionAtItsNodes) {
       const double ds = j / 255.0;
       const auto lab = layer_color_lab(map, intensity, ds);
       const auto rgb = lab_to_srgb(lab[0], lab[1], lab[2]);
-      const Vec3 got = lab_lookup(lut.data(), static_cast<float>(intensity), static_cast<float>(ds));
+      const Vec3 got =
+          lab_lookup(lut.data(), static_cast<float>(intensity), static_cast<float>(ds));
       EXPECT_NEAR(got.x, rgb[0], 1e-5);
       EXPECT_NEAR(got.y, rgb[1], 1e-5);
       EXPECT_NEAR(got.z, rgb[2], 1e-5);
@@ -95,9 +96,10 @@ TEST(LabLut, HoldsTheExactConversionAtItsNodes) {
     for (double ds = 0.0021; ds < 1.0; ds += 0.0573) {
       const auto lab = layer_color_lab(map, intensity, ds);
       const auto rgb = lab_to_srgb(lab[0], lab[1], lab[2]);
-      const Vec3 got = lab_lookup(lut.data(), static_cast<float>(intensity), static_cast<float>(ds));
-      worst = std::max({worst, std::fabs(got.x - rgb[0]), std::fabs(got.y - rgb[1]),
-                        std::fabs(got.z - rgb[2])});
+      const Vec3 got =
+          lab_lookup(lut.data(), static_cast<float>(intensity), static_cast<float>(ds));
+      worst = std::max(
+          {worst, std::fabs(got.x - rgb[0]), std::fabs(got.y - rgb[1]), std::fabs(got.z - rgb[2])});
     }
   }
   EXPECT_LT(worst * 255.0, 0.5);
@@ -125,6 +127,16 @@ TEST(TransferLut, InterpolatesThePoints) {
   const Rgba top = transfer_lookup(lut.data(), 1.0f);
   EXPECT_FLOAT_EQ(top.a, 0.8f);
   EXPECT_NEAR(transfer_lookup(lut.data(), 0.75f).a, 0.4f, 0.005f);
+}
+
+TEST(TransferLut, TheWindowStretchesItsRangeOverTheFunctions) {
+  TransferFunctions t;
+  t.opacity = {{0.0, 0.0}, {1.0, 1.0}};
+  t.window = {0.25, 0.75};
+  const auto lut = bake_transfer_lut(t);
+  EXPECT_FLOAT_EQ(transfer_lookup(lut.data(), 0.2f).a, 0.0f);     // below the window: its start
+  EXPECT_NEAR(transfer_lookup(lut.data(), 0.5f).a, 0.5f, 0.01f);  // its middle: the ramp's
+  EXPECT_FLOAT_EQ(transfer_lookup(lut.data(), 0.8f).a, 1.0f);     // above: its end
 }
 
 }  // namespace

@@ -222,6 +222,26 @@ void DeviceStageChain::download(Volume& filtered, segmentation::Surfaces& surfac
   m.segmenter.download_surfaces(surfaces, m.stream.get());
 }
 
+void DeviceStageChain::download_bscan(std::uint32_t bscan, Volume& filtered,
+                                      segmentation::Surfaces& surfaces) {
+  Impl& m = *impl_;
+  const VolumeDims& d = m.input_dims;
+  if (filtered.bscans() != d.bscans || filtered.ascans() != d.ascans ||
+      filtered.depth() != d.depth) {
+    filtered.reshape(d.bscans, d.ascans, d.depth);
+  }
+  if (d.bytes() == 0 || bscan >= d.bscans) return;
+  const std::size_t n = std::size_t{d.ascans} * d.depth;
+  cuda::copy_async(filtered.bscan(bscan).data(), m.filtered.data() + bscan * n, n,
+                   cudaMemcpyDeviceToHost, m.stream.get(), cuda::Payload::volume,
+                   "copy of the B-scan shown to the host");
+  m.segmenter.download_surfaces(surfaces, m.stream.get());  // waits for both
+}
+
+std::uint32_t DeviceStageChain::bscans() const noexcept {
+  return impl_->input_dims.bscans;
+}
+
 #else  // no CUDA: the stages always work on host volumes
 
 struct DeviceStageChain::Impl {};
@@ -248,6 +268,12 @@ DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t, std::uint3
 }
 void DeviceStageChain::download(Volume&, segmentation::Surfaces&) {
   throw std::logic_error("live stages: built without CUDA");
+}
+void DeviceStageChain::download_bscan(std::uint32_t, Volume&, segmentation::Surfaces&) {
+  throw std::logic_error("live stages: built without CUDA");
+}
+std::uint32_t DeviceStageChain::bscans() const noexcept {
+  return 0;
 }
 
 #endif

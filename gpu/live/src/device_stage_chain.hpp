@@ -78,6 +78,12 @@ class DeviceStageChain {
 
   // The filtered volume and the surfaces, to the host (the files at the end).
   void download(Volume& filtered, segmentation::Surfaces& surfaces);
+  // B-scan `bscan` of the filtered volume into the same B-scan of `filtered` (reshaped to the
+  // input's dimensions; its other B-scans are left as they are) and the surfaces, to the host:
+  // the B-scan a frame shows beside the render.
+  void download_bscan(std::uint32_t bscan, Volume& filtered, segmentation::Surfaces& surfaces);
+  // B-scans in the passes' input (0 before the first pass).
+  std::uint32_t bscans() const noexcept;
 
  private:
   struct Impl;

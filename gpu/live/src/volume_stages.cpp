@@ -8,16 +8,19 @@
 #include <cmath>
 #include <cstdio>
 
-#include "device_stage_chain.hpp"
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
+#include "ioct/gpu/live/frame_publisher.hpp"
 #include "ioct/gpu/render/png_rgba.hpp"
+#include "ioct/gpu/render/render_params_json.hpp"
 #include "ioct/gpu/render/renderer.hpp"
 #include "ioct/gpu/segmentation/overlay_image.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"
 #include "ioct/gpu/segmentation/surfaces_csv.hpp"
 #include "ioct/shm/monotonic_clock.hpp"
+
+#include "device_stage_chain.hpp"
 
 namespace ioct::gpu::live {
 namespace {
@@ -68,6 +71,20 @@ std::string mode_file(render::RenderMode mode) {
   return "render-" + std::string(render::to_string(mode)) + ".png";
 }
 
+ViewTiming view_timing(const VolumeStagesConfig& config, bool cpu_renderer) {
+  ViewTiming timing;
+  timing.frame_rate_hz = config.frame_rate_hz;
+  timing.reduce_while_moving = cpu_renderer && config.cpu_moving_scale < 1.0;
+  timing.moving_scale = config.cpu_moving_scale;
+  return timing;
+}
+
+// The B-scan a frame shows: slice.bscan, or the centre one (-1), within the volume.
+std::uint32_t shown_bscan(const render::SliceConfig& slice, std::uint32_t bscans) {
+  if (slice.bscan < 0) return bscans / 2;
+  return static_cast<std::uint32_t>(std::min<std::int64_t>(slice.bscan, bscans - 1));
+}
+
 }  // namespace
 
 void VolumeStagesConfig::validate() const {
@@ -78,14 +95,26 @@ void VolumeStagesConfig::validate() const {
   render.validate();
   require_real_in_range("stages.cpu_render_interval", cpu_render_interval_s, 0.0, 3600.0);
   require_real_in_range("stages.image_interval", image_interval_s, 0.0, 3600.0);
+  require_real_in_range("stages.frame_rate", frame_rate_hz, 0.1, 1000.0);
+  require_real_in_range("stages.cpu_moving_scale", cpu_moving_scale, 0.05, 1.0);
+  if (frame_ring.find('/') != std::string::npos) {
+    throw ConfigError("stages.frames", "'" + frame_ring + "'",
+                      "must be a shared-memory name without '/'");
+  }
   if (nice < 0 || nice > 19) {
     throw ConfigError("stages.nice", format_value(std::int64_t{nice}), "must be in [0, 19]");
   }
 }
 
-VolumeStages::VolumeStages(VolumeStagesConfig config) : config_(std::move(config)) {
+VolumeStages::VolumeStages(VolumeStagesConfig config)
+    : config_(std::move(config)),
+      views_(config_.render, view_timing(config_, false), shm::monotonic_ns()) {
   config_.validate();
-  started_ns_ = shm::monotonic_ns();
+  if (!config_.frame_ring.empty()) {
+    shm::FrameRingConfig ring;
+    ring.name = config_.frame_ring;
+    publisher_ = std::make_unique<FramePublisher>(ring);
+  }
   thread_ = std::thread([this] { work(); });
 }
 
@@ -98,10 +127,23 @@ VolumeStages::~VolumeStages() {
   if (thread_.joinable()) thread_.join();
 }
 
-void VolumeStages::on_bscans(LiveVolumeSource& source, std::uint32_t first, std::uint32_t count) {
-  if (count == 0) return;
+void VolumeStages::on_bscans(LiveVolumeSource& source, std::uint32_t first, std::uint32_t count,
+                             const GroupStamp& stamp) {
   std::unique_lock lock(mutex_);
+  // The period between groups, smoothed (1/8 per group), from the producer's publish times; a
+  // stamp going backwards (a producer restart) starts over.
+  if (last_published_ns_ != 0 && stamp.t_published_ns > last_published_ns_ &&
+      stamp.group_index > last_group_index_) {
+    const std::uint64_t sample =
+        (stamp.t_published_ns - last_published_ns_) / (stamp.group_index - last_group_index_);
+    group_period_ns_ = group_period_ns_ == 0 ? sample : (7 * group_period_ns_ + sample) / 8;
+  }
+  last_published_ns_ = stamp.t_published_ns;
+  last_group_index_ = stamp.group_index;
+  if (publisher_) publisher_->note_group(stamp, group_period_ns_);
+  if (count == 0) return;
   if (!accepting_) return;
+  pending_stamp_ = stamp;
   const LiveVolumeShape shape = source.shape();
   bool new_shape = false;
   // To the device once the CUDA stages exist and no host hand-over waits for a pass (before
@@ -140,43 +182,74 @@ void VolumeStages::work() {
   // threads made from here inherit it.
   (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), config_.nice);
   if (!make_backends()) return;
+  // Views due get their turn between passes, so a CPU that folds pass after pass still answers
+  // the viewers.
+  bool pass_last = false;
   for (;;) {
     std::uint32_t first = 0;
     std::uint32_t count = 0;
     std::uint64_t groups = 0;
     std::uint64_t taken_ns = 0;
+    std::vector<DueRender> renders;
+    SnapshotWaiters waiters;
     {
       std::unique_lock lock(mutex_);
-      wake_.wait(lock, [&] { return stop_ || dirty_groups_ > 0; });
-      if (dirty_groups_ == 0) return;  // stopped with nothing pending
-      taken_ns = shm::monotonic_ns();
-      if (device_ != nullptr) {
-        // The input is the chain's, on the device; the pending B-scans are in its pending
-        // volume, or in pending_ (a host live volume), uploaded here.
-        const std::uint32_t n = dirty_end_ - dirty_first_;
-        const DeviceStageChain::Taken taken = dirty_on_device_
-                                                  ? device_->take(dirty_first_, n)
-                                                  : device_->take_host(pending_, dirty_first_, n);
-        first = taken.first;
-        count = taken.count;
-      } else if (!input_.same_shape(pending_)) {
-        input_ = pending_;
-        first = 0;
-        count = pending_.bscans();
-      } else {
-        first = dirty_first_;
-        count = dirty_end_ - dirty_first_;
-        const std::size_t n = input_.bscan_pixels();
-        std::copy_n(pending_.bscan(first).data(), count * n, input_.bscan(first).data());
+      // New groups, a change, the next frame due (auto-rotation, a view that stopped moving) or
+      // the stop, whichever comes first.
+      bool views_due = false;
+      for (;;) {
+        const std::uint64_t now = shm::monotonic_ns();
+        const std::uint64_t due = have_volume_ ? views_.next_due_ns(now) : UINT64_MAX;
+        views_due = due <= now;
+        if (stop_ || dirty_groups_ > 0 || views_due) break;
+        if (due == UINT64_MAX) {
+          wake_.wait(lock);
+        } else {
+          wake_.wait_for(lock, std::chrono::nanoseconds(due - now));
+        }
       }
-      groups = dirty_groups_;
-      dirty_groups_ = 0;
+      if (dirty_groups_ == 0 && stop_) return;  // stopped with nothing pending
+      if (dirty_groups_ == 0 || (pass_last && views_due && !stop_)) {
+        renders = views_.take_due(shm::monotonic_ns());
+        if (std::ranges::any_of(renders,
+                                [](const DueRender& r) { return r.view_id == kSharedView; })) {
+          waiters.swap(snapshot_waiters_);
+        }
+      }
+      if (renders.empty() && dirty_groups_ > 0) {
+        taken_ns = shm::monotonic_ns();
+        if (device_ != nullptr) {
+          // The input is the chain's, on the device; the pending B-scans are in its pending
+          // volume, or in pending_ (a host live volume), uploaded here.
+          const std::uint32_t n = dirty_end_ - dirty_first_;
+          const DeviceStageChain::Taken taken = dirty_on_device_
+                                                    ? device_->take(dirty_first_, n)
+                                                    : device_->take_host(pending_, dirty_first_, n);
+          first = taken.first;
+          count = taken.count;
+        } else if (!input_.same_shape(pending_)) {
+          input_ = pending_;
+          first = 0;
+          count = pending_.bscans();
+        } else {
+          first = dirty_first_;
+          count = dirty_end_ - dirty_first_;
+          const std::size_t n = input_.bscan_pixels();
+          std::copy_n(pending_.bscan(first).data(), count * n, input_.bscan(first).data());
+        }
+        groups = dirty_groups_;
+        dirty_groups_ = 0;
+        shown_stamp_ = pending_stamp_;
+      }
     }
+    pass_last = groups > 0;
     try {
-      if (device_ != nullptr) {
+      if (groups > 0 && device_ != nullptr) {
         run_device_pass(first, count, groups, taken_ns);
-      } else {
+      } else if (groups > 0) {
         run_pass(first, count, groups);
+      } else {
+        render_views(renders, waiters);
       }
     } catch (const std::exception& e) {
       fail(e.what());
@@ -193,9 +266,11 @@ bool VolumeStages::make_backends() {
     segmenter_ = segmentation::make_segmenter(backend, config_.segmentation, config_.sampling,
                                               config_.cpu_threads);
     renderer_ = render::make_renderer(backend, config_.cpu_threads);
+    const bool cpu_renderer = renderer_->backend_name() == "cpu";
     auto device = DeviceStageChain::make(*filter_, *segmenter_, *renderer_);
     std::lock_guard lock(mutex_);
     device_ = std::move(device);
+    views_.set_timing(view_timing(config_, cpu_renderer));
     backends_ = "filter " + std::string(filter_->backend_name()) + ", segmentation " +
                 std::string(segmenter_->backend_name()) + ", render " +
                 std::string(renderer_->backend_name());
@@ -212,17 +287,94 @@ void VolumeStages::fail(const std::string& what) {
     if (figures_.problem.empty()) figures_.problem = what;
     accepting_ = false;
     dirty_groups_ = 0;
+    have_volume_ = false;
+    for (const auto& waiter : snapshot_waiters_) {
+      waiter->set_exception(
+          std::make_exception_ptr(std::runtime_error("the stages stopped: " + what)));
+    }
+    snapshot_waiters_.clear();
   }
   wake_.notify_all();
 }
 
 render::RenderConfig VolumeStages::live_view() const {
-  render::RenderConfig view = config_.render;
-  // The automatic rotation the surgeons asked for, from the start of the run.
-  const double seconds = static_cast<double>(shm::monotonic_ns() - started_ns_) * 1e-9;
-  view.view.azimuth_deg =
-      std::fmod(view.view.azimuth_deg + view.view.rotation_deg_per_s * seconds, 360.0);
-  return view;
+  std::lock_guard lock(mutex_);
+  return views_.shared(shm::monotonic_ns());
+}
+
+DueRender VolumeStages::take_shared_render(SnapshotWaiters& waiters) {
+  std::lock_guard lock(mutex_);
+  views_.volume_changed();
+  waiters.swap(snapshot_waiters_);
+  return views_.take_shared(shm::monotonic_ns());
+}
+
+void VolumeStages::render_views(const std::vector<DueRender>& renders, SnapshotWaiters& waiters) {
+  for (const DueRender& render : renders) {
+    const std::uint64_t t0 = shm::monotonic_ns();
+    renderer_->render(render.config, image_);
+    const std::uint64_t t1 = shm::monotonic_ns();
+    {
+      std::lock_guard lock(mutex_);
+      ++figures_.renders;
+      ++figures_.interactive_renders;
+      figures_.render.record(t1 - t0);
+    }
+    deliver(render, t1, waiters);
+  }
+}
+
+void VolumeStages::deliver(const DueRender& render, std::uint64_t rendered_ns,
+                           SnapshotWaiters& waiters) {
+  // The viewers first: the files can wait.
+  if (publisher_) publish_frame(render, rendered_ns);
+  if (render.view_id != kSharedView) return;
+  if (!waiters.empty()) {
+    ViewSnapshot shot;
+    shot.image = image_;
+    shot.params = render::to_json(render.config);
+    shot.generation = render.generation;
+    shot.group_index = shown_stamp_.group_index;
+    for (const auto& waiter : waiters) waiter->set_value(shot);
+    waiters.clear();
+  }
+  write_live_image(rendered_ns);
+}
+
+void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered_ns) {
+  try {
+    const std::uint32_t bscans = device_ != nullptr ? device_->bscans() : filtered_.bscans();
+    const std::uint32_t bscan = shown_bscan(render.config.slice, bscans);
+    if (bscan_stale_ || bscan != bscan_shown_) {
+      // On the device path only the B-scan shown (and the surfaces) come to the host.
+      if (device_ != nullptr) device_->download_bscan(bscan, filtered_, surfaces_);
+      publisher_->set_bscan(segmentation::make_overlay(filtered_, bscan, surfaces_), bscan,
+                            filtered_.bscans());
+      bscan_stale_ = false;
+      bscan_shown_ = bscan;
+    }
+    shm::FrameMeta meta{};
+    meta.view_id = render.view_id;
+    meta.params_generation = render.generation;
+    meta.group_index = shown_stamp_.group_index;
+    meta.volume_index = shown_stamp_.volume_index;
+    meta.t_group_published_ns = shown_stamp_.t_published_ns;
+    meta.t_group_processed_ns = shown_stamp_.t_processed_ns;
+    meta.t_rendered_ns = rendered_ns;
+    meta.stereo = render.config.view.stereo ? 1 : 0;
+    const std::string_view mode = render::to_string(render.config.mode);
+    std::copy_n(mode.data(), std::min(mode.size(), sizeof meta.mode - 1), meta.mode);
+    publisher_->publish(meta, image_);
+    publisher_->note_render();
+    std::lock_guard lock(mutex_);
+    ++figures_.frames_published;
+  } catch (const std::exception& e) {
+    // A frame that cannot be published (too large for the ring) costs the viewers that frame,
+    // never the pipeline.
+    std::lock_guard lock(mutex_);
+    ++figures_.frame_errors;
+    figures_.frame_problem = e.what();
+  }
 }
 
 void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups) {
@@ -242,11 +394,15 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
       renderer_->backend_name() != "cpu" || last_render_ns_ == 0 ||
       static_cast<double>(t2 - last_render_ns_) * 1e-9 >= config_.cpu_render_interval_s;
   std::uint64_t t3 = t2;
+  DueRender shared;
+  SnapshotWaiters waiters;
   if (render_now) {
-    renderer_->render(live_view(), image_);
+    shared = take_shared_render(waiters);
+    renderer_->render(shared.config, image_);
     t3 = shm::monotonic_ns();
     last_render_ns_ = t3;
   }
+  bscan_stale_ = true;
 
   {
     std::lock_guard lock(mutex_);
@@ -263,11 +419,13 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
       f.render.record(t3 - t2);
     }
     f.pass.record(t3 - t0);
+    have_volume_ = true;
   }
   if (config_.on_pass) {
     config_.on_pass(StagesPass{groups, first, count, false, render_now, t0, t1, t2, t3});
   }
-  if (render_now) write_live_image(t3);
+  if (publisher_) publisher_->note_pass();
+  if (render_now) deliver(shared, t3, waiters);
 }
 
 bool VolumeStages::live_image_due(std::uint64_t now_ns) const {
@@ -278,11 +436,16 @@ bool VolumeStages::live_image_due(std::uint64_t now_ns) const {
 
 void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups,
                                    std::uint64_t taken_ns) {
-  // The frame comes back only when the live image is to be written.
-  const bool frame_wanted = live_image_due(shm::monotonic_ns());
+  // The frame comes back to the host only when someone looks: viewers (the frame ring), a
+  // snapshot waiting, or the live image due.
+  SnapshotWaiters waiters;
+  const DueRender shared = take_shared_render(waiters);
+  const bool frame_wanted =
+      publisher_ != nullptr || !waiters.empty() || live_image_due(shm::monotonic_ns());
   const DeviceStageChain::PassTimes t =
-      device_->run_pass(first, count, live_view(), frame_wanted ? &image_ : nullptr);
+      device_->run_pass(first, count, shared.config, frame_wanted ? &image_ : nullptr);
   last_render_ns_ = t.rendered_ns;
+  bscan_stale_ = true;
   const auto ns = [](double ms) { return static_cast<std::uint64_t>(ms * 1e6); };
   {
     std::lock_guard lock(mutex_);
@@ -297,12 +460,14 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
     ++f.renders;
     f.render.record(ns(t.render_ms));
     f.pass.record(t.rendered_ns - taken_ns);
+    have_volume_ = true;
   }
   if (config_.on_pass) {
     config_.on_pass(StagesPass{groups, first, count, true, true, taken_ns, t.filtered_ns,
                                t.segmented_ns, t.rendered_ns});
   }
-  if (frame_wanted) write_live_image(t.rendered_ns);
+  if (publisher_) publisher_->note_pass();
+  if (frame_wanted) deliver(shared, t.rendered_ns, waiters);
 }
 
 void VolumeStages::write_live_image(std::uint64_t now_ns) {
@@ -315,6 +480,60 @@ void VolumeStages::write_live_image(std::uint64_t now_ns) {
   render::write_png(config_.live_image, image_);
   std::lock_guard lock(mutex_);
   ++figures_.images_written;
+}
+
+ViewParams VolumeStages::params() const {
+  std::lock_guard lock(mutex_);
+  return {views_.generation(), render::to_json(views_.shared(shm::monotonic_ns()))};
+}
+
+std::uint64_t VolumeStages::set_params(const nlohmann::json& changes) {
+  std::unique_lock lock(mutex_);
+  const std::uint64_t generation = views_.set_shared(changes, shm::monotonic_ns());
+  lock.unlock();
+  wake_.notify_all();
+  return generation;
+}
+
+std::uint64_t VolumeStages::open_view(std::uint64_t view, const nlohmann::json& changes) {
+  std::unique_lock lock(mutex_);
+  const std::uint64_t generation = views_.open(view, changes, shm::monotonic_ns());
+  lock.unlock();
+  wake_.notify_all();
+  return generation;
+}
+
+std::uint64_t VolumeStages::set_view(std::uint64_t view, const nlohmann::json& changes) {
+  std::unique_lock lock(mutex_);
+  const std::uint64_t generation = views_.set_camera(view, changes, shm::monotonic_ns());
+  lock.unlock();
+  wake_.notify_all();
+  return generation;
+}
+
+void VolumeStages::close_view(std::uint64_t view) {
+  std::lock_guard lock(mutex_);
+  views_.close(view);
+}
+
+ViewSnapshot VolumeStages::snapshot(std::chrono::milliseconds timeout) {
+  std::future<ViewSnapshot> next;
+  {
+    std::lock_guard lock(mutex_);
+    if (!figures_.problem.empty())
+      throw std::runtime_error("the stages stopped: " + figures_.problem);
+    if (stop_) throw std::runtime_error("the stages are stopping");
+    if (!have_volume_) throw std::runtime_error("nothing rendered yet: no group has arrived");
+    auto waiter = std::make_shared<std::promise<ViewSnapshot>>();
+    next = waiter->get_future();
+    snapshot_waiters_.push_back(std::move(waiter));
+    views_.want_full_shared();
+  }
+  wake_.notify_all();
+  if (next.wait_for(timeout) != std::future_status::ready) {
+    throw std::runtime_error("no frame within " + std::to_string(timeout.count()) + " ms");
+  }
+  return next.get();
 }
 
 std::string VolumeStages::status() const {
@@ -336,6 +555,13 @@ nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
   }
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();  // after the pending B-scans' pass
+  {
+    std::lock_guard lock(mutex_);
+    for (const auto& waiter : snapshot_waiters_) {
+      waiter->set_exception(std::make_exception_ptr(std::runtime_error("the stages stopped")));
+    }
+    snapshot_waiters_.clear();
+  }
 
   nlohmann::json files = nlohmann::json::object();
   std::string problem;
@@ -370,6 +596,11 @@ nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
   j["largest_fold"] = f.largest_fold;
   j["bscans"] = f.bscans;
   j["renders"] = f.renders;
+  j["interactive_renders"] = f.interactive_renders;
+  j["frame_ring"] = publisher_ ? nlohmann::json(publisher_->name()) : nlohmann::json(nullptr);
+  j["frames_published"] = f.frames_published;
+  j["frame_errors"] = f.frame_errors;
+  j["frame_problem"] = f.frame_problem;
   j["live_images_written"] = f.images_written;
   j["pass_ms"] = percentiles(f.pass);
   j["filter_ms"] = percentiles(f.filter);
@@ -378,6 +609,7 @@ nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
   j["surfaces"] = surfaces_.bscans > 0 ? describe(surfaces_) : nlohmann::json(nullptr);
   j["files"] = files;
   j["problem"] = problem;
+  if (publisher_) publisher_->close();  // ioct-view shows NO SIGNAL from now
   return j;
 }
 

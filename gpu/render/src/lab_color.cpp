@@ -81,8 +81,11 @@ std::vector<float> bake_lab_lut(const LabColorMap& map, bool colorize) {
 
 std::vector<float> bake_transfer_lut(const TransferFunctions& transfer) {
   std::vector<float> lut(std::size_t{kTransferLutSize} * 4);
+  const double lo = transfer.window[0];
+  const double width = transfer.window[1] - transfer.window[0];
   for (int i = 0; i < kTransferLutSize; ++i) {
-    const double v = static_cast<double>(i) / (kTransferLutSize - 1);
+    const double raw = static_cast<double>(i) / (kTransferLutSize - 1);
+    const double v = std::clamp((raw - lo) / width, 0.0, 1.0);
     std::array<double, 3> rgb = transfer.color.front().rgb;
     if (v >= transfer.color.back().intensity) rgb = transfer.color.back().rgb;
     for (std::size_t k = 1; k < transfer.color.size(); ++k) {

@@ -125,6 +125,19 @@ void TransferFunctions::validate(std::string_view key) const {
   const std::string p(key);
   if (color.empty()) throw ConfigError(p + ".color", "[]", "needs at least one point");
   if (opacity.empty()) throw ConfigError(p + ".opacity", "[]", "needs at least one point");
+  const std::string at_most = "must have at most " + std::to_string(kMaxTransferPoints) + " points";
+  if (color.size() > kMaxTransferPoints) {
+    throw ConfigError(p + ".color", std::to_string(color.size()) + " points", at_most);
+  }
+  if (opacity.size() > kMaxTransferPoints) {
+    throw ConfigError(p + ".opacity", std::to_string(opacity.size()) + " points", at_most);
+  }
+  require_real_in_range(p + ".window[0]", window[0], 0.0, 1.0);
+  require_real_in_range(p + ".window[1]", window[1], 0.0, 1.0);
+  if (!(window[1] > window[0])) {
+    throw ConfigError(p + ".window[1]", format_value(window[1]),
+                      "must be above window[0] (" + format_value(window[0]) + ")");
+  }
   for (std::size_t i = 0; i < color.size(); ++i) {
     const std::string k = p + ".color[" + std::to_string(i) + "]";
     require_real_in_range(k + ".intensity", color[i].intensity, 0.0, 1.0);

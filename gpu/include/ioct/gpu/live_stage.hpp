@@ -51,12 +51,26 @@ class LiveVolumeSource {
 void prepare_bscan_copy(const LiveVolumeShape& shape, std::uint32_t first, std::uint32_t count,
                         Volume& out);
 
+// The group that brought a hand-over, and the reader's books as of it, so a stage can stamp what
+// it makes from the B-scans (frames for viewers carry their group and its age) and report the
+// pipeline's state.
+struct GroupStamp {
+  std::uint64_t group_index = 0;
+  std::uint64_t volume_index = 0;     // of the group's first B-scan
+  std::uint64_t t_published_ns = 0;   // CLOCK_MONOTONIC, the slot header's t_publish_ns
+  std::uint64_t t_processed_ns = 0;   // placed into the live volume
+  std::uint64_t groups_consumed = 0;  // read intact so far
+  std::uint64_t groups_dropped = 0;   // lapped + behind so far
+  std::uint64_t volumes_completed = 0;
+};
+
 class LiveStage {
  public:
   virtual ~LiveStage() = default;
-  // B-scans [first, first + count) of the live volume are new. Called on the live loop's thread
-  // after each group; returns after copying them.
-  virtual void on_bscans(LiveVolumeSource& source, std::uint32_t first, std::uint32_t count) = 0;
+  // B-scans [first, first + count) of the live volume are new, brought by the group `stamp`
+  // describes. Called on the live loop's thread after each group; returns after copying them.
+  virtual void on_bscans(LiveVolumeSource& source, std::uint32_t first, std::uint32_t count,
+                         const GroupStamp& stamp) = 0;
   // A few words for the live loop's status line ("stages 12 passes, 3 groups folded").
   virtual std::string status() const = 0;
   // End of the run: finishes what was handed over, writes the stage's files into `out_dir` and

@@ -14,6 +14,12 @@
 // stream, the volume never crossing to the host (DeviceStageChain); otherwise the stages work on
 // host volumes as above (a host live volume with CUDA stages is uploaded by the pass).
 //
+// Frames for viewers: every render of a view (the shared one after every pass, on every change of
+// the parameters, and at the frame rate while it auto-rotates; private views after every pass and
+// on their changes) is published with the current B-scan into the frame ring (FramePublisher), and
+// the parameters are changed through ViewControl (the view socket). The stages' thread waits for
+// new groups, a change, the next frame due or the stop, whichever comes first.
+//
 // At the end: surfaces.csv, bscan-overlay.png (the centre filtered B-scan with its surfaces),
 // render.png (the live view) and one PNG per further mode, and the figures for summary.json.
 #pragma once
@@ -22,6 +28,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <future>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -30,6 +37,8 @@
 
 #include "ioct/gpu/filters/filter_config.hpp"
 #include "ioct/gpu/latency_histogram.hpp"
+#include "ioct/gpu/live/view_control.hpp"
+#include "ioct/gpu/live/view_set.hpp"
 #include "ioct/gpu/live_stage.hpp"
 #include "ioct/gpu/oct_processor.hpp"
 #include "ioct/gpu/render/render_config.hpp"
@@ -61,6 +70,7 @@ struct StagesPass {
   bool rendered = false;
   std::uint64_t taken_ns = 0, filtered_ns = 0, segmented_ns = 0, rendered_ns = 0;
 };
+class FramePublisher;
 
 struct VolumeStagesConfig {
   Backend backend = Backend::automatic;  // of all three stages
@@ -68,7 +78,7 @@ struct VolumeStagesConfig {
   filters::VolumeFilterConfig filter;
   segmentation::SegmentationConfig segmentation;
   segmentation::VolumeSampling sampling;  // also the renderer's voxel spacing
-  render::RenderConfig render;            // the live view; its azimuth turns at rotation_deg_per_s
+  render::RenderConfig render;  // the shared view at the start; auto_rotate turns its azimuth
   // Modes rendered once more at the end, each to render-<mode>.png, at the live view.
   std::vector<render::RenderMode> final_modes{render::RenderMode::enhanced,
                                               render::RenderMode::layer_aware,
@@ -81,6 +91,14 @@ struct VolumeStagesConfig {
   // or 0 s: only at the end, by finish()).
   std::filesystem::path live_image;
   double image_interval_s = 1.0;
+  // The frame ring for ioct-view (shm object name; empty: no frames are published).
+  std::string frame_ring;
+  // Renders of one view per second at most (auto-rotation, interaction).
+  double frame_rate_hz = 60.0;
+  // The CPU renderer renders at this fraction of the output size while a view moves, and at full
+  // size once it stops (1: always full size). A quarter: 1024x768 takes seconds on two cores,
+  // 256x192 a fraction of one (docs/live-view.md).
+  double cpu_moving_scale = 0.25;
   // Lower scheduling priority (nice) of the stages' threads, so the processing of the ring always
   // wins the CPU over them.
   int nice = 10;
@@ -91,7 +109,7 @@ struct VolumeStagesConfig {
   void validate() const;
 };
 
-class VolumeStages final : public LiveStage {
+class VolumeStages final : public LiveStage, public ViewControl {
  public:
   // Validates the config. The backends are made on the stages' thread, which starts here; a
   // backend that cannot be made (e.g. --backend cuda without a GPU) is reported by finish() and
@@ -101,9 +119,18 @@ class VolumeStages final : public LiveStage {
   VolumeStages(const VolumeStages&) = delete;
   VolumeStages& operator=(const VolumeStages&) = delete;
 
-  void on_bscans(LiveVolumeSource& source, std::uint32_t first, std::uint32_t count) override;
+  void on_bscans(LiveVolumeSource& source, std::uint32_t first, std::uint32_t count,
+                 const GroupStamp& stamp) override;
   std::string status() const override;
   nlohmann::json finish(const std::filesystem::path& out_dir) override;
+
+  // ViewControl
+  ViewParams params() const override;
+  std::uint64_t set_params(const nlohmann::json& changes) override;
+  std::uint64_t open_view(std::uint64_t view, const nlohmann::json& changes) override;
+  std::uint64_t set_view(std::uint64_t view, const nlohmann::json& changes) override;
+  void close_view(std::uint64_t view) override;
+  ViewSnapshot snapshot(std::chrono::milliseconds timeout) override;
 
   // The state after finish() (tests).
   const Volume& filtered() const noexcept { return filtered_; }
@@ -119,13 +146,18 @@ class VolumeStages final : public LiveStage {
     std::uint64_t largest_fold = 0;   // most hand-overs in one pass
     std::uint64_t bscans = 0;         // B-scans taken (sum over passes)
     std::uint64_t renders = 0;
+    std::uint64_t interactive_renders = 0;  // between passes: changes, rotation, private views
+    std::uint64_t frames_published = 0;
+    std::uint64_t frame_errors = 0;
     std::uint64_t images_written = 0;
-    LatencyHistogram pass;     // take -> rendered
-    LatencyHistogram filter;   // per pass
-    LatencyHistogram segment;  // per pass
-    LatencyHistogram render;   // per render
-    std::string problem;       // the first failure; the stages stop at it
+    LatencyHistogram pass;      // take -> rendered
+    LatencyHistogram filter;    // per pass
+    LatencyHistogram segment;   // per pass
+    LatencyHistogram render;    // per render
+    std::string problem;        // the first failure; the stages stop at it
+    std::string frame_problem;  // the last frame that could not be published (not fatal)
   };
+  using SnapshotWaiters = std::vector<std::shared_ptr<std::promise<ViewSnapshot>>>;
 
   void work();
   bool make_backends();
@@ -133,12 +165,20 @@ class VolumeStages final : public LiveStage {
   void run_device_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups,
                        std::uint64_t taken_ns);
   bool live_image_due(std::uint64_t now_ns) const;
+  // The shared view to render now and the snapshots waiting for it (under the lock).
+  DueRender take_shared_render(SnapshotWaiters& waiters);
+  // Renders views between passes (interaction, rotation, private views).
+  void render_views(const std::vector<DueRender>& renders, SnapshotWaiters& waiters);
+  // The render in image_ to the frame ring, to the snapshots waiting for it, and its figures.
+  void deliver(const DueRender& render, std::uint64_t rendered_ns, SnapshotWaiters& waiters);
+  void publish_frame(const DueRender& render, std::uint64_t rendered_ns);
   render::RenderConfig live_view() const;
   void write_live_image(std::uint64_t now_ns);
   void fail(const std::string& what);
   nlohmann::json write_outputs(const std::filesystem::path& out_dir);
 
   const VolumeStagesConfig config_;
+  std::unique_ptr<FramePublisher> publisher_;  // null without a frame ring
 
   // Handed over by the live loop, guarded by mutex_.
   mutable std::mutex mutex_;
@@ -152,6 +192,13 @@ class VolumeStages final : public LiveStage {
   bool accepting_ = true;  // false once a stage failed
   Figures figures_;
   std::string backends_;  // "filter cuda, segmentation cuda, render cuda"
+  ViewSet views_;
+  GroupStamp pending_stamp_;             // the newest group handed over
+  std::uint64_t last_published_ns_ = 0;  // of the previous group (for the period)
+  std::uint64_t last_group_index_ = 0;
+  std::uint64_t group_period_ns_ = 0;  // smoothed
+  bool have_volume_ = false;           // a pass has run: there is something to render
+  SnapshotWaiters snapshot_waiters_;
 
   // The stages' own, touched only by their thread (and by finish() after it ended); device_
   // also by on_bscans, under mutex_. It outlives the renderer, which works on its stream.
@@ -163,7 +210,9 @@ class VolumeStages final : public LiveStage {
   Volume filtered_;
   segmentation::Surfaces surfaces_;
   render::RgbaImage image_;
-  std::uint64_t started_ns_ = 0;
+  GroupStamp shown_stamp_;   // the newest group in the volume the renderer has
+  bool bscan_stale_ = true;  // the publisher's B-scan is older than the last pass
+  std::uint32_t bscan_shown_ = 0;
   std::uint64_t last_render_ns_ = 0;
   std::uint64_t last_image_ns_ = 0;
 

@@ -22,8 +22,8 @@ std::array<double, 3> layer_color_lab(const LabColorMap& map, double intensity, 
 // gives L* alone (a* = b* = 0).
 std::vector<float> bake_lab_lut(const LabColorMap& map, bool colorize);
 
-// kTransferLutSize x RGBA: the colour and opacity transfer functions, linear between points and
-// held constant beyond the first and last.
+// kTransferLutSize x RGBA: the colour and opacity transfer functions read through the intensity
+// window, linear between points and held constant beyond the first and last.
 std::vector<float> bake_transfer_lut(const TransferFunctions& transfer);
 
 }  // namespace ioct::gpu::render

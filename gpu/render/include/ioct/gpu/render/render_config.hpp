@@ -6,6 +6,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <string_view>
@@ -45,6 +46,7 @@ struct ViewConfig {
   // Light direction in camera space (x right, y up, z towards the viewer), normalised on use.
   std::array<double, 3> light_direction{-0.4, 0.6, 0.7};
   // Automatic rotation for live display and turntables (deg/s), as the surgeons suggested.
+  bool auto_rotate = true;
   double rotation_deg_per_s = 45.0;
 
   void validate() const;  // "render.view.<key>"
@@ -71,7 +73,13 @@ struct OpacityPoint {
   bool operator==(const OpacityPoint&) const = default;
 };
 
+// At most this many points per function (the functions come from viewers too).
+inline constexpr std::size_t kMaxTransferPoints = 64;
+
 struct TransferFunctions {
+  // Intensity window [lo, hi]: the functions are read at (I - lo) / (hi - lo), clamped to [0, 1],
+  // so the assistant can stretch the tissue's range over the whole ramp.
+  std::array<double, 2> window{0.0, 1.0};
   std::vector<ColorPoint> color{
       {0.0, {0.55, 0.45, 0.40}}, {0.6, {0.95, 0.85, 0.75}}, {1.0, {1.0, 1.0, 1.0}}};
   std::vector<OpacityPoint> opacity{{0.0, 0.0}, {0.35, 0.05}, {1.0, 0.6}};
@@ -171,6 +179,7 @@ struct SliceConfig {
 
 struct RenderConfig {
   RenderMode mode = RenderMode::enhanced;
+  Preset preset = Preset::retina;  // the preset `enhanced` was last set from
   ViewConfig view;
   VoxelSpacing spacing;
   double step_voxels = 1.0;          // ray step: at most this many voxels along any axis per sample

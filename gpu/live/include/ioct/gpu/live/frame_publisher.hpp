@@ -1,0 +1,76 @@
+// The frames for viewers: each render of a view, encoded as JPEG together with the current B-scan,
+// published into the frame ring (shm/frame_ring.hpp) that ioct-view reads; and the pipeline's
+// status and the writer's heartbeat in the ring's header.
+//
+// The heartbeat has a thread of its own, beating every 50 ms whatever the stages are doing (a CPU
+// pass can take seconds): the view tells a silent writer (NO SIGNAL) from a slow one by it. The
+// status is set from the live loop at every group, so "no new group" (STALE) is seen as soon as it
+// happens. All calls into the ring go through one mutex, held only for the copy into the ring.
+#pragma once
+
+#include <condition_variable>
+#include <cstddef>
+#include <cstdint>
+#include <mutex>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "ioct/gpu/live/jpeg_encoder.hpp"
+#include "ioct/gpu/live_stage.hpp"
+#include "ioct/gpu/render/rgba_image.hpp"
+#include "ioct/gpu/segmentation/overlay_image.hpp"
+#include "ioct/shm/frame_ring.hpp"
+
+namespace ioct::gpu::live {
+
+class FramePublisher {
+ public:
+  // Creates the frame ring (shm::RingError when another live writer holds the name) and starts
+  // the heartbeat.
+  explicit FramePublisher(const shm::FrameRingConfig& ring);
+  ~FramePublisher();  // close()
+  FramePublisher(const FramePublisher&) = delete;
+  FramePublisher& operator=(const FramePublisher&) = delete;
+
+  // The B-scan sent with the following frames (publishing thread): encoded once here, since it
+  // changes only with a pass or the chosen position. `image` is the B-scan with depth downwards.
+  void set_bscan(const segmentation::RgbImage& image, std::uint32_t index, std::uint32_t bscans);
+
+  // Encodes `render` and publishes it with the current B-scan (publishing thread). `meta` gives
+  // the view, generation, group stamp, times and mode; the sizes are filled in here. Returns the
+  // frame index.
+  std::uint64_t publish(shm::FrameMeta meta, const render::RgbaImage& render);
+
+  // The newest group handed to the stages (any thread).
+  void note_group(const GroupStamp& stamp, std::uint64_t group_period_ns);
+  void note_pass();
+  void note_render();
+
+  // Stops the heartbeat and marks the ring closed (ioct-view then shows NO SIGNAL at once).
+  void close();
+
+  const std::string& name() const noexcept { return name_; }
+
+ private:
+  void beat();
+  void push_status_locked();
+
+  std::string name_;
+  std::mutex mutex_;  // the writer and status_
+  std::condition_variable wake_;
+  shm::FrameRingWriter writer_;
+  shm::FrameRingStatus status_{};
+  bool closed_ = false;
+
+  // The publishing thread's own.
+  JpegEncoder render_encoder_{85};
+  JpegEncoder bscan_encoder_{90};
+  std::vector<std::byte> bscan_jpeg_;
+  std::uint32_t bscan_width_ = 0, bscan_height_ = 0, bscan_index_ = 0, bscans_ = 0;
+
+  std::thread heartbeat_;
+};
+
+}  // namespace ioct::gpu::live

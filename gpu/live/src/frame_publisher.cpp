@@ -1,0 +1,104 @@
+#include "ioct/gpu/live/frame_publisher.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+#include "ioct/shm/monotonic_clock.hpp"
+
+namespace ioct::gpu::live {
+namespace {
+
+// Well inside the view's bound for a silent writer (1 s) and the 100 ms the contract asks for.
+constexpr auto kHeartbeatPeriod = std::chrono::milliseconds(50);
+
+}  // namespace
+
+FramePublisher::FramePublisher(const shm::FrameRingConfig& ring) : name_(ring.name), writer_(ring) {
+  status_.source_state = static_cast<std::uint64_t>(shm::SourceState::waiting);
+  {
+    std::lock_guard lock(mutex_);
+    push_status_locked();
+  }
+  heartbeat_ = std::thread([this] { beat(); });
+}
+
+FramePublisher::~FramePublisher() {
+  close();
+}
+
+void FramePublisher::close() {
+  {
+    std::lock_guard lock(mutex_);
+    if (closed_) return;
+    closed_ = true;
+  }
+  wake_.notify_all();
+  if (heartbeat_.joinable()) heartbeat_.join();
+  std::lock_guard lock(mutex_);
+  push_status_locked();
+  writer_.close();
+}
+
+void FramePublisher::beat() {
+  std::unique_lock lock(mutex_);
+  while (!closed_) {
+    writer_.heartbeat(shm::monotonic_ns());
+    wake_.wait_for(lock, kHeartbeatPeriod, [this] { return closed_; });
+  }
+}
+
+void FramePublisher::push_status_locked() {
+  writer_.set_status(status_);
+}
+
+void FramePublisher::note_group(const GroupStamp& stamp, std::uint64_t group_period_ns) {
+  std::lock_guard lock(mutex_);
+  status_.source_state = static_cast<std::uint64_t>(shm::SourceState::live);
+  status_.groups_consumed = stamp.groups_consumed;
+  status_.groups_dropped = stamp.groups_dropped;
+  status_.volumes_completed = stamp.volumes_completed;
+  status_.last_group_index = stamp.group_index;
+  status_.last_group_published_ns = stamp.t_published_ns;
+  status_.group_period_ns = group_period_ns;
+  push_status_locked();
+}
+
+void FramePublisher::note_pass() {
+  std::lock_guard lock(mutex_);
+  ++status_.passes;
+  push_status_locked();
+}
+
+void FramePublisher::note_render() {
+  std::lock_guard lock(mutex_);
+  ++status_.renders;
+  push_status_locked();
+}
+
+void FramePublisher::set_bscan(const segmentation::RgbImage& image, std::uint32_t index,
+                               std::uint32_t bscans) {
+  const std::span<const std::byte> jpeg =
+      bscan_encoder_.encode(image.pixels, image.width, image.height, PixelLayout::rgb);
+  bscan_jpeg_.assign(jpeg.begin(), jpeg.end());
+  bscan_width_ = image.width;
+  bscan_height_ = image.height;
+  bscan_index_ = index;
+  bscans_ = bscans;
+}
+
+std::uint64_t FramePublisher::publish(shm::FrameMeta meta, const render::RgbaImage& render) {
+  const std::span<const std::byte> jpeg =
+      render_encoder_.encode(render.rgba, render.width, render.height, PixelLayout::rgba);
+  meta.format = static_cast<std::uint32_t>(shm::FrameFormat::jpeg);
+  meta.width = render.width;
+  meta.height = render.height;
+  meta.bscan_width = bscan_width_;
+  meta.bscan_height = bscan_height_;
+  meta.bscan_index = bscan_index_;
+  meta.bscans = bscans_;
+  std::lock_guard lock(mutex_);
+  if (closed_) return 0;
+  return writer_.publish(meta, jpeg, bscan_jpeg_);
+}
+
+}  // namespace ioct::gpu::live
