@@ -100,6 +100,10 @@ int main(int argc, char** argv) {
   std::string snapshot_dir = "<out>/snapshots";
   app.add_option("--frames", frames,
                  "frame ring for ioct-view (shared-memory name); empty or 'none': no frames");
+  std::string view_group;
+  app.add_option("--view-group", view_group,
+                 "group of the frame ring and the view socket (ioct-view's); default: this "
+                 "process's");
   app.add_option("--view-socket", view_socket,
                  "Unix socket for render-parameter requests (JSON lines); empty: none");
   app.add_option("--snapshot-dir", snapshot_dir, "folder the view socket's snapshots go to");
@@ -139,6 +143,7 @@ int main(int argc, char** argv) {
       stages.live_image = config.out_dir / "render.png";
       if (frames == "<ring>.frames") frames = config.ring_name + ".frames";
       stages.frame_ring = frames == "none" ? "" : frames;
+      stages.frame_group = view_group;
       volume_stages = std::make_unique<live::VolumeStages>(stages);
       processor.set_stage(volume_stages.get());
     }
@@ -150,6 +155,7 @@ int main(int argc, char** argv) {
       }
       live::ViewSocketConfig socket_config;
       socket_config.path = view_socket;
+      socket_config.group = view_group;
       socket_config.snapshot_dir = snapshot_dir == "<out>/snapshots"
                                        ? config.out_dir / "snapshots"
                                        : std::filesystem::path(snapshot_dir);

@@ -1,6 +1,7 @@
 #include "ioct/gpu/live/view_socket.hpp"
 
 #include <fcntl.h>
+#include <grp.h>
 #include <poll.h>
 #include <sys/eventfd.h>
 #include <sys/socket.h>
@@ -82,6 +83,17 @@ ViewSocket::ViewSocket(ViewSocketConfig config, ViewControl& control)
     if (stop_fd_ >= 0) ::close(stop_fd_);
     ::close(listen_fd_);
     throw socket_error(config_.path, "cannot listen", error);
+  }
+  if (!config_.group.empty()) {
+    // ioct-view runs as another user: it reaches the socket through this group.
+    const group* g = ::getgrnam(config_.group.c_str());
+    if (g == nullptr || ::chown(config_.path.c_str(), static_cast<uid_t>(-1), g->gr_gid) != 0) {
+      const int error = g == nullptr ? ENOENT : errno;
+      ::close(stop_fd_);
+      ::close(listen_fd_);
+      ::unlink(config_.path.c_str());
+      throw socket_error(config_.path, "cannot give it the group '" + config_.group + "'", error);
+    }
   }
   thread_ = std::thread([this] { serve(); });
 }

@@ -113,6 +113,7 @@ VolumeStages::VolumeStages(VolumeStagesConfig config)
   if (!config_.frame_ring.empty()) {
     shm::FrameRingConfig ring;
     ring.name = config_.frame_ring;
+    ring.group = config_.frame_group;
     publisher_ = std::make_unique<FramePublisher>(ring);
   }
   thread_ = std::thread([this] { work(); });

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstddef>
 #include <filesystem>
+#include <string>
 #include <thread>
 
 #include "ioct/gpu/live/view_control.hpp"
@@ -23,6 +24,7 @@ struct ViewSocketConfig {
   std::size_t max_unsent_bytes = 1 << 20;  // replies a client has not read: more closes it
   std::chrono::milliseconds snapshot_timeout{10000};
   unsigned mode = 0660;  // the view's group connects
+  std::string group;     // the socket file's group (ioct-view's); empty: this process's
 };
 
 class ViewSocket {

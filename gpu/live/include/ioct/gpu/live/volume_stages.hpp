@@ -93,6 +93,7 @@ struct VolumeStagesConfig {
   double image_interval_s = 1.0;
   // The frame ring for ioct-view (shm object name; empty: no frames are published).
   std::string frame_ring;
+  std::string frame_group;  // the frame ring's group (ioct-view's); empty: this process's
   // Renders of one view per second at most (auto-rotation, interaction).
   double frame_rate_hz = 60.0;
   // The CPU renderer renders at this fraction of the output size while a view moves, and at full
