@@ -59,8 +59,12 @@ std::string_view to_string(StopReason reason) noexcept {
 }
 
 void LiveConfig::validate() const {
-  if (ring_name.empty() || ring_name.find('/') != std::string::npos) {
-    throw ConfigError("ring", "'" + ring_name + "'", "must be a shared-memory name without '/'");
+  const bool plain = !ring_name.empty() && ring_name.find('/') == std::string::npos;
+  const bool path = ring_name.size() > 1 && ring_name.front() == '/' && ring_name.rfind('/') > 0 &&
+                    ring_name.back() != '/';
+  if (!plain && !path) {
+    throw ConfigError("ring", "'" + ring_name + "'",
+                      "must be a shared-memory name without '/' or an absolute path");
   }
   if (out_dir.empty()) throw ConfigError("out", "''", "must name a directory");
   processing.validate();
@@ -112,7 +116,9 @@ class LiveProcessor::Session final : public LiveEvents {
     }
   }
 
-  RunSummary finish(StopReason reason) {
+  // `finish_stage`: false when the loop goes on to wait for the producer's return; the stage
+  // then keeps running across the gap and reads the next attachment's volume.
+  RunSummary finish(StopReason reason, bool finish_stage) {
     pipeline_->drain(*this);
     const std::uint64_t now = shm::monotonic_ns();
     if (!images_) {
@@ -126,7 +132,9 @@ class LiveProcessor::Session final : public LiveEvents {
     }
     if (config_.status_interval_s > 0) print_status(now);
     RunSummary summary;
-    if (owner_.stage_ != nullptr) summary.stages = owner_.stage_->finish(config_.out_dir);
+    if (owner_.stage_ != nullptr && finish_stage) {
+      summary.stages = owner_.stage_->finish(config_.out_dir);
+    }
     summary.stop_reason = reason;
     summary.geometry = geometry_;
     summary.seconds = static_cast<double>(now - started_ns_) / kNsPerS;
@@ -323,45 +331,81 @@ RunSummary LiveProcessor::run() {
   }
 
   RunSummary summary;
-  const std::uint64_t deadline = shm::monotonic_ns() + seconds_to_ns(config_.wait_s);
-  std::optional<shm::RingReader> reader;
-  while (!reader) {
-    try {
-      reader.emplace(shm::RingReader::attach(config_.ring_name, shm::ReaderOptions{config_.label}));
-    } catch (const shm::RingError& e) {
-      if (!worth_retrying(e.code())) throw;
-      if (stop_.load(std::memory_order_relaxed)) break;
-      if (shm::monotonic_ns() >= deadline) {
-        throw shm::RingError(e.code(), "ring '" + config_.ring_name + "' not readable after " +
-                                           format_value(config_.wait_s) +
-                                           " s of waiting: " + e.what());
-      }
-      sleep_ns(50'000'000);
-    }
-  }
   std::string backend_name(to_string(config_.backend));
-  if (reader) {
+  bool stage_finished = stage_ == nullptr;
+  // The first wait is bounded by wait_s; after the producer went away, waiting for its return
+  // is what a service does (until SIGTERM), unless exit_when_producer_gone.
+  const std::uint64_t deadline = shm::monotonic_ns() + seconds_to_ns(config_.wait_s);
+  bool waiting_for_return = false;
+  for (;;) {
+    std::optional<shm::RingReader> reader = attach(deadline, waiting_for_return);
+    if (!reader) break;  // stop requested while waiting
     // Only now is "auto" resolved (which initialises the CUDA driver, a fraction of a second):
     // the reader is attached first, so every group published from then on is read or counted
     // as dropped, as with the CPU backend's FFT planning.
     std::string warning;
     const Backend backend = resolve_backend(config_.backend, &warning);
-    if (!warning.empty() && status_out_ != nullptr) {
+    if (!warning.empty() && status_out_ != nullptr && !waiting_for_return) {
       *status_out_ << "ioct-gpu: warning: " << warning << std::endl;
     }
     Session session(*this, backend, std::move(*reader));
     backend_name = session.backend_name();
     attached_.store(true, std::memory_order_release);
     const StopReason reason = session.loop();
-    summary = session.finish(reason);
+    const bool last = reason != StopReason::producer_gone || config_.exit_when_producer_gone;
+    summary = session.finish(reason, last);
+    stage_finished = stage_finished || last;
+    if (last) break;
+    // Keep what this attachment did on disk while the next one is awaited.
+    write_summary(summary, backend_name);
+    waiting_for_return = true;
+    if (status_out_ != nullptr) {
+      *status_out_ << "ioct-gpu: producer gone (ring '" << config_.ring_name
+                   << "' closed or replaced): waiting for it to come back (NO SIGNAL)" << std::endl;
+    }
   }
+  if (!stage_finished) summary.stages = stage_->finish(config_.out_dir);
+  write_summary(summary, backend_name);
+  return summary;
+}
+
+std::optional<shm::RingReader> LiveProcessor::attach(std::uint64_t deadline,
+                                                     bool waiting_for_return) {
+  const std::uint64_t status_ns = seconds_to_ns(config_.status_interval_s);
+  const std::uint64_t since = shm::monotonic_ns();
+  std::uint64_t next_status = since + status_ns;
+  for (;;) {
+    try {
+      return shm::RingReader::attach(config_.ring_name, shm::ReaderOptions{config_.label});
+    } catch (const shm::RingError& e) {
+      if (!worth_retrying(e.code())) throw;
+      if (stop_.load(std::memory_order_relaxed)) return std::nullopt;
+      const std::uint64_t now = shm::monotonic_ns();
+      if (!waiting_for_return && now >= deadline) {
+        throw shm::RingError(e.code(), "ring '" + config_.ring_name + "' not readable after " +
+                                           format_value(config_.wait_s) +
+                                           " s of waiting: " + e.what());
+      }
+      if (waiting_for_return && status_ns > 0 && now >= next_status && status_out_ != nullptr) {
+        char line[160];
+        std::snprintf(line, sizeof line, "waiting for the producer (NO SIGNAL) for %.0f s: %s",
+                      static_cast<double>(now - since) / kNsPerS,
+                      std::string(shm::to_string(e.code())).c_str());
+        *status_out_ << "ioct-gpu: " << line << std::endl;
+        next_status = now + status_ns;
+      }
+      sleep_ns(50'000'000);
+    }
+  }
+}
+
+void LiveProcessor::write_summary(RunSummary& summary, const std::string& backend_name) const {
   summary.ring_name = config_.ring_name;
   summary.backend = backend_name;
   summary.threads = config_.processing.threads;
   summary.scale = config_.processing.scale;
   summary.summary_json = std::filesystem::absolute(config_.out_dir / "summary.json");
   write_text_file_atomically(summary.summary_json, to_json(summary).dump(2) + "\n");
-  return summary;
 }
 
 }  // namespace ioct::gpu

@@ -59,7 +59,11 @@ int main(int argc, char** argv) {
                  "threads processing a group's B-scans (1 to 16)");
   app.add_option("--wait", config.wait_s, "seconds to wait for the ring to appear");
   app.add_option("--seconds", config.run_s,
-                 "seconds to run; 0: until SIGINT/SIGTERM or the producer closes the ring");
+                 "seconds to run; 0: until SIGINT/SIGTERM (or the producer goes, with "
+                 "--exit-when-producer-gone)");
+  app.add_flag("--exit-when-producer-gone", config.exit_when_producer_gone,
+               "finish when the producer closes the ring, instead of waiting for it to come back "
+               "and reattaching (a service waits; a demo or a test finishes)");
   app.add_option("--status-interval", config.status_interval_s,
                  "seconds between status lines on stderr; 0: none");
   app.add_option("--background", background, "background removal: rolling or none");

@@ -11,6 +11,7 @@
 #include <string>
 
 #include "ioct/common/atomic_file.hpp"
+#include "ioct/common/input_file.hpp"
 
 namespace ioct::gpu {
 namespace {
@@ -125,6 +126,7 @@ void write_png8(const std::filesystem::path& path, std::uint32_t width, std::uin
 }
 
 GrayImage read_png_gray8(const std::filesystem::path& path) {
+  (void)regular_file_size(path.string(), "PNG");  // a FIFO must not block the fopen
   const std::unique_ptr<std::FILE, int (*)(std::FILE*)> file(std::fopen(path.c_str(), "rb"),
                                                              &std::fclose);
   if (!file) {

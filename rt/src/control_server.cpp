@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "control_protocol.hpp"
+#include "ioct/shm/monotonic_clock.hpp"
 
 namespace ioct::rt {
 namespace {
@@ -42,8 +43,11 @@ bool answered(const sockaddr_un& address) {
 
 }  // namespace
 
-ControlServer::ControlServer(std::string path, const std::string& group, std::uint32_t max_clients)
-    : path_(std::move(path)), max_clients_(max_clients) {
+ControlServer::ControlServer(std::string path, const std::string& group, std::uint32_t max_clients,
+                             std::uint64_t idle_timeout_ms)
+    : path_(std::move(path)),
+      max_clients_(max_clients),
+      idle_timeout_ns_(idle_timeout_ms * 1'000'000u) {
   const sockaddr_un address = address_of(path_);
   gid_t gid = static_cast<gid_t>(-1);
   if (!group.empty()) {
@@ -107,6 +111,7 @@ void ControlServer::add_poll_fds(std::vector<pollfd>& fds) const {
 }
 
 void ControlServer::process(const pollfd* fds, std::size_t count, const Handler& handler) {
+  const std::uint64_t now = shm::monotonic_ns();
   // fds[0] is the listener, fds[1 + i] client i, as add_poll_fds() laid them out.
   std::vector<bool> drop(clients_.size(), false);
   for (std::size_t i = 0; i + 1 < count && i < clients_.size(); ++i) {
@@ -118,20 +123,59 @@ void ControlServer::process(const pollfd* fds, std::size_t count, const Handler&
     if (!drop[i] && !client.out.empty() && !write_to(client)) drop[i] = true;
     if (!drop[i] && client.closing && client.out.empty()) drop[i] = true;
   }
+  close_idle(now, drop);
   for (std::size_t i = clients_.size(); i-- > 0;) {
     if (i < drop.size() && drop[i]) {
       ::close(clients_[i].fd);
       clients_.erase(clients_.begin() + static_cast<std::ptrdiff_t>(i));
     }
   }
-  if (count > 0 && (fds[0].revents & POLLIN) != 0) accept_clients();
+  if (count > 0 && (fds[0].revents & POLLIN) != 0) accept_clients(now);
 }
 
-void ControlServer::accept_clients() {
+void ControlServer::close_idle(std::uint64_t now_ns, std::vector<bool>& drop) {
+  for (std::size_t i = 0; i < clients_.size() && i < drop.size(); ++i) {
+    Client& c = clients_[i];
+    // last_heard_ns may be a little after now_ns (a line read during this pass).
+    if (drop[i] || c.last_heard_ns + idle_timeout_ns_ > now_ns) continue;
+    const std::string reply =
+        error_reply("closing: no request for " + std::to_string(idle_timeout_ns_ / 1'000'000) +
+                    " ms (the idle timeout)") +
+        "\n";
+    (void)!::send(c.fd, reply.data(), reply.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+    drop[i] = true;
+    ++closed_idle_;
+  }
+}
+
+bool ControlServer::evict_silent(std::uint64_t now_ns) {
+  std::size_t silent = clients_.size();
+  for (std::size_t i = 0; i < clients_.size(); ++i) {
+    if (silent == clients_.size() || clients_[i].last_heard_ns < clients_[silent].last_heard_ns) {
+      silent = i;
+    }
+  }
+  if (silent == clients_.size() ||
+      clients_[silent].last_heard_ns + kEvictAfterSilenceMs * 1'000'000u > now_ns) {
+    return false;
+  }
+  const std::string reply =
+      error_reply(
+          "closing: every control slot is taken and this connection was the longest "
+          "silent; reconnect to send a command") +
+      "\n";
+  (void)!::send(clients_[silent].fd, reply.data(), reply.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
+  ::close(clients_[silent].fd);
+  clients_.erase(clients_.begin() + static_cast<std::ptrdiff_t>(silent));
+  ++closed_idle_;
+  return true;
+}
+
+void ControlServer::accept_clients(std::uint64_t now_ns) {
   for (;;) {
     const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd < 0) return;  // EAGAIN: none left (or a transient error: the next poll retries)
-    if (clients_.size() >= max_clients_) {
+    if (clients_.size() >= max_clients_ && !evict_silent(now_ns)) {
       ++rejected_;
       const std::string reply = error_reply("too many control clients (control.max_clients = " +
                                             std::to_string(max_clients_) + "); try again later") +
@@ -140,7 +184,7 @@ void ControlServer::accept_clients() {
       ::close(fd);
       continue;
     }
-    clients_.push_back(Client{fd, {}, {}, false, false});
+    clients_.push_back(Client{fd, {}, {}, false, false, now_ns});
   }
 }
 
@@ -165,8 +209,9 @@ bool ControlServer::read_from(Client& client, const Handler& handler) {
         std::string line = std::move(client.in);
         client.in.clear();
         if (!line.empty() && line.back() == '\r') line.pop_back();
-        if (line.find_first_not_of(" \t") == std::string::npos) continue;  // blank line
+        // Every line gets its reply, a blank one included (an error saying it is empty).
         ++requests_;
+        client.last_heard_ns = shm::monotonic_ns();
         client.out += handler(line);
         client.out += '\n';
         continue;

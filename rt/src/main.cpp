@@ -18,10 +18,14 @@
 #include "backends.hpp"
 #include "control_protocol.hpp"
 #include "control_server.hpp"
+#include "effective_config.hpp"
 #include "ioct/common/config_error.hpp"
+#include "ioct/common/input_file.hpp"
 #include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
+#include "ioct/shm/ring_layout.hpp"
 #include "ioct/shm/ring_writer.hpp"
+#include "ioct/shm/shm_object.hpp"
 #include "rt_options.hpp"
 #include "run_summary.hpp"
 #include "safety_supervisor.hpp"
@@ -340,7 +344,8 @@ int Process::run() {
 
   std::optional<rt::ControlServer> control;
   if (!config.control_socket.empty()) {
-    control.emplace(config.control_socket, config.control_group, config.max_clients);
+    control.emplace(config.control_socket, config.control_group, config.max_clients,
+                    config.idle_timeout_ms);
     say("control: listening on " + config.control_socket + " (mode 0660" +
         (config.control_group.empty() ? "" : ", group " + config.control_group) + ")");
   }
@@ -455,6 +460,21 @@ int check_config(const rt::RtOptions& options) {
       c.bscans_per_volume, pattern.describe().c_str(), pattern.usage.peak_velocity,
       c.galvo_limits.max_velocity, pattern.usage.peak_acceleration, c.galvo_limits.max_acceleration,
       pattern.usage.peak_position);
+  // The ring must fit where it will live: a ring larger than the free space is refused here,
+  // not found out by a SIGBUS (ShmObject::create allocates it at start).
+  const shm::RingLayout layout = shm::RingLayout::compute(
+      setup.ring.geometry, setup.ring.slot_count, setup.ring.slot_payload_capacity);
+  const std::optional<std::uint64_t> room = shm::room_for_object(setup.ring.name);
+  if (room && layout.total_bytes > *room) {
+    say("error: invalid configuration: ring.slots = " + std::to_string(c.ring_slots) +
+        ": the ring needs " + std::to_string(layout.total_bytes) + " bytes, " +
+        shm::object_path(setup.ring.name) + " has room for " + std::to_string(*room));
+    return kExitBadConfig;
+  }
+  std::printf("ring: %llu bytes, %s bytes free where it lives\n%s",
+              static_cast<unsigned long long>(layout.total_bytes),
+              room ? std::to_string(*room).c_str() : "unknown",
+              rt::effective_config_toml(c).c_str());
   return 0;
 }
 
@@ -482,6 +502,9 @@ int main(int argc, char** argv) {
   try {
     return run(options);
   } catch (const rt::ConfigFileError& e) {
+    say(std::string("error: invalid configuration: ") + e.what());
+    return kExitBadConfig;
+  } catch (const ioct::InputFileError& e) {
     say(std::string("error: invalid configuration: ") + e.what());
     return kExitBadConfig;
   } catch (const rt::ScanInfeasible& e) {

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/common/input_file.hpp"
 
 namespace ioct::rt {
 namespace {
@@ -304,6 +305,7 @@ void read_tables(const toml::table& root, const std::string& origin, RtConfig& c
   control.text("socket_group", c.control_group);
   control.boolean("start_scanning", c.start_scanning);
   control.integer("max_clients", c.max_clients, 1, 64);
+  control.integer("idle_timeout_ms", c.idle_timeout_ms, 100, 86'400'000);
   control.done();
 
   Section status = top.table("status");
@@ -426,10 +428,67 @@ void RtConfig::validate() const {
                           " bytes (a Unix socket path)");
   }
   require_integer_in_range("control.max_clients", max_clients, 1, 64);
+  require_integer_in_range("control.idle_timeout_ms", idle_timeout_ms, 100, 86'400'000);
   require_real_in_range("status.interval_s", status_interval_s, 0.05, 3600.0);
   require_real_in_range("simulation.mirror_natural_hz", mirror_natural_hz, 10.0, 100'000.0);
   require_real_in_range("simulation.mirror_damping", mirror_damping, 0.05, 5.0);
 }
+
+namespace {
+
+bool drives_hardware(const RtConfig& c) {
+  return c.digitizer_backend != "simulated" || c.galvo_backend != "simulated" ||
+         c.lines_backend != "simulated";
+}
+
+// With real hardware a missing key must not fall back to a default: a half-copied file would
+// otherwise start scanning with no control socket and the default limits.
+void require_safety_keys(const RtConfig& c, const std::string& origin, const KeyPositions& present,
+                         SourcePosition end) {
+  if (!drives_hardware(c)) return;
+  std::string missing;
+  for (const char* key : kSafetyKeysOnHardware) {
+    if (present.count(key) == 0) missing += (missing.empty() ? "" : ", ") + std::string(key);
+  }
+  if (c.lines_backend != "simulated") {
+    for (const char* key : {"lines.laser_emission.offset", "lines.watchdog.offset"}) {
+      if (present.count(key) == 0) missing += (missing.empty() ? "" : ", ") + std::string(key);
+    }
+  }
+  if (missing.empty()) return;
+  const std::string backend =
+      c.digitizer_backend != "simulated" ? "digitizer.backend = " + quoted(c.digitizer_backend)
+      : c.galvo_backend != "simulated"   ? "galvo.backend = " + quoted(c.galvo_backend)
+                                         : "lines.backend = " + quoted(c.lines_backend);
+  throw ConfigFileError(origin, end,
+                        "with real hardware (" + backend +
+                            ") every safety-relevant key must be set in the file, and these are "
+                            "not (is the file complete?): " +
+                            missing);
+}
+
+}  // namespace
+
+const std::vector<const char*> kSafetyKeysOnHardware = {
+    "control.socket",
+    "control.socket_group",
+    "control.start_scanning",
+    "control.max_clients",
+    "galvo.max_velocity",
+    "galvo.max_acceleration",
+    "galvo.park_x",
+    "galvo.park_y",
+    "safety.arming_timeout_ms",
+    "safety.readback_timeout_ms",
+    "safety.stall_timeout_ms",
+    "safety.park_wait_ms",
+    "safety.monitor_laser_ready",
+    "safety.monitor_k_clock",
+    "safety.monitor_sweep_trigger",
+    "safety.require_footswitch",
+    "safety.auto_rearm_ms",
+    "safety.max_missed_sweeps_per_group",
+};
 
 void load_config_text(const std::string& text, const std::string& origin, RtConfig& config,
                       KeyPositions* positions) {
@@ -440,15 +499,30 @@ void load_config_text(const std::string& text, const std::string& origin, RtConf
     throw ConfigFileError(origin, position_of(e.source()),
                           "not valid TOML: " + std::string(e.description()));
   }
-  read_tables(root, origin, config, positions);
+  const SourcePosition end{
+      static_cast<std::uint32_t>(std::count(text.begin(), text.end(), '\n') + 1), 1};
+  if (root.empty()) {
+    throw ConfigFileError(origin, end,
+                          "the configuration is empty (no table, no key): refusing it rather "
+                          "than running on defaults");
+  }
+  KeyPositions present;
+  read_tables(root, origin, config, &present);
+  require_safety_keys(config, origin, present, end);
+  if (positions != nullptr) positions->insert(present.begin(), present.end());
 }
 
 void load_config_file(const std::string& path, RtConfig& config, KeyPositions* positions) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot read the configuration file " + path);
-  std::ostringstream text;
-  text << in.rdbuf();
-  load_config_text(text.str(), path, config, positions);
+  const std::string text = read_small_file(path, "the configuration file", kMaxConfigBytes);
+  // A file cut off part-way (a partial copy) mostly ends inside a line: refused. One cut at a
+  // line end still misses its later keys, which with real hardware are required.
+  if (!text.empty() && text.back() != '\n') {
+    const auto lines = static_cast<std::uint32_t>(std::count(text.begin(), text.end(), '\n') + 1);
+    throw ConfigFileError(path, {lines, 1},
+                          "the file does not end with a newline: it looks cut off (a partial "
+                          "copy?); refusing it");
+  }
+  load_config_text(text, path, config, positions);
 }
 
 }  // namespace ioct::rt

@@ -7,6 +7,7 @@
 #include <map>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "ioct/hal/digitizer_config.hpp"
 #include "ioct/hal/galvo_output.hpp"
@@ -77,8 +78,12 @@ struct RtConfig {
   // [control]
   std::string control_socket;  // empty: no control channel
   std::string control_group;   // group of the socket (mode 0660); empty: the process's
-  bool start_scanning = true;  // arm at start-up without waiting for a start command
+  // Arm at start-up without waiting for a start command. With real hardware the file must set it
+  // (kSafetyKeysOnHardware); the simulator starts at once.
+  bool start_scanning = true;
   std::uint32_t max_clients = 8;
+  // A client that sends no request for this long is closed (idle clients cannot hold slots).
+  std::uint64_t idle_timeout_ms = 30'000;
 
   // [status]
   double status_interval_s = 1.0;
@@ -117,9 +122,18 @@ class ConfigFileError : public std::runtime_error {
   SourcePosition position_;
 };
 
+// The most bytes a configuration file may have.
+inline constexpr std::uint64_t kMaxConfigBytes = 1 << 20;
+
+// The keys a file must set itself when any backend is real hardware (docs/operations.md).
+extern const std::vector<const char*> kSafetyKeysOnHardware;
+
 // Reads `path` over `config` (keys absent from the file keep their value). Throws
 // ConfigFileError for a syntax error, an unknown key, a value of the wrong type or out of range;
-// the file's keys and where they are go to `positions` when given.
+// the file's keys and where they are go to `positions` when given. Refused as well: a path that
+// is not a regular file or is larger than kMaxConfigBytes (ioct::InputFileError), an empty file
+// (no key), a file that does not end with a newline (cut off), and, with a real backend, a file
+// that leaves out any of kSafetyKeysOnHardware.
 void load_config_file(const std::string& path, RtConfig& config, KeyPositions* positions = nullptr);
 
 // Reads TOML text (`origin` names it in errors); what load_config_file() does after reading.

@@ -85,9 +85,8 @@ void clear_stale(const std::string& name) {
 }  // namespace
 
 void FrameRingConfig::validate() const {
-  if (name.empty() || name.size() > 200 || name.find('/') != std::string::npos) {
-    throw RingError(RingErrc::bad_config,
-                    "frames.name = '" + name + "': must be 1 to 200 characters without '/'");
+  if (const std::string problem = object_name_problem(name); !problem.empty()) {
+    throw RingError(RingErrc::bad_config, "frames.name = '" + name + "': " + problem);
   }
   if (slots < 2 || slots > kMaxFrameSlots) {
     throw RingError(RingErrc::bad_config, "frames.slots = " + std::to_string(slots) +

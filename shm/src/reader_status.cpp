@@ -1,5 +1,9 @@
 #include "ioct/shm/reader_status.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cstring>
@@ -86,43 +90,68 @@ void ReaderStatusPublisher::update(std::uint64_t now_ns, std::uint64_t epoch,
   store_word(b.heartbeat_ns, now_ns, std::memory_order_release);
 }
 
+namespace {
+
+// Reads one status object without mapping it: the object belongs to a reader (another user), who
+// could truncate a mapping under us; a read of a shortened file is only short. Non-blocking and
+// no link followed: a FIFO or a link under the name is skipped, never waited on.
+std::optional<ReaderStatusBlock> read_status_block(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOFOLLOW | O_CLOEXEC);
+  if (fd < 0) return std::nullopt;
+  std::optional<ReaderStatusBlock> block;
+  struct stat st {};
+  if (::fstat(fd, &st) == 0 && S_ISREG(st.st_mode) && (st.st_mode & 0002u) == 0 &&
+      st.st_size >= static_cast<off_t>(sizeof(ReaderStatusBlock))) {
+    ReaderStatusBlock b{};
+    if (::pread(fd, &b, sizeof b, 0) == static_cast<ssize_t>(sizeof b)) block = b;
+  }
+  ::close(fd);
+  return block;
+}
+
+}  // namespace
+
 std::vector<ReaderReport> scan_reader_status(const std::string& ring_name,
                                              std::vector<std::string>* skipped) {
   std::vector<ReaderReport> reports;
-  const std::string prefix = status_prefix(ring_name);
+  // Status objects sit beside the ring: "<ring>.reader.<pid>.<n>" in the ring's directory.
+  const std::string prefix_path = object_path(status_prefix(ring_name));
+  const auto slash = prefix_path.rfind('/');
+  const std::string directory = prefix_path.substr(0, slash == 0 ? 1 : slash);
+  const std::string prefix = prefix_path.substr(slash + 1);
+  const auto ring_slash = ring_name.rfind('/');
+  const std::string name_base =
+      ring_slash == std::string::npos ? std::string() : ring_name.substr(0, ring_slash + 1);
   std::error_code ec;
-  for (const auto& entry : std::filesystem::directory_iterator("/dev/shm", ec)) {
-    const std::string name = entry.path().filename().string();
-    if (name.compare(0, prefix.size(), prefix) != 0) continue;
-    try {
-      const ShmObject object = ShmObject::open(name, Access::read_only);
-      const auto& b = *reinterpret_cast<const ReaderStatusBlock*>(object.data());
-      if (object.size() < sizeof(ReaderStatusBlock) ||
-          load_word(b.magic, std::memory_order_acquire) != kReaderStatusMagic ||
-          b.layout_version != kReaderStatusVersion) {
-        if (skipped != nullptr) skipped->push_back(name);
-        continue;
-      }
-      constexpr auto relaxed = std::memory_order_relaxed;
-      ReaderReport r;
-      r.object_name = name;
-      r.label.assign(b.label, strnlen(b.label, kReaderLabelBytes));
-      r.pid = b.pid;
-      r.alive = ProcessIdentity{b.pid, b.start_ticks}.alive();
-      const std::uint64_t beat = load_word(b.heartbeat_ns, std::memory_order_acquire);
-      const std::uint64_t now = monotonic_ns();
-      r.heartbeat_age_ns = now > beat ? now - beat : 0;
-      r.epoch = load_word(b.epoch, relaxed);
-      r.position = load_word(b.position, relaxed);
-      r.counters.consumed = load_word(b.consumed, relaxed);
-      r.counters.dropped_lapped = load_word(b.dropped_lapped, relaxed);
-      r.counters.dropped_behind = load_word(b.dropped_behind, relaxed);
-      r.counters.resyncs = load_word(b.resyncs, relaxed);
-      r.counters.epoch_changes = load_word(b.epoch_changes, relaxed);
-      reports.push_back(std::move(r));
-    } catch (const RingError&) {
+  std::size_t examined = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(directory, ec)) {
+    // Bounded: a directory stuffed with entries cannot hold the housekeeping thread for long.
+    if (++examined > kMaxDirectoryEntries) break;
+    const std::string file = entry.path().filename().string();
+    if (file.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string name = name_base + file;
+    const std::optional<ReaderStatusBlock> block = read_status_block(directory + "/" + file);
+    if (!block || block->magic != kReaderStatusMagic ||
+        block->layout_version != kReaderStatusVersion) {
       if (skipped != nullptr) skipped->push_back(name);
+      continue;
     }
+    const ReaderStatusBlock& b = *block;
+    ReaderReport r;
+    r.object_name = name;
+    r.label.assign(b.label, strnlen(b.label, kReaderLabelBytes));
+    r.pid = b.pid;
+    r.alive = ProcessIdentity{b.pid, b.start_ticks}.alive();
+    const std::uint64_t now = monotonic_ns();
+    r.heartbeat_age_ns = now > b.heartbeat_ns ? now - b.heartbeat_ns : 0;
+    r.epoch = b.epoch;
+    r.position = b.position;
+    r.counters.consumed = b.consumed;
+    r.counters.dropped_lapped = b.dropped_lapped;
+    r.counters.dropped_behind = b.dropped_behind;
+    r.counters.resyncs = b.resyncs;
+    r.counters.epoch_changes = b.epoch_changes;
+    reports.push_back(std::move(r));
   }
   std::sort(reports.begin(), reports.end(), [](const ReaderReport& a, const ReaderReport& b) {
     return a.object_name < b.object_name;

@@ -24,6 +24,10 @@ std::string_view to_string(RingErrc code) noexcept {
       return "corrupt";
     case RingErrc::owned_by_live_producer:
       return "owned_by_live_producer";
+    case RingErrc::squatted:
+      return "squatted";
+    case RingErrc::no_space:
+      return "no_space";
     case RingErrc::system:
       return "system";
   }

@@ -65,8 +65,8 @@ std::optional<ShmObject> take_over_stale(const RingConfig& config, const RingLay
     throw RingError(RingErrc::foreign,
                     "ring '" + config.name +
                         "': a shared-memory object of that name exists and is not an ioct ring; "
-                        "not touching it (remove /dev/shm/" +
-                        config.name + " if it is debris)");
+                        "not touching it (remove " +
+                        object_path(config.name) + " if it is debris)");
   }
   if (magic == kRingMagic) {
     const ProcessIdentity owner{h.producer_pid, h.producer_start_ticks};
@@ -90,16 +90,16 @@ std::optional<ShmObject> take_over_stale(const RingConfig& config, const RingLay
 }  // namespace
 
 void RingConfig::validate() const {
-  if (name.empty() || name.size() > 200 || name.find('/') != std::string::npos) {
-    throw RingError(RingErrc::bad_config,
-                    "ring: name = '" + name + "' must be 1 to 200 characters without '/'");
+  if (const std::string problem = object_name_problem(name); !problem.empty()) {
+    throw RingError(RingErrc::bad_config, "ring: name = '" + name + "' " + problem);
   }
-  if ((mode & ~0777u) != 0 || (mode & 0600u) != 0600u) {
+  if ((mode & ~0777u) != 0 || (mode & 0600u) != 0600u || (mode & 0022u) != 0) {
     char octal[16];
     std::snprintf(octal, sizeof octal, "0%o", mode);
-    throw RingError(RingErrc::bad_config, std::string("ring: mode = ") + octal +
-                                              " must be a permission mode the owner can read "
-                                              "and write (e.g. 0660)");
+    throw RingError(RingErrc::bad_config,
+                    std::string("ring: mode = ") + octal +
+                        " must let the owner read and write and nobody else write (readers "
+                        "only read; whoever may write may truncate): e.g. 0640");
   }
   (void)RingLayout::compute(geometry, slot_count, slot_payload_capacity);
 }

@@ -1,16 +1,19 @@
 #include "ioct/shm/shm_object.hpp"
 
+#include <fcntl.h>
 #include <grp.h>
+#include <pwd.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
-#include <boost/interprocess/mapped_region.hpp>
-#include <boost/interprocess/shared_memory_object.hpp>
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <utility>
@@ -18,36 +21,43 @@
 
 #include "ioct/shm/ring_error.hpp"
 
-namespace bip = boost::interprocess;
-
 namespace ioct::shm {
 
-struct ShmObject::Impl {
-  bip::shared_memory_object object;
-  bip::mapped_region region;
-};
-
 namespace {
+
+// O_NONBLOCK: opening a FIFO must not wait for a writer. O_NOFOLLOW: a link is never followed.
+constexpr int kOpenFlags = O_NONBLOCK | O_NOFOLLOW | O_CLOEXEC;
 
 std::string errno_text(int err) {
   return std::strerror(err);
 }
 
-[[noreturn]] void rethrow(const bip::interprocess_exception& e, const std::string& what,
-                          const std::string& name) {
-  const std::string where = what + " shared-memory object '" + name + "': ";
-  switch (e.get_error_code()) {
-    case bip::not_found_error:
-      throw RingError(RingErrc::not_found, where + "it does not exist");
-    case bip::security_error:
-      throw RingError(RingErrc::permission,
-                      where + "permission denied (is this user in the ring's group?)");
-    case bip::already_exists_error:
-      throw RingError(RingErrc::system, where + "it already exists");
-    default:
-      throw RingError(RingErrc::system,
-                      where + e.what() + " (errno " + std::to_string(e.get_native_error()) + ")");
+std::string octal(unsigned mode) {
+  char text[16];
+  std::snprintf(text, sizeof text, "0%o", mode & 07777u);
+  return text;
+}
+
+std::string user_name(uid_t uid) {
+  std::vector<char> buffer(16384);
+  struct passwd entry {};
+  struct passwd* found = nullptr;
+  if (::getpwuid_r(uid, &entry, buffer.data(), buffer.size(), &found) == 0 && found != nullptr) {
+    return std::string("user ") + found->pw_name + " (uid " + std::to_string(uid) + ")";
   }
+  return "uid " + std::to_string(uid);
+}
+
+std::string describe_stat(const struct stat& st) {
+  const char* kind = S_ISREG(st.st_mode)    ? "a regular file"
+                     : S_ISFIFO(st.st_mode) ? "a FIFO"
+                     : S_ISLNK(st.st_mode)  ? "a symbolic link"
+                     : S_ISDIR(st.st_mode)  ? "a directory"
+                     : S_ISSOCK(st.st_mode) ? "a socket"
+                     : S_ISCHR(st.st_mode)  ? "a character device"
+                     : S_ISBLK(st.st_mode)  ? "a block device"
+                                            : "an unknown kind of file";
+  return std::string(kind) + " owned by " + user_name(st.st_uid) + ", mode " + octal(st.st_mode);
 }
 
 gid_t lookup_group(const std::string& group) {
@@ -62,17 +72,100 @@ gid_t lookup_group(const std::string& group) {
   return found->gr_gid;
 }
 
+std::string directory_of(const std::string& path) {
+  const auto slash = path.rfind('/');
+  return slash == 0 ? "/" : path.substr(0, slash);
+}
+
+// Allocates the object's bytes now: on tmpfs a sparse object that outgrows the free space kills
+// its writer with SIGBUS at the first page that cannot be had.
+void allocate(int fd, const std::string& path, std::uint64_t bytes) {
+  if (bytes > static_cast<std::uint64_t>(std::numeric_limits<off_t>::max())) {
+    throw RingError(RingErrc::bad_config, "'" + path + "': " + std::to_string(bytes) +
+                                              " bytes is more than a file can hold");
+  }
+  const int rc = ::posix_fallocate(fd, 0, static_cast<off_t>(bytes));
+  if (rc == 0) return;
+  if (rc == ENOSPC || rc == EFBIG) {
+    struct statvfs fs {};
+    const std::string dir = directory_of(path);
+    const std::string free_text =
+        ::statvfs(dir.c_str(), &fs) == 0
+            ? std::to_string(static_cast<std::uint64_t>(fs.f_bavail) * fs.f_frsize) + " bytes free"
+            : "free space unknown";
+    throw RingError(RingErrc::no_space, "'" + path + "': needs " + std::to_string(bytes) +
+                                            " bytes, " + dir + " has " + free_text +
+                                            " (make the ring smaller: fewer slots or a smaller "
+                                            "geometry, or give the file system more room)");
+  }
+  throw RingError(RingErrc::system, "'" + path + "': cannot allocate " + std::to_string(bytes) +
+                                        " bytes: " + errno_text(rc));
+}
+
+// Checks an opened object before it is mapped.
+void check_opened(int fd, const std::string& path, Access access, struct stat& st) {
+  if (::fstat(fd, &st) != 0) {
+    throw RingError(RingErrc::system, "'" + path + "': fstat failed: " + errno_text(errno));
+  }
+  if (!S_ISREG(st.st_mode)) {
+    throw RingError(RingErrc::squatted, "'" + path + "' is " + describe_stat(st) +
+                                            ", not a shared-memory object; not using it");
+  }
+  if (access == Access::read_write && st.st_uid != ::geteuid()) {
+    throw RingError(RingErrc::squatted, "'" + path + "' is " + describe_stat(st) +
+                                            ", not this process's user's; not using it");
+  }
+  if (access == Access::read_only && (st.st_mode & 0022u) != 0) {
+    // Whoever may write it may truncate it, and a truncated mapping is a SIGBUS.
+    throw RingError(RingErrc::squatted,
+                    "'" + path + "' is " + describe_stat(st) +
+                        ": writable by others than its owner, so it could be truncated under "
+                        "a mapping; not using it");
+  }
+}
+
 }  // namespace
 
-ShmObject::ShmObject(std::unique_ptr<Impl> impl)
-    : impl_(std::move(impl)),
-      data_(static_cast<std::byte*>(impl_->region.get_address())),
-      size_(impl_->region.get_size()),
-      name_(impl_->object.get_name()) {}
+std::string object_name_problem(const std::string& name) {
+  const bool is_path = !name.empty() && name.front() == '/';
+  const bool plain_ok = !is_path && name.find('/') == std::string::npos;
+  // A path names a file in a directory of its own (not in "/"), without "." or ".." parts.
+  const bool path_ok = is_path && name.rfind('/') > 0 && name.back() != '/' &&
+                       name.find("/.") == std::string::npos && name.find("//") == std::string::npos;
+  if (!name.empty() && name.size() <= 200 && (plain_ok || path_ok)) return {};
+  return "must be 1 to 200 characters: a name without '/' (an object in /dev/shm) or an absolute "
+         "path to a file in a directory, without '.' parts (e.g. /dev/shm/ioct/ring)";
+}
+
+std::string object_path(const std::string& name) {
+  if (!name.empty() && name.front() == '/') return name;
+  return "/dev/shm/" + name;
+}
+
+std::optional<std::uint64_t> room_for_object(const std::string& name) {
+  const std::string path = object_path(name);
+  struct statvfs fs {};
+  if (::statvfs(directory_of(path).c_str(), &fs) != 0) return std::nullopt;
+  std::uint64_t room = static_cast<std::uint64_t>(fs.f_bavail) * fs.f_frsize;
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
+    room += static_cast<std::uint64_t>(st.st_blocks) * 512u;
+  }
+  return room;
+}
+
+std::string describe_file(const std::string& path) {
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) != 0) return "nothing (" + errno_text(errno) + ")";
+  return describe_stat(st);
+}
+
+ShmObject::ShmObject(int fd, std::byte* data, std::uint64_t size, std::string name)
+    : fd_(fd), data_(data), size_(size), name_(std::move(name)) {}
 
 // A moved-from object owns nothing and says so: data() is null, size() is 0.
 ShmObject::ShmObject(ShmObject&& other) noexcept
-    : impl_(std::move(other.impl_)),
+    : fd_(std::exchange(other.fd_, -1)),
       data_(std::exchange(other.data_, nullptr)),
       size_(std::exchange(other.size_, 0)),
       name_(std::move(other.name_)),
@@ -80,7 +173,8 @@ ShmObject::ShmObject(ShmObject&& other) noexcept
 
 ShmObject& ShmObject::operator=(ShmObject&& other) noexcept {
   if (this != &other) {
-    impl_ = std::move(other.impl_);
+    release();
+    fd_ = std::exchange(other.fd_, -1);
     data_ = std::exchange(other.data_, nullptr);
     size_ = std::exchange(other.size_, 0);
     name_ = std::move(other.name_);
@@ -88,48 +182,65 @@ ShmObject& ShmObject::operator=(ShmObject&& other) noexcept {
   }
   return *this;
 }
-ShmObject::~ShmObject() = default;
+
+ShmObject::~ShmObject() {
+  release();
+}
+
+void ShmObject::release() noexcept {
+  if (data_ != nullptr) ::munmap(data_, size_);
+  if (fd_ >= 0) ::close(fd_);
+  data_ = nullptr;
+  size_ = 0;
+  fd_ = -1;
+  locked_ = false;
+}
 
 ShmObject ShmObject::create(const std::string& name, std::uint64_t bytes, unsigned mode,
                             const std::string& group) {
-  auto impl = std::make_unique<Impl>();
-  try {
-    impl->object = bip::shared_memory_object(bip::create_only, name.c_str(), bip::read_write,
-                                             bip::permissions(mode));
-  } catch (const bip::interprocess_exception& e) {
-    rethrow(e, "cannot create", name);
+  const std::string path = object_path(name);
+  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_EXCL | kOpenFlags,
+                        static_cast<mode_t>(mode & 0600u));
+  if (fd < 0) {
+    const int err = errno;
+    if (err == EEXIST) {
+      throw RingError(RingErrc::squatted,
+                      "cannot create '" + path + "': the name is taken by " + describe_file(path));
+    }
+    throw RingError(err == EACCES ? RingErrc::permission : RingErrc::system,
+                    "cannot create '" + path + "': " + errno_text(err));
   }
-  // An unknown group or a refused chown must not leave a half-made object behind.
+  // Nothing half-made stays behind: a failure below removes the name again.
   try {
-    impl->object.truncate(static_cast<bip::offset_t>(bytes));
-    impl->region = bip::mapped_region(impl->object, bip::read_write);
-    ShmObject object(std::move(impl));
+    allocate(fd, path, bytes);
+    void* data = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+    if (data == MAP_FAILED) {
+      throw RingError(RingErrc::system, "cannot map '" + path + "' (" + std::to_string(bytes) +
+                                            " bytes): " + errno_text(errno));
+    }
+    ShmObject object(fd, static_cast<std::byte*>(data), bytes, name);
     object.set_access(mode, group);
     return object;
-  } catch (const bip::interprocess_exception& e) {
-    bip::shared_memory_object::remove(name.c_str());
-    rethrow(e, "cannot size or map", name);
   } catch (...) {
-    bip::shared_memory_object::remove(name.c_str());
+    ::unlink(path.c_str());
+    ::close(fd);
     throw;
   }
 }
 
 void ShmObject::set_access(unsigned mode, const std::string& group) {
-  const int fd = impl_->object.get_mapping_handle().handle;
-  if (::fchmod(fd, static_cast<mode_t>(mode)) != 0) {
-    throw RingError(RingErrc::system, "ring '" + name_ + "': fchmod failed: " + errno_text(errno));
+  if (::fchmod(fd_, static_cast<mode_t>(mode)) != 0) {
+    throw RingError(RingErrc::system, "'" + name_ + "': fchmod failed: " + errno_text(errno));
   }
-  if (!group.empty() && ::fchown(fd, static_cast<uid_t>(-1), lookup_group(group)) != 0) {
-    throw RingError(RingErrc::system, "ring '" + name_ + "': cannot give it to group '" + group +
+  if (!group.empty() && ::fchown(fd_, static_cast<uid_t>(-1), lookup_group(group)) != 0) {
+    throw RingError(RingErrc::system, "'" + name_ + "': cannot give it to group '" + group +
                                           "': " + errno_text(errno));
   }
 }
 
 void ShmObject::set_access(unsigned mode, unsigned group_id) {
   set_access(mode, std::string());
-  const int fd = impl_->object.get_mapping_handle().handle;
-  if (::fchown(fd, static_cast<uid_t>(-1), static_cast<gid_t>(group_id)) != 0) {
+  if (::fchown(fd_, static_cast<uid_t>(-1), static_cast<gid_t>(group_id)) != 0) {
     throw RingError(RingErrc::system, "'" + name_ + "': cannot give it to group id " +
                                           std::to_string(group_id) + ": " + errno_text(errno));
   }
@@ -137,48 +248,66 @@ void ShmObject::set_access(unsigned mode, unsigned group_id) {
 
 unsigned ShmObject::group_id() const {
   struct stat st {};
-  if (::fstat(impl_->object.get_mapping_handle().handle, &st) != 0) {
+  if (::fstat(fd_, &st) != 0) {
     throw RingError(RingErrc::system, "'" + name_ + "': fstat failed: " + errno_text(errno));
   }
   return static_cast<unsigned>(st.st_gid);
 }
 
 ShmObject ShmObject::open(const std::string& name, Access access) {
-  auto impl = std::make_unique<Impl>();
-  const bip::mode_t mode = access == Access::read_only ? bip::read_only : bip::read_write;
-  try {
-    impl->object = bip::shared_memory_object(bip::open_only, name.c_str(), mode);
-    bip::offset_t size = 0;
-    if (!impl->object.get_size(size)) {
-      throw RingError(RingErrc::system, "ring '" + name + "': cannot read its size");
+  const std::string path = object_path(name);
+  const int fd =
+      ::open(path.c_str(), (access == Access::read_only ? O_RDONLY : O_RDWR) | kOpenFlags);
+  if (fd < 0) {
+    const int err = errno;
+    switch (err) {
+      case ENOENT:
+        throw RingError(RingErrc::not_found, "cannot open '" + path + "': it does not exist");
+      case EACCES:
+      case EPERM:
+        throw RingError(RingErrc::permission, "cannot open '" + path +
+                                                  "': permission denied (is this user in the "
+                                                  "ring's group?)");
+      case ELOOP:
+      case ENXIO:
+        throw RingError(RingErrc::squatted, "cannot open '" + path + "': it is " +
+                                                describe_file(path) + "; not using it");
+      default:
+        throw RingError(RingErrc::system, "cannot open '" + path + "': " + errno_text(err));
     }
-    if (size == 0) {
+  }
+  try {
+    struct stat st {};
+    check_opened(fd, path, access, st);
+    if (st.st_size == 0) {
       // A producer creates the object, then sizes it: a reader that looks in between sees 0
       // bytes. Waiting readers retry not_ready; a producer dead at that point left debris,
       // which the next producer removes (RingWriter::create).
       throw RingError(RingErrc::not_ready,
-                      "ring '" + name +
+                      "'" + path +
                           "': object is 0 bytes: the producer has not sized it yet (or died "
                           "before it did)");
     }
-    impl->region = bip::mapped_region(impl->object, mode);
-  } catch (const bip::interprocess_exception& e) {
-    rethrow(e, "cannot open", name);
+    const auto bytes = static_cast<std::uint64_t>(st.st_size);
+    const int prot = access == Access::read_only ? PROT_READ : PROT_READ | PROT_WRITE;
+    void* data = ::mmap(nullptr, bytes, prot, MAP_SHARED, fd, 0);
+    if (data == MAP_FAILED) {
+      throw RingError(RingErrc::system, "cannot map '" + path + "': " + errno_text(errno));
+    }
+    return ShmObject(fd, static_cast<std::byte*>(data), bytes, name);
+  } catch (...) {
+    ::close(fd);
+    throw;
   }
-  return ShmObject(std::move(impl));
 }
 
 bool ShmObject::remove(const std::string& name) noexcept {
-  return bip::shared_memory_object::remove(name.c_str());
+  return ::unlink(object_path(name).c_str()) == 0;
 }
 
 bool ShmObject::exists(const std::string& name) noexcept {
-  try {
-    bip::shared_memory_object probe(bip::open_only, name.c_str(), bip::read_only);
-    return true;
-  } catch (const bip::interprocess_exception& e) {
-    return e.get_error_code() != bip::not_found_error;
-  }
+  struct stat st {};
+  return ::lstat(object_path(name).c_str(), &st) == 0;
 }
 
 bool ShmObject::prefault_and_lock() noexcept {

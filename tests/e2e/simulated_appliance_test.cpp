@@ -137,7 +137,7 @@ TEST_F(SimulatedAppliance, BooksBalanceAndTheImageShowsTheRetinaWhereTheTruthIs)
   ChildProcess gpu = ChildProcess::spawn(
       test_support::sibling_executable("ioct-gpu"),
       {"--ring", ring.str(), "--out", out_.string(), "--wait", "20", "--status-interval", "1",
-       "--render-width", "320", "--render-height", "240"});
+       "--render-width", "320", "--render-height", "240", "--exit-when-producer-gone"});
   ChildProcess rt = ChildProcess::spawn(test_support::sibling_executable("ioct-rt"),
                                         rt_arguments(options, rt_summary.string()));
   ASSERT_EQ(wait_exit(rt, 60s), 0);

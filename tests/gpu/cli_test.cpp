@@ -151,8 +151,9 @@ TEST_F(Cli, ProcessesARingUntilTheProducerClosesIt) {
   LiveRing ring;
   ring.create();
   const fs::path out = dir_ / "out";
-  Child child(dir_, {"--ring", ring.name(), "--out", out.string(), "--wait", "10", "--threads", "2",
-                     "--fft-rigor", "estimate", "--status-interval", "0.05"});
+  Child child(
+      dir_, {"--ring", ring.name(), "--out", out.string(), "--wait", "10", "--threads", "2",
+             "--fft-rigor", "estimate", "--status-interval", "0.05", "--exit-when-producer-gone"});
   ASSERT_TRUE(child.started());
   ASSERT_TRUE(wait_until([&] { return consumed_by_ioct_gpu(ring) == 0; })) << child.err();
   long published = 0;
@@ -206,6 +207,40 @@ TEST_F(Cli, SigtermEndsTheRunWithASummary) {
   const nlohmann::json j = nlohmann::json::parse(read_file(out / "summary.json"));
   EXPECT_EQ(j["stop_reason"], "stop_requested");
   EXPECT_EQ(j["groups"]["consumed"], 0);
+}
+
+// Issue F9: a service must survive a restart of ioct-rt. Without --exit-when-producer-gone,
+// ioct-gpu says it waits when the ring closes, keeps running, and reads the new ring.
+TEST_F(Cli, WaitsWhenTheProducerGoesAndReattachesWhenItComesBack) {
+  LiveRing ring;
+  ring.create();
+  const fs::path out = dir_ / "out";
+  Child child(dir_, {"--ring", ring.name(), "--out", out.string(), "--wait", "10", "--fft-rigor",
+                     "estimate", "--status-interval", "0.05", "--no-stages"});
+  ASSERT_TRUE(child.started());
+  ASSERT_TRUE(wait_until([&] { return consumed_by_ioct_gpu(ring) == 0; })) << child.err();
+  ring.publish(0, 0);
+  ASSERT_TRUE(wait_until([&] { return consumed_by_ioct_gpu(ring) == 1; })) << child.err();
+  ring.close();
+  ASSERT_TRUE(wait_until([&] {
+    return child.err().find("waiting for it to come back") != std::string::npos;
+  })) << child.err();
+  EXPECT_TRUE(wait_until([&] {
+    return child.err().find("waiting for the producer (NO SIGNAL)") != std::string::npos;
+  })) << "the wait is stated on the status line: "
+      << child.err();
+  EXPECT_EQ(child.wait_exit(std::chrono::seconds(1)), -1) << "it must not exit: " << child.err();
+  ring.create();  // the producer restarted
+  ASSERT_TRUE(wait_until([&] { return consumed_by_ioct_gpu(ring) == 0; }))
+      << "reattached: " << child.err();
+  ring.publish(0, 0);
+  ring.publish(0, 4);
+  ASSERT_TRUE(wait_until([&] { return consumed_by_ioct_gpu(ring) == 2; })) << child.err();
+  child.signal(SIGTERM);
+  ASSERT_EQ(child.wait_exit(), 0) << child.err();
+  const nlohmann::json j = nlohmann::json::parse(read_file(out / "summary.json"));
+  EXPECT_EQ(j["stop_reason"], "stop_requested");
+  EXPECT_EQ(j["groups"]["consumed"], 2) << "the summary describes the last attachment";
 }
 
 TEST_F(Cli, DispersionEstimatesC2AndC3FromAGroupFile) {

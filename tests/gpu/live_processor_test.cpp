@@ -59,6 +59,7 @@ class LiveProcessorTest : public ::testing::TestWithParam<Backend> {
     config.processing.fft.rigor = FftRigor::estimate;
     config.processing.threads = 2;
     config.wait_s = 20.0;
+    config.exit_when_producer_gone = true;  // each test ends with its ring
     config.status_interval_s = 0.0;
     config.poll_interval_s = 1e-4;
     return config;

@@ -1,16 +1,20 @@
 // Raw spectra files (sizes, byte order), NRRD files (round trip, what the reader refuses), the
 // progress bar.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <string>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/gpu/offline/calibration_file.hpp"
 #include "ioct/gpu/offline/input_file_error.hpp"
 #include "ioct/gpu/offline/nrrd_file.hpp"
 #include "ioct/gpu/offline/progress_bar.hpp"
 #include "ioct/gpu/offline/raw_spectra_file.hpp"
+#include "ioct/test_support/bounded_child.hpp"
 #include "offline_test_support.hpp"
 
 namespace ioct::gpu::offline {
@@ -224,6 +228,72 @@ INSTANTIATE_TEST_SUITE_P(
       }
       return name;
     });
+
+// Issue F5: a 70-byte header claiming 65536 x 65536 x 1 voxels is refused from the file's size
+// before anything is allocated (it used to reserve 4 GiB first). The child may not have 1 GiB.
+TEST(Nrrd, HugeSizesInATinyFileAreRefusedBeforeAllocating) {
+  if (test_support::built_with_sanitizer()) {
+    GTEST_SKIP() << "a data-size limit breaks the sanitizer's shadow memory";
+  }
+  ScratchDir dir;
+  const std::string header =
+      "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 65536 65536 1\nencoding: raw\n\n";
+  testing::write_bytes(dir / "huge.nrrd", {header.begin(), header.end()});
+  std::string message;
+  const test_support::ChildOutcome outcome = test_support::run_in_child(
+      [&] {
+        try {
+          read_nrrd_file(dir / "huge.nrrd");
+        } catch (const InputFileError& e) {
+          return std::string(e.what()).find("truncated: 0 of the 4294967296 data bytes") !=
+                 std::string::npos;
+        }
+        return false;
+      },
+      {std::chrono::seconds(20), std::uint64_t{1} << 30});
+  EXPECT_EQ(outcome, test_support::ChildOutcome::passed) << to_string(outcome);
+}
+
+// Issue F6: a FIFO or a device as an input file is refused at once.
+TEST(Nrrd, AFifoOrADeviceIsRefusedAtOnce) {
+  ScratchDir dir;
+  ASSERT_EQ(::mkfifo((dir / "fifo.nrrd").c_str(), 0600), 0);
+  const test_support::ChildOutcome outcome = test_support::run_in_child([&] {
+    return message_of([&] { read_nrrd_file(dir / "fifo.nrrd"); }).find("a FIFO") !=
+           std::string::npos;
+  });
+  EXPECT_EQ(outcome, test_support::ChildOutcome::passed) << to_string(outcome);
+  const std::string zero = message_of([] { read_nrrd_file("/dev/zero"); });
+  EXPECT_NE(zero.find("/dev/zero: it is a character device"), std::string::npos) << zero;
+}
+
+// Issue F11: header text in a message is shown printable and shortened, with the file's name.
+TEST(Nrrd, MessagesQuoteHeaderBytesPrintableAndShort) {
+  ScratchDir dir;
+  std::string text = "NRRD0004\ntype: \x01\x02" + std::string(5000, 'v') + "\n\n";
+  testing::write_bytes(dir / "noisy.nrrd", {text.begin(), text.end()});
+  const std::string message = message_of([&] { read_nrrd_file(dir / "noisy.nrrd"); });
+  EXPECT_NE(message.find("noisy.nrrd"), std::string::npos) << message;
+  EXPECT_NE(message.find("\\x01\\x02vvv"), std::string::npos) << message;
+  EXPECT_LT(message.size(), 400u) << message;
+  for (const char c : message) EXPECT_TRUE(c >= 0x20 && c < 0x7f) << int(c);
+}
+
+// Issue F6/F11: a calibration file must be a regular file, and a bad value in it is reported with
+// the file's name (it used to read as "invalid option").
+TEST(CalibrationFile, BadValuesNameTheFileAndAFifoIsRefused) {
+  ScratchDir dir;
+  const std::string text = "0, 1, x\x07yz\n";
+  testing::write_bytes(dir / "cal.txt", {text.begin(), text.end()});
+  const std::string message = message_of([&] { read_calibration_file(dir / "cal.txt"); });
+  EXPECT_NE(message.find("cal.txt: "), std::string::npos) << message;
+  ASSERT_EQ(::mkfifo((dir / "cal.fifo").c_str(), 0600), 0);
+  const test_support::ChildOutcome outcome = test_support::run_in_child([&] {
+    return message_of([&] { read_calibration_file(dir / "cal.fifo"); }).find("a FIFO") !=
+           std::string::npos;
+  });
+  EXPECT_EQ(outcome, test_support::ChildOutcome::passed) << to_string(outcome);
+}
 
 TEST(ProgressBar, DrawsInPlaceOnlyWhenEnabled) {
   std::FILE* quiet = std::tmpfile();

@@ -94,7 +94,10 @@ std::vector<BadConfig> bad_configs() {
        [](shm::RingConfig& c) { c.name = std::string(201, 'r'); },
        {"name = 'rrrr", "200 characters"}},
       {"mode the owner cannot write", [](shm::RingConfig& c) { c.mode = 0440; }, {"mode = "}},
-      {"mode with set-id bits", [](shm::RingConfig& c) { c.mode = 04660; }, {"mode = "}},
+      {"mode with set-id bits", [](shm::RingConfig& c) { c.mode = 04640; }, {"mode = "}},
+      // Issue F2: whoever may write the ring may truncate it under the producer (SIGBUS).
+      {"mode the group may write", [](shm::RingConfig& c) { c.mode = 0660; }, {"mode = 0660"}},
+      {"mode anyone may write", [](shm::RingConfig& c) { c.mode = 0642; }, {"mode = 0642"}},
       {"mode zero", [](shm::RingConfig& c) { c.mode = 0; }, {"mode = "}},
   };
 }

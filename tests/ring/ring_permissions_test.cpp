@@ -1,4 +1,5 @@
-// The ring object gets the configured mode (0660 by default) whatever the process umask, and
+// The ring object gets the configured mode (0640 by default: the owner writes, the group reads)
+// whatever the process umask, and
 // the configured group; an unknown group is refused and leaves no object behind.
 #include <fcntl.h>
 #include <grp.h>
@@ -49,23 +50,23 @@ mode_t permissions_of(const std::string& shm_name) {
   return stat_of(shm_name).st_mode & 07777;
 }
 
-TEST(RingPermissions, RingGetsMode0660WhateverTheUmask) {
+TEST(RingPermissions, RingGetsMode0640WhateverTheUmask) {
   for (const mode_t mask : {mode_t{0077}, mode_t{0027}, mode_t{0}, mode_t{0777}}) {
     SCOPED_TRACE("umask 0" + std::to_string(mask));
     const ScopedShmName name("mode");
     const UmaskGuard umask(mask);
     const shm::RingWriter writer = shm::RingWriter::create(small_test_config(name.str()));
-    EXPECT_EQ(permissions_of(name.str()), 0660u);
+    EXPECT_EQ(permissions_of(name.str()), 0640u);
   }
 }
 
 TEST(RingPermissions, RingGetsTheConfiguredMode) {
-  const ScopedShmName name("mode-0640");
+  const ScopedShmName name("mode-0600");
   const UmaskGuard umask(0077);
   shm::RingConfig config = small_test_config(name.str());
-  config.mode = 0640;
+  config.mode = 0600;
   const shm::RingWriter writer = shm::RingWriter::create(config);
-  EXPECT_EQ(permissions_of(name.str()), 0640u);
+  EXPECT_EQ(permissions_of(name.str()), 0600u);
 }
 
 TEST(RingPermissions, ReaderStatusObjectGetsItsModeWhateverTheUmask) {
@@ -90,7 +91,7 @@ TEST(RingPermissions, ModeIsRestoredWhenADeadProducersRingIsReused) {
   const UmaskGuard umask(0077);
   const shm::RingWriter writer = shm::RingWriter::create(small_test_config(name.str()));
   EXPECT_EQ(writer.startup_action(), shm::StartupAction::reused_stale);
-  EXPECT_EQ(permissions_of(name.str()), 0660u);
+  EXPECT_EQ(permissions_of(name.str()), 0640u);
 }
 
 TEST(RingPermissions, RingIsGivenToTheConfiguredGroup) {
@@ -101,7 +102,7 @@ TEST(RingPermissions, RingIsGivenToTheConfiguredGroup) {
   config.group = own->gr_name;
   const shm::RingWriter writer = shm::RingWriter::create(config);
   EXPECT_EQ(stat_of(name.str()).st_gid, ::getegid());
-  EXPECT_EQ(permissions_of(name.str()), 0660u);
+  EXPECT_EQ(permissions_of(name.str()), 0640u);
 }
 
 TEST(RingPermissions, UnknownGroupIsRefusedAndLeavesNoObject) {

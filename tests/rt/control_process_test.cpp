@@ -14,6 +14,8 @@
 #include <chrono>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -83,16 +85,32 @@ class Client {
 
 class ControlSocket : public testing::Test {
  protected:
+  // Added to ioct-rt's command line.
+  virtual std::vector<std::string> extra_arguments() { return {}; }
+
   void SetUp() override {
     dir_ =
         std::filesystem::temp_directory_path() / ("ioct-rt-control-" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir_);
     socket_ = (dir_ / "rt.sock").string();
-    rt_.emplace(
-        ChildProcess::spawn(test_support::sibling_executable("ioct-rt"),
-                            {"--ring", ring_.str(), "--samples", "256", "--ascans", "128",
-                             "--bscans-per-group", "4", "--bscans-per-volume", "8", "--rt-priority",
-                             "0", "--status-interval", "0.5", "--control-socket", socket_}));
+    std::vector<std::string> arguments = {"--ring",
+                                          ring_.str(),
+                                          "--samples",
+                                          "256",
+                                          "--ascans",
+                                          "128",
+                                          "--bscans-per-group",
+                                          "4",
+                                          "--bscans-per-volume",
+                                          "8",
+                                          "--rt-priority",
+                                          "0",
+                                          "--status-interval",
+                                          "0.5",
+                                          "--control-socket",
+                                          socket_};
+    for (const std::string& a : extra_arguments()) arguments.push_back(a);
+    rt_.emplace(ChildProcess::spawn(test_support::sibling_executable("ioct-rt"), arguments));
     const auto end = std::chrono::steady_clock::now() + 20s;
     while (!std::filesystem::exists(socket_) && std::chrono::steady_clock::now() < end) {
       std::this_thread::sleep_for(10ms);
@@ -161,9 +179,11 @@ TEST_F(ControlSocket, AnswersTheVerbsAndRefusesEveryKindOfBadInput) {
   EXPECT_NE(huge["error"].get<std::string>().find("longer than 4096 bytes"), std::string::npos);
   EXPECT_EQ(c.ask(R"({"cmd":"status","id":"after"})")["id"], "after") << "still in step";
 
-  // Too many clients: the ninth is told so and closed; the others are unaffected.
+  // Too many clients: the ninth is told so and closed; the others are unaffected. The crowd
+  // talks, so none of it is the silent client a newcomer may displace.
   std::vector<std::unique_ptr<Client>> crowd;
   for (int i = 0; i < 7; ++i) crowd.push_back(std::make_unique<Client>(socket_));
+  for (auto& member : crowd) EXPECT_EQ(member->ask(R"({"cmd":"status"})").value("ok", false), true);
   Client extra(socket_);
   const std::optional<std::string> refused = extra.line();
   ASSERT_TRUE(refused.has_value());
@@ -218,6 +238,65 @@ TEST_F(ControlSocket, StopStartAndAScanChangeAtTheNextVolume) {
   EXPECT_EQ(started["ok"], true) << started.dump();
   ASSERT_TRUE(wait_state("scanning"));
   EXPECT_EQ(status(c)["scan"]["pattern_id"], 4) << "the radial scan is kept over the re-arm";
+}
+
+// Issue F8: a control socket whose idle timeout is short enough to watch.
+class ControlSocketIdle : public ControlSocket {
+ protected:
+  std::vector<std::string> extra_arguments() override {
+    config_ = std::filesystem::temp_directory_path() /
+              ("ioct-rt-idle-" + std::to_string(::getpid()) + ".toml");
+    std::ofstream(config_) << "[control]\nidle_timeout_ms = 3000\nmax_clients = 8\n";
+    return {"--config", config_.string()};
+  }
+  void TearDown() override {
+    ControlSocket::TearDown();
+    std::filesystem::remove(config_);
+  }
+  std::filesystem::path config_;
+};
+
+// Eight clients that connect and say nothing cannot lock the operator out: a newcomer takes the
+// slot of the longest-silent one, and silent clients are closed after the idle timeout. A
+// duplicated key is refused (the scan state does not change) and a blank line is answered.
+TEST_F(ControlSocketIdle, IdleClientsCannotLockTheOperatorOut) {
+  std::vector<std::unique_ptr<Client>> idle;
+  for (int i = 0; i < 8; ++i) {
+    idle.push_back(std::make_unique<Client>(socket_));
+    ASSERT_TRUE(idle.back()->connected());
+  }
+  std::this_thread::sleep_for(1200ms);  // longer than kEvictAfterSilenceMs
+  Client operator_client(socket_);
+  const nlohmann::json reply = operator_client.ask(R"({"cmd":"status"})");
+  EXPECT_EQ(reply.value("ok", false), true) << reply.dump();
+  int evicted = 0;
+  for (auto& c : idle) {
+    if (const auto line = c->line(100ms)) {
+      EXPECT_NE(line->find("longest silent"), std::string::npos) << *line;
+      ++evicted;
+    }
+  }
+  EXPECT_EQ(evicted, 1);
+
+  // The operator's session: a duplicated key decides nothing, a blank line gets its reply.
+  const std::string state_before = status(operator_client)["safety"]["state"];
+  const nlohmann::json duplicate = operator_client.ask(R"({"cmd":"stop","cmd":"start"})");
+  EXPECT_EQ(duplicate.value("ok", true), false);
+  EXPECT_NE(duplicate.value("error", std::string()).find("given twice"), std::string::npos)
+      << duplicate.dump();
+  EXPECT_EQ(status(operator_client)["safety"]["state"], state_before);
+  const nlohmann::json blank = operator_client.ask("");
+  EXPECT_NE(blank.value("error", std::string()).find("empty line"), std::string::npos)
+      << blank.dump();
+
+  // The silent ones are closed after the idle timeout, with a reply saying why.
+  int timed_out = 0;
+  for (auto& c : idle) {
+    if (const auto line = c->line(5s)) {
+      if (line->find("idle timeout") != std::string::npos) ++timed_out;
+    }
+  }
+  EXPECT_EQ(timed_out, 7);
 }
 
 }  // namespace

@@ -48,6 +48,26 @@ TEST(ControlProtocol, BadLinesGetClearErrors) {
   EXPECT_EQ(std::get<ControlParseError>(with_id).id, "abc");
 }
 
+// Issue F8: a key given twice must not let the last one decide ({"cmd":"stop","cmd":"start"}
+// used to arm the laser); it is an error at any depth.
+TEST(ControlProtocol, DuplicateKeysAreRefused) {
+  EXPECT_EQ(error_of(R"({"cmd":"stop","cmd":"start"})"),
+            "key \"cmd\" given twice in one object; each key once");
+  EXPECT_EQ(error_of(R"({"cmd":"scan","scan":{"pattern":"radial","pattern":"raster"}})"),
+            "key \"pattern\" given twice in one object; each key once");
+  EXPECT_EQ(error_of(R"({"cmd":"status","id":1,"id":2})"),
+            "key \"id\" given twice in one object; each key once");
+  // The same key in different objects is fine.
+  EXPECT_EQ(error_of(R"({"cmd":"scan","scan":{"cmd":"x"}})").find("given twice"),
+            std::string::npos);
+}
+
+// Issue F11: a blank line is answered too, with an error that says so.
+TEST(ControlProtocol, BlankLinesGetAnError) {
+  EXPECT_EQ(error_of(""), "empty line: expected one JSON object, like {\"cmd\": \"status\"}");
+  EXPECT_EQ(error_of(" \t"), "empty line: expected one JSON object, like {\"cmd\": \"status\"}");
+}
+
 std::string scan_error(const std::string& changes) {
   try {
     apply_scan_changes(ScanSpec{}, nlohmann::json::parse(changes));

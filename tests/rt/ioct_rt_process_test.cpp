@@ -1,6 +1,7 @@
 // ioct-rt as a process: it fills the ring until SIGTERM or SIGINT and then removes it, refuses a
 // ring another producer owns, and exits non-zero on bad options.
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 
 #include <gtest/gtest.h>
@@ -91,8 +92,8 @@ class IoctRtProcess : public testing::TestWithParam<int> {};
 TEST_P(IoctRtProcess, FillsTheRingUntilSignalledThenRemovesItAndExitsZero) {
   const test_support::ScopedShmName ring("rt-process");
   const std::filesystem::path summary =
-      std::filesystem::temp_directory_path() /
-      ("ioct-rt-summary-" + std::to_string(::getpid()) + "-" + std::to_string(GetParam()) + ".json");
+      std::filesystem::temp_directory_path() / ("ioct-rt-summary-" + std::to_string(::getpid()) +
+                                                "-" + std::to_string(GetParam()) + ".json");
   ChildProcess rt = start_rt(small_run(ring.str(), {"--summary", summary.string()}));
   std::optional<shm::RingReader> reader = attach_when_live(ring.str(), 20s);
   ASSERT_TRUE(reader.has_value()) << "ioct-rt never created ring " << ring.str();
@@ -145,6 +146,23 @@ TEST(IoctRtProcessAlone, StopsByItselfAfterSeconds) {
   ASSERT_TRUE(status.has_value()) << "ioct-rt did not stop after --seconds";
   EXPECT_EQ(exit_code(status), 0) << test_support::describe_wait_status(*status);
   EXPECT_FALSE(shm::ShmObject::exists(ring.str()));
+}
+
+// Issue F1: a FIFO planted among the readers' status objects (any local user may do so in
+// /dev/shm) used to block the housekeeping thread in its reader scan: no status, no watchdog,
+// SIGTERM not acted on. Now the scan skips it, and SIGTERM still ends the run at once.
+TEST(IoctRtProcessAlone, AFifoAmongTheReadersStatusObjectsBlocksNothing) {
+  const test_support::ScopedShmName ring("rt-fifo");
+  ChildProcess rt = start_rt(small_run(ring.str()));
+  ASSERT_TRUE(attach_when_live(ring.str(), 20s).has_value());
+  ASSERT_EQ(::mkfifo(("/dev/shm/" + ring.str() + ".reader.999.0").c_str(), 0644), 0);
+  std::this_thread::sleep_for(1s);  // several status intervals: each scans the readers
+  const auto signalled = std::chrono::steady_clock::now();
+  rt.send_signal(SIGTERM);
+  const std::optional<int> status = rt.wait_for(10s);
+  ASSERT_TRUE(status.has_value()) << "SIGTERM not acted on: the housekeeping thread is blocked";
+  EXPECT_EQ(exit_code(status), 0) << test_support::describe_wait_status(*status);
+  EXPECT_LT(std::chrono::steady_clock::now() - signalled, 5s);
 }
 
 TEST(IoctRtProcessAlone, RefusesARingThatAnotherProducerOwns) {

@@ -10,11 +10,13 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <optional>
 #include <string>
 #include <vector>
@@ -132,14 +134,71 @@ TEST(IoctRtService, CheckConfigAcceptsTheSampleConfigsAndRefusesABadFile) {
   std::filesystem::remove_all(dir);
 }
 
+// Issue F7: --check-config prints the effective configuration, and refuses an empty file and a
+// hardware file cut off before its [control] table (which would have started the scan at once
+// with no control socket).
+TEST(IoctRtService, CheckConfigPrintsTheEffectiveConfigAndRefusesEmptyOrCutHardwareFiles) {
+  const std::string paper = std::string(IOCT_RT_CONFIG_DIR) + "/paper-100khz.toml";
+  {
+    ChildProcess check = ChildProcess::spawn(test_support::sibling_executable("ioct-rt"),
+                                             {"--config", paper, "--check-config"});
+    std::vector<std::string> lines;
+    while (const std::optional<std::string> line = check.read_line(20s)) lines.push_back(*line);
+    EXPECT_EQ(exit_code(check.wait_for(20s)), 0);
+    const auto has = [&](const std::string& wanted) {
+      return std::find(lines.begin(), lines.end(), wanted) != lines.end();
+    };
+    EXPECT_TRUE(has("[control]"));
+    EXPECT_TRUE(has("start_scanning = false"));
+    EXPECT_TRUE(has("socket = \"/run/ioct/rt.sock\""));
+    EXPECT_TRUE(has("max_velocity = 25000.0"));
+  }
+  std::ifstream in(paper);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto control = text.find("[control]");
+  ASSERT_NE(control, std::string::npos);
+  const auto dir = temp_dir("cutconfig");
+  const test_support::ScopedShmName ring("rt-cutconfig");
+  for (const std::string& cut : {std::string(), std::string("# nothing but a comment\n"),
+                                 text.substr(0, control), text.substr(0, control + 12)}) {
+    SCOPED_TRACE(cut.size());
+    const auto file = dir / "cut.toml";
+    std::ofstream(file) << cut;
+    for (const bool check_only : {true, false}) {
+      std::vector<std::string> args = {"--config", file.string(),   "--ring",
+                                       ring.str(), "--rt-priority", "0"};
+      if (check_only) args.push_back("--check-config");
+      ChildProcess rt = ChildProcess::spawn(test_support::sibling_executable("ioct-rt"), args);
+      EXPECT_EQ(exit_code(rt.wait_for(20s)), 2);
+      EXPECT_FALSE(shm::ShmObject::exists(ring.str()));
+    }
+  }
+  std::filesystem::remove_all(dir);
+}
+
+// Issue F3: --check-config refuses a ring that cannot fit where it would live.
+TEST(IoctRtService, CheckConfigRefusesARingLargerThanTheRoomForIt) {
+  const test_support::ScopedShmName ring("rt-huge");
+  const std::optional<std::uint64_t> room = shm::room_for_object(ring.str());
+  ASSERT_TRUE(room.has_value());
+  // 4096 slots of the default geometry: about 92 GB.
+  const std::uint64_t needed = 4096ull * 1376 * 512 * 16 * 2;
+  if (needed <= *room) GTEST_SKIP() << "/dev/shm has room for " << *room << " bytes";
+  ChildProcess check =
+      ChildProcess::spawn(test_support::sibling_executable("ioct-rt"),
+                          {"--ring", ring.str(), "--slots", "4096", "--check-config"});
+  EXPECT_EQ(exit_code(check.wait_for(20s)), 2);
+  EXPECT_FALSE(shm::ShmObject::exists(ring.str()));
+}
+
 TEST(IoctRtService, TheHardwareConfigWithoutItsInstrumentFailsWithoutARing) {
   // The paper's system asks for the USB instrument and the GPIO chip, which this machine lacks:
   // a runtime error (1), or a configuration error (2) where the build has no USB backend.
   const test_support::ScopedShmName ring("rt-nohw");
-  ChildProcess rt = ChildProcess::spawn(
-      test_support::sibling_executable("ioct-rt"),
-      {"--config", std::string(IOCT_RT_CONFIG_DIR) + "/paper-100khz.toml", "--ring", ring.str(),
-       "--rt-priority", "0", "--control-socket", ""});
+  ChildProcess rt =
+      ChildProcess::spawn(test_support::sibling_executable("ioct-rt"),
+                          {"--config", std::string(IOCT_RT_CONFIG_DIR) + "/paper-100khz.toml",
+                           "--ring", ring.str(), "--rt-priority", "0", "--control-socket", ""});
   const int code = exit_code(rt.wait_for(30s));
   EXPECT_TRUE(code == 1 || code == 2) << code;
   EXPECT_FALSE(shm::ShmObject::exists(ring.str()));

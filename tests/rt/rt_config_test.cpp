@@ -5,10 +5,15 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
+#include "effective_config.hpp"
 #include "ioct/common/config_error.hpp"
 #include "rt_options.hpp"
 #include "scan/scan_infeasible.hpp"
@@ -169,6 +174,96 @@ TEST(RtConfig, AFlagsBadValueIsReportedAgainstTheFlag) {
   } catch (const ConfigError& e) {
     EXPECT_EQ(option_for_error(e.what()), "--pattern");
   }
+}
+
+}  // namespace
+}  // namespace ioct::rt
+
+namespace ioct::rt {
+namespace {
+
+std::string file_error_for(const std::string& path) {
+  RtConfig config;
+  try {
+    load_config_file(path, config);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "ok";
+}
+
+// Issue F7: an empty file, or one with nothing but comments, is refused rather than run on
+// defaults; so is a file cut off inside a line.
+TEST(RtConfigSafety, EmptyAndCutOffFilesAreRefused) {
+  const TempFile empty("");
+  EXPECT_NE(file_error_for(empty.str()).find("the configuration is empty"), std::string::npos)
+      << file_error_for(empty.str());
+  const TempFile comments("# a header comment\n\n");
+  EXPECT_NE(file_error_for(comments.str()).find("the configuration is empty"), std::string::npos);
+  const TempFile cut("[ring]\nname = \"x\"\n[control]\nstart_scan");
+  const std::string message = file_error_for(cut.str());
+  EXPECT_NE(message.find(cut.str() + ":4:1: the file does not end with a newline"),
+            std::string::npos)
+      << message;
+}
+
+// Issue F7: with a real backend every safety-relevant key must be in the file: a hardware file
+// cut before [control] names what it lacks instead of arming the laser with no control socket.
+TEST(RtConfigSafety, HardwareFileMustSetEverySafetyKey) {
+  std::ifstream in(sample_config("paper-100khz.toml"));
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto control = text.find("[control]");
+  ASSERT_NE(control, std::string::npos);
+  const TempFile cut(text.substr(0, control));
+  const std::string message = file_error_for(cut.str());
+  EXPECT_NE(message.find("with real hardware (digitizer.backend = \"usb\")"), std::string::npos)
+      << message;
+  for (const char* key : {"control.socket", "control.start_scanning", "control.max_clients"}) {
+    EXPECT_NE(message.find(key), std::string::npos) << key << ": " << message;
+  }
+  EXPECT_EQ(message.find("galvo.max_velocity"), std::string::npos) << "it is in the file";
+
+  // Each key on its own: leaving out any one is refused.
+  for (const char* key : kSafetyKeysOnHardware) {
+    SCOPED_TRACE(key);
+    const std::string name = std::string(key).substr(std::string(key).find('.') + 1);
+    const auto at = text.find("\n" + name + " = ");
+    ASSERT_NE(at, std::string::npos) << "the paper config sets " << key;
+    const auto end = text.find('\n', at + 1);
+    const TempFile without(text.substr(0, at) + text.substr(end));
+    EXPECT_NE(file_error_for(without.str()).find(key), std::string::npos)
+        << file_error_for(without.str());
+  }
+  // The simulator needs none of them.
+  EXPECT_EQ(error_for("[digitizer]\nbackend = \"simulated\"\n"), "ok");
+}
+
+// Issue F6: a FIFO or a device as the configuration is refused at once (a FIFO used to block
+// the open, /dev/zero to grow memory without end).
+TEST(RtConfigSafety, ConfigMustBeARegularFileOfBoundedSize) {
+  const std::string fifo = std::filesystem::temp_directory_path() /
+                           ("ioct-rt-config-fifo-" + std::to_string(::getpid()));
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  // Opened non-blocking: this returns at once (a blocking open would hang the test here).
+  EXPECT_NE(file_error_for(fifo).find("it is a FIFO, not a regular file"), std::string::npos)
+      << file_error_for(fifo);
+  std::filesystem::remove(fifo);
+  EXPECT_NE(file_error_for("/dev/zero").find("it is a character device"), std::string::npos)
+      << file_error_for("/dev/zero");
+  const TempFile huge(std::string(kMaxConfigBytes + 1, '#'));
+  EXPECT_NE(file_error_for(huge.str()).find("more than the"), std::string::npos);
+}
+
+// --check-config prints the effective configuration; it reads back as the same configuration.
+TEST(RtConfigSafety, EffectiveConfigReadsBackAsTheSameConfig) {
+  RtConfig original;
+  load_config_file(sample_config("paper-100khz.toml"), original);
+  const std::string printed = effective_config_toml(original);
+  RtConfig reread;
+  ASSERT_NO_THROW(load_config_text(printed, "printed", reread)) << printed;
+  EXPECT_EQ(effective_config_toml(reread), printed);
+  EXPECT_FALSE(reread.start_scanning);
+  EXPECT_EQ(reread.control_socket, "/run/ioct/rt.sock");
 }
 
 }  // namespace

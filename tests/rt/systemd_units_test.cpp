@@ -158,6 +158,7 @@ TEST(SystemdUnits, SysusersAndTmpfilesCreateTheUsersAndTheSocketDirectory) {
   const Scratch root("root");
   fs::create_directories(root.path() / "etc");
   fs::create_directories(root.path() / "run");
+  fs::create_directories(root.path() / "dev/shm");
   const Result users = run(sysusers + " --root=" + root.path().string() + " " +
                            (kUnits / "ioct.sysusers.conf").string());
   ASSERT_EQ(users.status, 0) << users.output;
@@ -187,6 +188,15 @@ TEST(SystemdUnits, SysusersAndTmpfilesCreateTheUsersAndTheSocketDirectory) {
   EXPECT_EQ(st.st_mode & 0777, 0750u);
   EXPECT_EQ(st.st_uid, static_cast<uid_t>(std::stoul(rt_user[1])));
   EXPECT_EQ(st.st_gid, static_cast<gid_t>(std::stoul(control_group[1])));
+
+  // The shared-memory namespace: only ioct-rt and the render group create entries (issue F10).
+  std::smatch render_group;
+  ASSERT_TRUE(std::regex_search(group, render_group, std::regex("\nioct-render:x:(\\d+):")));
+  ASSERT_EQ(::stat((root.path() / "dev/shm/ioct").c_str(), &st), 0) << dirs.output;
+  EXPECT_TRUE(S_ISDIR(st.st_mode));
+  EXPECT_EQ(st.st_mode & 07777, 01770u);
+  EXPECT_EQ(st.st_uid, static_cast<uid_t>(std::stoul(rt_user[1])));
+  EXPECT_EQ(st.st_gid, static_cast<gid_t>(std::stoul(render_group[1])));
 }
 
 TEST(SystemdUnits, UdevRulesMatchTheInstrumentAndAreWellFormed) {

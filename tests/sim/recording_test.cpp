@@ -3,8 +3,10 @@
 // whole groups; bad files are refused with a message naming the file and the problem; the replay
 // digitizer delivers the recorded groups (looping, or ending with kGroupDeviceLost).
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <bit>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -17,6 +19,7 @@
 #include "ioct/sim/replay_digitizer.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "ioct/sim/simulation_metadata.hpp"
+#include "ioct/test_support/bounded_child.hpp"
 
 namespace ioct::sim {
 namespace {
@@ -246,6 +249,57 @@ TEST_F(Recording, BadFilesGiveClearErrors) {
   EXPECT_THROW(reader.read_group(2, payload, info), std::out_of_range);
   std::vector<std::uint16_t> short_payload(10);
   EXPECT_THROW(reader.read_group(0, short_payload, info), std::invalid_argument);
+}
+
+// Issue F4: group_count x stride is checked for overflow before it is trusted. A count whose
+// product wraps to the data file's size (0 for an empty .raw) used to pass, and a reader then
+// sized its work by 2^k groups.
+TEST_F(Recording, AGroupCountWhoseSizeOverflowsIsRefused) {
+  const fs::path stem = dir_ / "good";
+  write(stem, 2);
+  nlohmann::json json = read_json(dir_ / "good.json");
+  const std::uint64_t stride = json["raw"]["group_stride_bytes"].get<std::uint64_t>();
+  const int twos = std::countr_zero(stride);
+  ASSERT_GT(twos, 0);
+  json["group_count"] = std::uint64_t{1} << (64 - twos);  // x stride = 0 mod 2^64
+  json["raw"]["file"] = "wrap.raw";
+  json["truth"]["file"] = "wrap.truth";
+  std::ofstream(dir_ / "wrap.raw");
+  std::ofstream(dir_ / "wrap.truth");
+  write_json(dir_ / "wrap.json", json);
+  expect_refused(dir_ / "wrap", {"wrap.json", "group_count = ", "more than any file holds"});
+}
+
+// Issue F6: a FIFO or a device in place of a recording's file is refused at once.
+TEST_F(Recording, AFifoOrADeviceInPlaceOfAFileIsRefusedAtOnce) {
+  const fs::path stem = dir_ / "good";
+  write(stem, 1);
+  ASSERT_EQ(::mkfifo((dir_ / "fifo.json").c_str(), 0600), 0);
+  const auto outcome = test_support::run_in_child([&] {
+    try {
+      RecordingReader reader(dir_ / "fifo");
+    } catch (const RecordingError& e) {
+      return std::string(e.what()).find("a FIFO") != std::string::npos;
+    }
+    return false;
+  });
+  EXPECT_EQ(outcome, test_support::ChildOutcome::passed) << to_string(outcome);
+  fs::create_symlink("/dev/zero", dir_ / "zero.json");
+  expect_refused(dir_ / "zero", {"zero.json", "character device"});
+  // The data file as a FIFO.
+  nlohmann::json json = read_json(dir_ / "good.json");
+  json["raw"]["file"] = "pipe.raw";
+  write_json(dir_ / "pipe.json", json);
+  ASSERT_EQ(::mkfifo((dir_ / "pipe.raw").c_str(), 0600), 0);
+  const auto raw_outcome = test_support::run_in_child([&] {
+    try {
+      RecordingReader reader(dir_ / "pipe");
+    } catch (const RecordingError& e) {
+      return std::string(e.what()).find("not a regular file") != std::string::npos;
+    }
+    return false;
+  });
+  EXPECT_EQ(raw_outcome, test_support::ChildOutcome::passed) << to_string(raw_outcome);
 }
 
 TEST_F(Recording, ReplayDigitizerDeliversTheRecordedGroupsAndLoops) {

@@ -3,6 +3,7 @@
 #include <boost/asio/ip/address.hpp>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/shm/shm_object.hpp"
 
 namespace ioct::view {
 
@@ -12,8 +13,8 @@ void ViewConfig::validate() const {
   if (ec) {
     throw ConfigError("view.listen", "'" + listen_address + "'", "must be an IPv4 or IPv6 address");
   }
-  if (frames.empty() || frames.size() > 200 || frames.find('/') != std::string::npos) {
-    throw ConfigError("view.frames", "'" + frames + "'", "must be 1 to 200 characters without '/'");
+  if (const std::string problem = shm::object_name_problem(frames); !problem.empty()) {
+    throw ConfigError("view.frames", "'" + frames + "'", problem);
   }
   require_real_in_range("view.stale_after", stale_after_s, 0.0, 3600.0);
   require_real_in_range("view.stale_after_periods", stale_after_periods, 1.0, 100.0);

@@ -19,6 +19,7 @@
 #include "ioct/gpu/segmentation/segmenter.hpp"
 #include "ioct/gpu/segmentation/surfaces_csv.hpp"
 #include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/shm/shm_object.hpp"
 
 #include "device_stage_chain.hpp"
 
@@ -97,9 +98,10 @@ void VolumeStagesConfig::validate() const {
   require_real_in_range("stages.image_interval", image_interval_s, 0.0, 3600.0);
   require_real_in_range("stages.frame_rate", frame_rate_hz, 0.1, 1000.0);
   require_real_in_range("stages.cpu_moving_scale", cpu_moving_scale, 0.05, 1.0);
-  if (frame_ring.find('/') != std::string::npos) {
-    throw ConfigError("stages.frames", "'" + frame_ring + "'",
-                      "must be a shared-memory name without '/'");
+  if (!frame_ring.empty()) {
+    if (const std::string problem = shm::object_name_problem(frame_ring); !problem.empty()) {
+      throw ConfigError("stages.frames", "'" + frame_ring + "'", problem);
+    }
   }
   if (nice < 0 || nice > 19) {
     throw ConfigError("stages.nice", format_value(std::int64_t{nice}), "must be in [0, 19]");

@@ -61,11 +61,9 @@ std::string_view scan_pattern_name(std::int32_t pattern) noexcept {
 
 HeidelbergVol read_heidelberg_vol(const std::filesystem::path& path) {
   const auto fail = [&](const std::string& problem) { return InputFileError(path, problem); };
+  const std::uint64_t file_bytes = checked_input_size(path);  // before a FIFO could block
   std::ifstream in(path, std::ios::binary);
   if (!in) throw fail(std::string("cannot open: ") + std::strerror(errno));
-  std::error_code error;
-  const std::uint64_t file_bytes = std::filesystem::file_size(path, error);
-  if (error) throw fail("cannot read its size: " + error.message());
 
   std::vector<std::uint8_t> h(kFileHeaderBytes);
   if (!in.read(reinterpret_cast<char*>(h.data()), static_cast<std::streamsize>(h.size()))) {
@@ -79,7 +77,7 @@ HeidelbergVol read_heidelberg_vol(const std::filesystem::path& path) {
   VolHeader& header = vol.header;
   header.version = text_field(h.data(), 12);
   if (header.version.size() < 9 || header.version[8] != '1') {
-    throw fail("version '" + header.version + "' is not supported (HSF-OCT-1xx only)");
+    throw fail("version '" + quote_input(header.version) + "' is not supported (HSF-OCT-1xx only)");
   }
   header.ascans = le_u32(&h[12]);
   header.bscans = le_u32(&h[16]);

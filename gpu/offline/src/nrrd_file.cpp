@@ -87,6 +87,8 @@ void write_nrrd_file(const std::filesystem::path& path, const Volume& volume,
 namespace {
 
 constexpr std::size_t kMaxHeaderBytes = 1 << 16;
+// The largest volume read: 4 GiB of voxels (docs/recording-format.md, "Limits").
+constexpr std::uint64_t kMaxVoxels = std::uint64_t{1} << 32;
 
 // Whitespace-separated words of a field's value, quotes kept.
 std::vector<std::string> words_of(const std::string& value) {
@@ -105,6 +107,7 @@ std::string trimmed(std::string text) {
 }  // namespace
 
 NrrdVolume read_nrrd_file(const std::filesystem::path& path) {
+  const std::uint64_t file_bytes = checked_input_size(path);  // before a FIFO could block
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputFileError(path, std::string("cannot open: ") + std::strerror(errno));
   const auto fail = [&](const std::string& problem) -> InputFileError {
@@ -137,12 +140,12 @@ NrrdVolume read_nrrd_file(const std::filesystem::path& path) {
     }
     const auto colon = line.find(": ");
     if (colon == std::string::npos || colon == 0) {
-      throw fail(where + "'" + line +
+      throw fail(where + "'" + quote_input(line) +
                  "' is neither a field ('name: value') nor a key ('key:=value')");
     }
     const std::string name = line.substr(0, colon);
     if (!fields.emplace(name, trimmed(line.substr(colon + 2))).second) {
-      throw fail(where + "field '" + name + "' appears twice");
+      throw fail(where + "field '" + quote_input(name) + "' appears twice");
     }
   }
 
@@ -153,40 +156,43 @@ NrrdVolume read_nrrd_file(const std::filesystem::path& path) {
   };
   const std::string& type = field("type");
   if (type != "uint8" && type != "uchar" && type != "unsigned char" && type != "uint8_t") {
-    throw fail("type '" + type + "' is not supported: ioct volumes are uint8");
+    throw fail("type '" + quote_input(type) + "' is not supported: ioct volumes are uint8");
   }
   if (field("dimension") != "3") {
-    throw fail("dimension '" + field("dimension") + "' is not supported: ioct volumes have 3");
+    throw fail("dimension '" + quote_input(field("dimension")) +
+               "' is not supported: ioct volumes have 3");
   }
   const std::string& encoding = field("encoding");
   if (encoding != "raw") {
-    throw fail("encoding '" + encoding + "' is not supported: only raw");
+    throw fail("encoding '" + quote_input(encoding) + "' is not supported: only raw");
   }
   for (const char* detached : {"data file", "datafile"}) {
     if (fields.contains(detached)) throw fail("detached data ('data file') is not supported");
   }
   for (const char* skip : {"byte skip", "byteskip", "line skip", "lineskip"}) {
     if (fields.contains(skip) && fields.at(skip) != "0") {
-      throw fail(std::string("field '") + skip + "' = " + fields.at(skip) + " is not supported");
+      throw fail(std::string("field '") + skip + "' = " + quote_input(fields.at(skip)) +
+                 " is not supported");
     }
   }
   std::uint64_t sizes[3] = {};
   {
     const auto words = words_of(field("sizes"));
-    if (words.size() != 3) throw fail("sizes '" + field("sizes") + "' must be three numbers");
+    if (words.size() != 3)
+      throw fail("sizes '" + quote_input(field("sizes")) + "' must be three numbers");
     for (int i = 0; i < 3; ++i) {
       const auto& w = words[i];
       const auto result = std::from_chars(w.data(), w.data() + w.size(), sizes[i]);
       if (result.ec != std::errc() || result.ptr != w.data() + w.size() || sizes[i] == 0 ||
           sizes[i] > 65536) {
-        throw fail("sizes: '" + w + "' is not a whole number in [1, 65536]");
+        throw fail("sizes: '" + quote_input(w) + "' is not a whole number in [1, 65536]");
       }
     }
   }
   if (fields.contains("spacings")) {
     const auto words = words_of(fields.at("spacings"));
     if (words.size() != 3)
-      throw fail("spacings '" + fields.at("spacings") + "' must be three numbers");
+      throw fail("spacings '" + quote_input(fields.at("spacings")) + "' must be three numbers");
     for (int i = 0; i < 3; ++i) {
       const auto& w = words[i];
       if (w == "nan" || w == "NaN" || w == "NAN") {
@@ -197,26 +203,39 @@ NrrdVolume read_nrrd_file(const std::filesystem::path& path) {
       const auto result = std::from_chars(w.data(), w.data() + w.size(), value);
       if (result.ec != std::errc() || result.ptr != w.data() + w.size() || !std::isfinite(value) ||
           value <= 0) {
-        throw fail("spacings: '" + w + "' is not a positive number (or nan)");
+        throw fail("spacings: '" + quote_input(w) + "' is not a positive number (or nan)");
       }
       metadata.spacings[i] = value;
     }
   }
   if (fields.contains("units")) {
     const auto words = words_of(fields.at("units"));
-    if (words.size() != 3) throw fail("units '" + fields.at("units") + "' must be three words");
+    if (words.size() != 3)
+      throw fail("units '" + quote_input(fields.at("units")) + "' must be three words");
     auto unquote = [](std::string w) {
       return w.size() >= 2 && w.front() == '"' && w.back() == '"' ? w.substr(1, w.size() - 2) : w;
     };
     metadata.unit = unquote(words[0]);
     if (unquote(words[1]) != metadata.unit || unquote(words[2]) != metadata.unit) {
-      throw fail("units '" + fields.at("units") + "' differ between axes: not supported");
+      throw fail("units '" + quote_input(fields.at("units")) +
+                 "' differ between axes: not supported");
     }
   }
   if (fields.contains("content")) metadata.content = fields.at("content");
 
+  // Each size is at most 65536, so the product fits; checked against the file before any byte
+  // is allocated for it.
   const std::uint64_t voxels = sizes[0] * sizes[1] * sizes[2];
-  if (voxels > (std::uint64_t{1} << 32)) throw fail("a volume larger than 4 GiB is not supported");
+  if (voxels > kMaxVoxels) {
+    throw fail("sizes " + quote_input(field("sizes")) + ": " + std::to_string(voxels) +
+               " voxels, more than the " + std::to_string(kMaxVoxels) + " a volume may have");
+  }
+  if (file_bytes < header_bytes || file_bytes - header_bytes < voxels) {
+    throw fail(
+        "truncated: " + std::to_string(file_bytes > header_bytes ? file_bytes - header_bytes : 0) +
+        " of the " + std::to_string(voxels) + " data bytes that sizes " +
+        quote_input(field("sizes")) + " need");
+  }
   NrrdVolume result;
   result.volume.reshape(static_cast<std::uint32_t>(sizes[2]), static_cast<std::uint32_t>(sizes[1]),
                         static_cast<std::uint32_t>(sizes[0]));
@@ -230,13 +249,14 @@ NrrdVolume read_nrrd_file(const std::filesystem::path& path) {
   }
   if (got < voxels) {
     throw fail("truncated: " + std::to_string(got) + " of the " + std::to_string(voxels) +
-               " data bytes that sizes " + field("sizes") + " need");
+               " data bytes that sizes " + quote_input(field("sizes")) + " need");
   }
   if (in.peek() != std::char_traits<char>::eof()) {
     in.seekg(0, std::ios::end);
     const auto end = static_cast<std::uint64_t>(in.tellg());
     throw fail(std::to_string(end - header_bytes - voxels) + " bytes after the " +
-               std::to_string(voxels) + " data bytes that sizes " + field("sizes") + " need");
+               std::to_string(voxels) + " data bytes that sizes " + quote_input(field("sizes")) +
+               " need");
   }
   return result;
 }

@@ -51,12 +51,13 @@ std::string dimensions_text(const RawSpectraLayout& layout) {
 RawSpectraFile::RawSpectraFile(std::filesystem::path path, const RawSpectraLayout& layout)
     : path_(std::move(path)), layout_(layout) {
   layout_.validate();
-  fd_ = ::open(path_.c_str(), O_RDONLY | O_CLOEXEC);
+  // Non-blocking: a FIFO is refused below instead of waiting for a writer.
+  fd_ = ::open(path_.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
   if (fd_ < 0) throw InputFileError(path_, std::string("cannot open: ") + std::strerror(errno));
   struct stat info {};
   if (::fstat(fd_, &info) != 0 || !S_ISREG(info.st_mode)) {
     ::close(fd_);
-    throw InputFileError(path_, "not a regular file");
+    throw InputFileError(path_, "not a regular file (a FIFO or a device has no size to check)");
   }
   const auto size = static_cast<std::uint64_t>(info.st_size);
   const std::uint64_t expected = layout_.file_bytes();

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <system_error>
 
+#include "ioct/common/input_file.hpp"
 #include "ioct/recording/recording_writer.hpp"
 
 namespace ioct::recording {
@@ -25,12 +26,13 @@ std::string errno_text(int error) {
 }
 
 int open_read(const std::filesystem::path& path, std::uint64_t& size) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // Non-blocking: a FIFO under the name is refused below instead of waiting for a writer.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
   if (fd < 0) fail(path, "cannot open: " + errno_text(errno));
   struct stat st {};
   if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
     ::close(fd);
-    fail(path, "not a regular file");
+    fail(path, "not a regular file (a FIFO, a device or a directory cannot be a recording)");
   }
   size = static_cast<std::uint64_t>(st.st_size);
   return fd;
@@ -61,13 +63,15 @@ T get(const unsigned char* at) {
 
 RecordingReader::RecordingReader(const std::filesystem::path& path) {
   json_path_ = recording_paths(path).json;
-  std::ifstream in(json_path_, std::ios::binary);
-  if (!in) fail(json_path_, "cannot open the recording's metadata: " + errno_text(errno));
-  std::stringstream text;
-  text << in.rdbuf();
+  std::string text;
+  try {
+    text = read_small_file(json_path_.string(), "the recording's metadata", kMaxMetadataBytes);
+  } catch (const InputFileError& e) {
+    throw RecordingError(e.what());
+  }
   nlohmann::json json;
   try {
-    json = nlohmann::json::parse(text.str());
+    json = nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {
     fail(json_path_, std::string("not valid JSON: ") + e.what());
   }
@@ -98,7 +102,15 @@ RecordingReader::RecordingReader(const std::filesystem::path& path) {
         fail(json_path_, "a complete recording needs 'group_count' (an unsigned integer)");
       }
       groups_ = count->get<std::uint64_t>();
-      if (raw_size != groups_ * stride_) {
+      // Checked before anything is sized by it: a product that wraps must not pass as "fits".
+      std::uint64_t expected = 0;
+      if (!multiply_fits(groups_, stride_, expected)) {
+        fail(json_path_, "group_count = " + std::to_string(groups_) + ": " +
+                             std::to_string(groups_) + " groups of " + std::to_string(stride_) +
+                             " bytes is more than any file holds; " + raw_path_.string() + " has " +
+                             std::to_string(raw_size) + " bytes");
+      }
+      if (raw_size != expected) {
         fail(raw_path_, std::to_string(raw_size) + " bytes, but " + std::to_string(groups_) +
                             " groups of " + std::to_string(stride_) + " bytes make " +
                             std::to_string(groups_ * stride_) +
@@ -120,7 +132,10 @@ RecordingReader::RecordingReader(const std::filesystem::path& path) {
       std::uint64_t truth_size = 0;
       truth_fd_ = open_read(truth_path_, truth_size);
       const std::uint64_t records = truth_size / truth_stride_;
-      if (complete_ ? truth_size != groups_ * truth_stride_ : records < groups_) {
+      std::uint64_t expected = 0;
+      const bool fits =
+          multiply_fits(groups_, truth_stride_, expected);  // groups_ fit the raw file
+      if (complete_ ? !fits || truth_size != expected : records < groups_) {
         if (complete_) {
           fail(truth_path_, std::to_string(truth_size) + " bytes, but " + std::to_string(groups_) +
                                 " records of " + std::to_string(truth_stride_) + " bytes make " +

@@ -1,7 +1,9 @@
 // The live loop of ioct-gpu: attach to the ring, read each group into a preallocated buffer,
 // process it, place it into the volume, and write bscan.png and enface.png each time a volume
-// completes. run() returns when the producer closes the ring, when a time limit passes or when
-// request_stop() is called, after writing summary.json.
+// completes. When the producer closes or replaces the ring, run() says so and waits for it to come
+// back, then reattaches (a service must survive a restart of ioct-rt); it returns when a time
+// limit passes, when request_stop() is called or, with exit_when_producer_gone, when the producer
+// goes, after writing summary.json (which describes the last attachment).
 //
 // A class rather than main() so tests run the very same loop in a thread against a ring they
 // publish into.
@@ -24,6 +26,7 @@
 #include "ioct/gpu/projections.hpp"
 #include "ioct/gpu/volume_assembler.hpp"
 #include "ioct/shm/ring_geometry.hpp"
+#include "ioct/shm/ring_reader.hpp"
 
 namespace ioct::gpu {
 
@@ -38,6 +41,7 @@ struct LiveConfig {
   double status_interval_s = 1.0;   // between status lines; 0: none
   double poll_interval_s = 250e-6;  // sleep when no group is ready
   std::string label = "ioct-gpu";   // shown to the producer in the reader status
+  bool exit_when_producer_gone = false;  // finish instead of waiting for the producer's return
 
   // Throws ConfigError naming the first bad key.
   void validate() const;
@@ -62,7 +66,7 @@ struct LiveCounters {
 };
 
 enum class StopReason {
-  producer_gone,   // the producer closed (or replaced) the ring
+  producer_gone,   // the producer closed (or replaced) the ring and exit_when_producer_gone
   time_limit,      // run_s passed
   stop_requested,  // request_stop(), e.g. SIGINT/SIGTERM
 };
@@ -131,6 +135,10 @@ class LiveProcessor {
 
  private:
   class Session;
+  // Attaches, retrying what a producer starting up or restarting gives; until `deadline` for the
+  // first attachment, without limit when `waiting_for_return`. nullopt when stopped meanwhile.
+  std::optional<shm::RingReader> attach(std::uint64_t deadline, bool waiting_for_return);
+  void write_summary(RunSummary& summary, const std::string& backend_name) const;
 
   LiveConfig config_;
   std::ostream* status_out_ = nullptr;

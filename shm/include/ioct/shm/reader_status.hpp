@@ -17,6 +17,8 @@ namespace ioct::shm {
 inline constexpr std::uint64_t kReaderStatusMagic = 0x44414552'54434F49;  // "IOCTREAD"
 inline constexpr std::uint32_t kReaderStatusVersion = 1;
 inline constexpr std::size_t kReaderLabelBytes = 32;
+// The most directory entries one scan looks at (the scan runs on ioct-rt's housekeeping thread).
+inline constexpr std::size_t kMaxDirectoryEntries = 4096;
 
 // How a reader's groups ended up. Per epoch: published == consumed + dropped_lapped +
 // dropped_behind once the reader has caught up.
@@ -78,8 +80,10 @@ struct ReaderReport {
   ReaderCounters counters;
 };
 
-// Lists the status objects of `ring_name`'s readers. Objects that are not valid status blocks are
-// skipped (and named in `skipped` when given).
+// Lists the status objects of `ring_name`'s readers (beside the ring, in its directory). Objects
+// that are not valid status blocks -- a FIFO, a link, another kind of file, a short or foreign
+// block -- are skipped (and named in `skipped` when given). Never blocks: objects are opened
+// non-blocking and read, not mapped; at most kMaxDirectoryEntries entries are looked at.
 std::vector<ReaderReport> scan_reader_status(const std::string& ring_name,
                                              std::vector<std::string>* skipped = nullptr);
 

@@ -18,7 +18,9 @@ enum class RingErrc {
   wrong_version,           // a ring of another layout version
   corrupt,                 // the header contradicts itself; the message names the field
   owned_by_live_producer,  // another running producer owns the name
-  system,                  // an operating-system call failed; the message names it
+  squatted,  // something not ours (another user's file, a FIFO, a link) holds the name
+  no_space,  // the file system holding the objects has too little room for the ring
+  system,    // an operating-system call failed; the message names it
 };
 
 std::string_view to_string(RingErrc code) noexcept;

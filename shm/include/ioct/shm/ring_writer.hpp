@@ -20,7 +20,7 @@ struct RingConfig {
   std::uint64_t slot_count = 8;
   std::uint64_t slot_payload_capacity = 0;  // 0: one group, rounded up to a page
   std::string group;                        // group owning the object; empty: the creator's
-  unsigned mode = 0660;
+  unsigned mode = 0640;
   MemoryLock memory_lock = MemoryLock::best_effort;
 
   // Throws RingError(bad_config) naming the key and the value.

@@ -12,6 +12,9 @@
 
 namespace ioct::recording {
 
+// The most bytes a recording's metadata (STEM.json) may have; docs/recording-format.md.
+inline constexpr std::uint64_t kMaxMetadataBytes = 1 << 20;
+
 class RecordingReader {
  public:
   // `path`: STEM, STEM.json or any of the recording's files' stem.

@@ -3,10 +3,13 @@
 // tell a damaged file from a wrong option.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
 #include <string_view>
+
+#include "ioct/common/input_file.hpp"
 
 namespace ioct::gpu::offline {
 
@@ -19,5 +22,15 @@ class InputFileError : public std::runtime_error {
  private:
   std::filesystem::path path_;
 };
+
+// The size of `path`, which must be a regular file: a FIFO would hang the reader and /dev/zero
+// would never end. Checked before the file is opened for reading. Throws InputFileError.
+inline std::uint64_t checked_input_size(const std::filesystem::path& path) {
+  try {
+    return ioct::regular_file_size(path.string(), "input file");
+  } catch (const ioct::InputFileError& e) {
+    throw InputFileError(path, e.reason());
+  }
+}
 
 }  // namespace ioct::gpu::offline
