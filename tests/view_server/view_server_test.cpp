@@ -45,14 +45,18 @@ class ViewServerTest : public ::testing::Test {
     params_ = {{"mode", "enhanced"}, {"enhanced", {{"threshold", 0.35}}}};
     gpu_ = std::make_unique<LineService>((dir_ / "gpu.sock").string(),
                                          [this](const nlohmann::json& r) { return gpu_reply(r); });
-    rt_ = std::make_unique<LineService>((dir_ / "rt.sock").string(), [](const nlohmann::json& r) {
-      if (r.value("cmd", "") == "status") {
-        return nlohmann::json{
-            {"ok", true},
-            {"status", {{"state", "scanning"}, {"acquisition", {{"groups_published", 5}}}}}};
-      }
-      return nlohmann::json{{"ok", true}, {"cmd", r.value("cmd", "")}};
-    });
+    rt_ =
+        std::make_unique<LineService>((dir_ / "rt.sock").string(), [this](const nlohmann::json& r) {
+          if (r.value("cmd", "") == "status") {
+            return nlohmann::json{
+                {"ok", true},
+                {"status",
+                 {{"state", "scanning"},
+                  {"acquisition", {{"groups_published", 5}}},
+                  {"safety", {{"inputs", {{"footswitch", footswitch_.load()}}}}}}}};
+          }
+          return nlohmann::json{{"ok", true}, {"cmd", r.value("cmd", "")}};
+        });
     writer_ = std::make_unique<shm::FrameRingWriter>(frame_config());
 
     ViewConfig config;
@@ -152,6 +156,7 @@ class ViewServerTest : public ::testing::Test {
   static inline int counter_ = 0;
   nlohmann::json params_;
   std::atomic<std::uint64_t> generation_{1};
+  std::atomic<bool> footswitch_{false};
   std::unique_ptr<LineService> gpu_;
   std::unique_ptr<LineService> rt_;
   std::unique_ptr<shm::FrameRingWriter> writer_;
@@ -402,6 +407,27 @@ TEST_F(ViewServerTest, PagesAndMetricsAreServed) {
   EXPECT_NE(metrics.find("ioct_rt_acquisition_groups_published 5"), std::string::npos) << metrics;
   EXPECT_NE(metrics.find("ioct_gpu_groups_consumed_total 3"), std::string::npos);
   EXPECT_NE(metrics.find("ioct_view_published_to_sent_seconds_count"), std::string::npos);
+}
+
+TEST_F(ViewServerTest, EachFootswitchPressTakesASnapshotAndTellsThePages) {
+  start();
+  WsViewer viewer(port_);
+  state_when([](const nlohmann::json& s) { return s["rt"].is_object(); });
+  const auto snapshots = [&] { return count_cmd(gpu_->requests(), "snapshot"); };
+  for (int press = 1; press <= 2; ++press) {
+    footswitch_ = true;
+    auto event = viewer.next_text("footswitch", 3s);
+    ASSERT_TRUE(event) << "press " << press;
+    EXPECT_EQ((*event)["action"], "snapshot");
+    for (int i = 0; i < 100 && snapshots() < static_cast<std::size_t>(press); ++i) {
+      std::this_thread::sleep_for(20ms);
+    }
+    EXPECT_EQ(snapshots(), static_cast<std::size_t>(press));
+    footswitch_ = false;
+    std::this_thread::sleep_for(400ms);  // released for a few polls
+  }
+  std::this_thread::sleep_for(300ms);
+  EXPECT_EQ(snapshots(), 2u) << "holding the pedal down is one press, not one per poll";
 }
 
 }  // namespace

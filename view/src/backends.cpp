@@ -77,6 +77,16 @@ void Backends::poll_rt(LineClient& client, BackendsSnapshot& snap) {
   if (reply.value("ok", false) && reply.contains("status")) {
     snap.rt_status = reply["status"];
     snap.rt_error.clear();
+    // The footswitch line as ioct-rt reads it: a press is a rising edge between two polls.
+    const nlohmann::json* inputs = nullptr;
+    if (snap.rt_status.contains("safety") && snap.rt_status["safety"].is_object() &&
+        snap.rt_status["safety"].contains("inputs")) {
+      inputs = &snap.rt_status["safety"]["inputs"];
+    }
+    const bool down =
+        inputs != nullptr && inputs->is_object() && inputs->value("footswitch", false) == true;
+    if (down && !footswitch_down_) ++snap.footswitch_presses;
+    footswitch_down_ = down;
   } else {
     snap.rt_status = nullptr;
     snap.rt_error = reply.value("error", std::string("no status"));

@@ -32,6 +32,7 @@ struct BackendsSnapshot {
   nlohmann::json params;     // ioct-gpu's shared-view parameters, or null
   std::uint64_t generation = 0;
   std::string gpu_error;
+  std::uint64_t footswitch_presses = 0;  // rising edges of ioct-rt's footswitch input seen
 };
 
 class Backends {
@@ -75,6 +76,7 @@ class Backends {
   std::deque<Job> jobs_;
   bool stop_ = false;
   bool gpu_was_connected_ = false;
+  bool footswitch_down_ = false;
   std::thread thread_;
 };
 

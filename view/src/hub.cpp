@@ -64,7 +64,9 @@ void Hub::on_follower(const FollowerSnapshot& snapshot) {
 void Hub::on_backends(const BackendsSnapshot& snapshot) {
   const bool params_changed =
       snapshot.generation != backends_.generation || snapshot.params != backends_.params;
+  const std::uint64_t presses = snapshot.footswitch_presses - backends_.footswitch_presses;
   backends_ = snapshot;
+  for (std::uint64_t i = 0; i < presses && on_footswitch_; ++i) on_footswitch_();
   if (params_changed) broadcast_state();
 }
 
@@ -102,6 +104,19 @@ nlohmann::json Hub::state(const std::string& role) const {
   j["viewers"] = viewers_.size();
   j["role"] = role;
   return j;
+}
+
+void Hub::broadcast_text(const std::string& text) {
+  const auto message = std::make_shared<const std::string>(text);
+  for (auto it = viewers_.begin(); it != viewers_.end();) {
+    auto viewer = it->second.lock();
+    if (!viewer) {
+      it = viewers_.erase(it);
+      continue;
+    }
+    viewer->offer_state(message);
+    ++it;
+  }
 }
 
 void Hub::broadcast_state() {

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -49,6 +50,12 @@ class Hub {
   void on_frame(const std::shared_ptr<const shm::Frame>& frame, std::uint64_t now_ns);
   void on_follower(const FollowerSnapshot& snapshot);
   void on_backends(const BackendsSnapshot& snapshot);
+  // Called (on the io thread) once for every footswitch press the backends saw.
+  void set_footswitch_handler(std::function<void()> handler) {
+    on_footswitch_ = std::move(handler);
+  }
+  // Sends a text message to every viewer (e.g. {"type":"footswitch",...}).
+  void broadcast_text(const std::string& text);
   // Sends the state to every viewer (the io thread's 4 Hz timer, and at every signal change).
   void broadcast_state();
 
@@ -77,6 +84,7 @@ class Hub {
   LatencyRecord published_to_drawn_;
   HubCounters counters_;
   int connections_ = 0;
+  std::function<void()> on_footswitch_;
 };
 
 }  // namespace ioct::view

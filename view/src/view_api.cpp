@@ -190,6 +190,28 @@ void ViewApi::close_own_view(std::uint64_t view) {
   (void)backends_.gpu({{"cmd", "close_view"}, {"view", view}}, [](nlohmann::json) {});
 }
 
+void ViewApi::footswitch(const std::string& action) {
+  hub_.broadcast_text(nlohmann::json{{"type", "footswitch"}, {"action", action}}.dump());
+  const auto ignore = [](ApiReply) {};
+  const nlohmann::json& params = hub_.backends().params;
+  if (action == "snapshot") {
+    snapshot(nlohmann::json::object(), ignore);
+  } else if (action == "next-mode" && params.is_object()) {
+    static const char* const kModes[] = {"enhanced", "layer-aware", "la-mip", "axial-colorization",
+                                         "basic"};
+    const std::string mode = params.value("mode", "");
+    std::size_t next = 0;
+    for (std::size_t i = 0; i < std::size(kModes); ++i) {
+      if (mode == kModes[i]) next = (i + 1) % std::size(kModes);
+    }
+    set_params({{"mode", kModes[next]}}, ignore);
+  } else if (action == "toggle-stereo" && params.is_object() && params.contains("view")) {
+    const bool stereo = params["view"].value("stereo", false);
+    set_params({{"view", {{"stereo", !stereo}}}}, ignore);
+  }
+  // toggle-bscan is the pages' own: they show or hide their B-scan panel.
+}
+
 void ViewApi::http(std::string_view method, std::string_view path, std::string_view body,
                    std::string_view bearer, Respond respond) {
   const bool is_operator = !bearer.empty() && token_.matches(bearer);

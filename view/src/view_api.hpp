@@ -47,6 +47,9 @@ class ViewApi {
   // A viewer's own camera: `changes` may hold only the camera keys of "view".
   void set_own_view(std::uint64_t view, bool open, const nlohmann::json& changes, Respond respond);
   void close_own_view(std::uint64_t view);
+  // A footswitch press: `action` (ViewConfig::footswitch_action) is carried out as the operator's
+  // change it stands for, and the pages are told ({"type":"footswitch","action":...}).
+  void footswitch(const std::string& action);
 
   // Prometheus text exposition of every process's figures.
   std::string metrics() const;

@@ -23,6 +23,12 @@ void ViewConfig::validate() const {
   require_real_in_range("view.backend_timeout", backend_timeout_s, 0.01, 10.0);
   require_real_in_range("view.rt_status_interval", rt_status_interval_s, 0.05, 60.0);
   if (state_dir.empty()) throw ConfigError("view.state_dir", "''", "must name a folder");
+  if (footswitch_action != "none" && footswitch_action != "snapshot" &&
+      footswitch_action != "next-mode" && footswitch_action != "toggle-bscan" &&
+      footswitch_action != "toggle-stereo") {
+    throw ConfigError("view.footswitch", "'" + footswitch_action + "'",
+                      "must be none, snapshot, next-mode, toggle-bscan or toggle-stereo");
+  }
 }
 
 }  // namespace ioct::view

@@ -22,7 +22,11 @@ struct ViewConfig {
   std::uint32_t max_connections = 64;
   std::uint32_t max_message_bytes = 64 * 1024;  // one browser message or HTTP body
   double backend_timeout_s = 0.5;               // a reply from ioct-gpu or ioct-rt
-  double rt_status_interval_s = 0.5;
+  // ioct-rt's status is asked for this often: it carries the footswitch, so a press shorter than
+  // this may be missed.
+  double rt_status_interval_s = 0.1;
+  // What a footswitch press does: none, snapshot, next-mode, toggle-bscan or toggle-stereo.
+  std::string footswitch_action = "snapshot";
 
   // Throws ConfigError naming the first bad key ("view.port", ...).
   void validate() const;

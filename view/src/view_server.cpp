@@ -37,6 +37,9 @@ ViewServer::ViewServer(ViewConfig config, OperatorToken token)
   backends_ = std::make_unique<Backends>(
       config_, presets_, deliver, [this](const BackendsSnapshot& s) { hub_.on_backends(s); });
   api_ = std::make_unique<ViewApi>(hub_, *backends_, presets_, token_, config_.max_message_bytes);
+  if (config_.footswitch_action != "none") {
+    hub_.set_footswitch_handler([this] { api_->footswitch(config_.footswitch_action); });
+  }
   StalePolicy policy;
   policy.stale_after_s = config_.stale_after_s;
   policy.stale_after_periods = config_.stale_after_periods;

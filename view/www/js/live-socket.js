@@ -9,8 +9,8 @@ const kReplyTimeoutMs = 5000;
 
 export class LiveSocket {
   constructor({ token = '', onFrame = () => {}, onState = () => {}, onOpen = () => {},
-                onClose = () => {}, onProblem = () => {} } = {}) {
-    Object.assign(this, { token, onFrame, onState, onOpen, onClose, onProblem });
+                onClose = () => {}, onProblem = () => {}, onFootswitch = () => {} } = {}) {
+    Object.assign(this, { token, onFrame, onState, onOpen, onClose, onProblem, onFootswitch });
     this.retryMs = kFirstRetryMs;
     this.nextId = 1;
     this.pending = new Map();
@@ -50,6 +50,8 @@ export class LiveSocket {
       const message = JSON.parse(data);
       if (message.type === 'state') {
         this.onState(message);
+      } else if (message.type === 'footswitch') {
+        this.onFootswitch(message.action);
       } else if (message.type === 'reply' && this.pending.has(message.id)) {
         const { resolve, timer } = this.pending.get(message.id);
         clearTimeout(timer);

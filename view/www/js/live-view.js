@@ -80,6 +80,12 @@ export function startLiveView({ token = '', onState = () => {}, onFrame = () => 
       onState(state);
     },
     onProblem: reportProblem,
+    // The surgeon's foot: the B-scan panel is the page's own to show or hide; the other actions
+    // ioct-view carries out, and the next frames show them.
+    onFootswitch: (action) => {
+      status.footswitchPresses = (status.footswitchPresses || 0) + 1;
+      if (action === 'toggle-bscan') document.body.classList.toggle('bscan-hidden');
+    },
   });
 
   function updateBanner() {
