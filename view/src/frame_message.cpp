@@ -41,7 +41,7 @@ FrameMessage make_frame_message(const shm::Frame& frame, std::uint64_t now_ns) {
   for (int i = 0; i < 4; ++i) bytes->push_back(static_cast<char>((n >> (8 * i)) & 0xff));
   bytes->append(json);
   bytes->append(reinterpret_cast<const char*>(frame.payload.data()), frame.payload.size());
-  return {std::move(bytes), m.frame_index, m.view_id, m.t_group_published_ns};
+  return {std::move(bytes), m.frame_index, m.view_id, m.group_index, m.t_group_published_ns};
 }
 
 }  // namespace ioct::view

@@ -15,6 +15,7 @@ struct FrameMessage {
   std::shared_ptr<const std::string> bytes;
   std::uint64_t frame_index = 0;
   std::uint64_t view_id = 0;
+  std::uint64_t group_index = 0;
   std::uint64_t t_group_published_ns = 0;
 };
 

@@ -137,7 +137,10 @@ void WebSocketSession::on_message(const std::string& text) {
     for (const FrameMessage& sent : sent_) {
       if (sent.bytes && sent.frame_index == frame && sent.t_group_published_ns != 0 &&
           now > sent.t_group_published_ns) {
-        hub_.published_to_drawn().record(now - sent.t_group_published_ns);
+        if (sent.group_index != last_group_drawn_) {  // the first frame drawn of its group
+          hub_.published_to_drawn().record(now - sent.t_group_published_ns);
+          last_group_drawn_ = sent.group_index;
+        }
         break;
       }
     }
@@ -190,9 +193,15 @@ void WebSocketSession::write_next() {
     message = pending_frame_.bytes;
     binary = true;
     const std::uint64_t now = shm::monotonic_ns();
-    if (pending_frame_.t_group_published_ns != 0 && now > pending_frame_.t_group_published_ns) {
+    // The latency of a group is that of the first frame that shows it; the frames after it
+    // (a view turning between groups) show the same group, older.
+    const bool new_group = !sent_any_ || pending_frame_.group_index != last_group_sent_;
+    if (new_group && pending_frame_.t_group_published_ns != 0 &&
+        now > pending_frame_.t_group_published_ns) {
       hub_.published_to_sent().record(now - pending_frame_.t_group_published_ns);
     }
+    sent_any_ = true;
+    last_group_sent_ = pending_frame_.group_index;
     ++hub_.counters().frames_sent;
     sent_[sent_next_++ % sent_.size()] = pending_frame_;
     pending_frame_ = {};

@@ -64,6 +64,9 @@ class WebSocketSession final : public Viewer,
   // Frames sent lately, to match the page's "drawn" reports with their groups.
   std::array<FrameMessage, 16> sent_{};
   std::size_t sent_next_ = 0;
+  bool sent_any_ = false;
+  std::uint64_t last_group_sent_ = 0;
+  std::uint64_t last_group_drawn_ = ~0ull;
   double tokens_ = 2 * kMessagesPerSecond;
   std::uint64_t tokens_at_ns_ = 0;
 };
