@@ -33,10 +33,23 @@ struct ViewerFigures {
   std::uint64_t bytes = 0;
 };
 
-ViewerFigures watch(std::uint16_t port, double seconds) {
+ViewerFigures watch(std::uint16_t port, double seconds, int own_view) {
   ViewerFigures f;
   std::uint64_t last_group = 0;
   WsViewer viewer(port);
+  if (own_view >= 0) {
+    // A camera of its own, turning from its own angle: ioct-gpu renders it for this viewer alone.
+    viewer.send(
+        {{"type", "own_view"},
+         {"id", 1},
+         {"changes", {{"view", {{"azimuth_deg", 40.0 * own_view}, {"auto_rotate", true}}}}}});
+    const auto reply = viewer.next_text("reply", std::chrono::milliseconds(5000));
+    if (!reply || !reply->value("ok", false)) {
+      std::fprintf(stderr, "ioct-bench-view: own view refused: %s\n",
+                   reply ? reply->dump().c_str() : "no reply");
+      return f;
+    }
+  }
   const std::uint64_t end = ioct::shm::monotonic_ns() + static_cast<std::uint64_t>(seconds * 1e9);
   while (ioct::shm::monotonic_ns() < end) {
     auto frame = viewer.next_frame(std::chrono::milliseconds(2000));
@@ -56,6 +69,18 @@ ViewerFigures watch(std::uint16_t port, double seconds) {
   return f;
 }
 
+// ioct-gpu's renders so far (all views), from ioct-view's metrics; -1 when unknown.
+double gpu_renders(std::uint16_t port) {
+  try {
+    const std::string text = ioct::view::testing::http_request(port, "GET", "/metrics").body;
+    const std::string key = "\nioct_gpu_renders_total ";
+    const auto at = text.find(key);
+    return at == std::string::npos ? -1.0 : std::stod(text.substr(at + key.size()));
+  } catch (const std::exception&) {
+    return -1.0;
+  }
+}
+
 std::string ms(double ns) {
   char text[32];
   std::snprintf(text, sizeof text, "%.2f", ns * 1e-6);
@@ -70,24 +95,31 @@ int main(int argc, char** argv) {
   std::vector<unsigned> viewer_counts{1, 8};
   double seconds = 10.0;
   std::string json_path;
+  bool own_views = false;
   app.add_option("--port", port, "ioct-view's port on 127.0.0.1")->capture_default_str();
   app.add_option("--viewers", viewer_counts, "viewer counts to measure, in turn")
       ->delimiter(',')
       ->capture_default_str();
   app.add_option("--seconds", seconds, "seconds per viewer count")->capture_default_str();
   app.add_option("--json", json_path, "also write the figures as JSON");
+  app.add_flag("--own-views", own_views,
+               "each viewer orbits a camera of its own (one more render per viewer in ioct-gpu)");
   CLI11_PARSE(app, argc, argv);
 
   nlohmann::json runs = nlohmann::json::array();
+  if (own_views) std::printf("each viewer with a camera of its own\n");
   std::printf("%-8s %8s %10s %10s %10s %10s | %s\n", "viewers", "fps/view", "recv p50", "recv p99",
               "recv max", "MB/s", "anchor: published->rendered p50 / p99 (ms)");
   for (const unsigned n : viewer_counts) {
+    const double renders_before = gpu_renders(port);
     std::vector<ViewerFigures> figures(n);
     std::vector<std::thread> threads;
     for (unsigned i = 0; i < n; ++i) {
-      threads.emplace_back([&, i] { figures[i] = watch(port, seconds); });
+      threads.emplace_back(
+          [&, i] { figures[i] = watch(port, seconds, own_views ? static_cast<int>(i) : -1); });
     }
     for (auto& t : threads) t.join();
+    const double renders_per_s = (gpu_renders(port) - renders_before) / seconds;
     std::vector<std::uint64_t> received;
     std::vector<std::uint64_t> rendered;
     std::uint64_t frames = 0;
@@ -106,11 +138,14 @@ int main(int argc, char** argv) {
     const auto r = ioct::bench::summarize(received);
     const auto a = ioct::bench::summarize(rendered);
     const double fps = static_cast<double>(frames) / n / seconds;
+    std::printf("ioct-gpu rendered %.1f frames/s (all views) during this run\n", renders_per_s);
     std::printf("%-8u %8.1f %10s %10s %10s %10.1f | %s / %s\n", n, fps, ms(r.p50_ns).c_str(),
                 ms(r.p99_ns).c_str(), ms(r.max_ns).c_str(),
                 static_cast<double>(bytes) / seconds * 1e-6, ms(a.p50_ns).c_str(),
                 ms(a.p99_ns).c_str());
     runs.push_back({{"viewers", n},
+                    {"own_views", own_views},
+                    {"gpu_renders_per_s", renders_per_s},
                     {"frames_per_s_per_viewer", fps},
                     {"published_to_received", ioct::bench::to_json(r)},
                     {"anchor_published_to_rendered", ioct::bench::to_json(a)}});

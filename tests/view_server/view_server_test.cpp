@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <optional>
 #include <thread>
 
 #include "ioct/shm/frame_ring.hpp"
@@ -68,17 +69,24 @@ class ViewServerTest : public ::testing::Test {
     config.state_dir = dir_ / "state";
     config.max_connections = max_connections;
     config.rt_status_interval_s = 0.1;
-    server_ = std::make_unique<ViewServer>(config, OperatorToken::read(dir_ / "token"));
+    config_ = config;
+    start_server();
+  }
+
+  void start_server() {
+    server_ = std::make_unique<ViewServer>(config_, OperatorToken::read(dir_ / "token"));
     port_ = server_->port();
     thread_ = std::thread([this] { server_->run(); });
   }
 
+  void stop_server() {
+    server_->stop();
+    thread_.join();
+    server_.reset();
+  }
+
   void TearDown() override {
-    if (server_) {
-      server_->stop();
-      thread_.join();
-      server_.reset();
-    }
+    if (server_) stop_server();
     writer_.reset();
     gpu_.reset();
     rt_.reset();
@@ -160,6 +168,7 @@ class ViewServerTest : public ::testing::Test {
   std::unique_ptr<LineService> gpu_;
   std::unique_ptr<LineService> rt_;
   std::unique_ptr<shm::FrameRingWriter> writer_;
+  ViewConfig config_;
   std::unique_ptr<ViewServer> server_;
   std::uint16_t port_ = 0;
   std::thread thread_;
@@ -407,6 +416,32 @@ TEST_F(ViewServerTest, PagesAndMetricsAreServed) {
   EXPECT_NE(metrics.find("ioct_rt_acquisition_groups_published 5"), std::string::npos) << metrics;
   EXPECT_NE(metrics.find("ioct_gpu_groups_consumed_total 3"), std::string::npos);
   EXPECT_NE(metrics.find("ioct_view_published_to_sent_seconds_count"), std::string::npos);
+}
+
+// ioct-view killed and restarted while ioct-gpu runs: the writer never notices (it never waits for
+// a reader), and the new ioct-view serves the frames that come after.
+TEST_F(ViewServerTest, ARestartedViewServesFramesAgainAndTheWriterNeverWaits) {
+  start();
+  {
+    WsViewer viewer(port_);
+    publish(1);
+    auto frame = viewer.next_frame(2s);
+    ASSERT_TRUE(frame);
+    EXPECT_EQ(frame->description["group"], 1);
+  }
+  stop_server();
+  for (std::uint64_t g = 2; g < 40; ++g) publish(g);  // nobody reads: the writer goes on
+  start_server();
+  WsViewer viewer(port_);
+  std::this_thread::sleep_for(100ms);
+  publish(40);
+  std::optional<testing::ReceivedFrame> frame;
+  do {
+    frame = viewer.next_frame(2s);
+  } while (frame && frame->description["group"] != 40);
+  ASSERT_TRUE(frame) << "the restarted view serves the new frames";
+  const auto state = state_when([](const nlohmann::json& s) { return s["signal"] == "live"; });
+  EXPECT_EQ(state["signal"], "live");
 }
 
 TEST_F(ViewServerTest, EachFootswitchPressTakesASnapshotAndTellsThePages) {
