@@ -283,5 +283,38 @@ TEST_F(LiveViewPage, ViewerWithoutTheTokenCannotChangeAnything) {
   EXPECT_TRUE(page_->wait_until(live_with_frames(1), 5s).has_value()) << "still scanning";
 }
 
+TEST_F(LiveViewPage, AViewerWhoDragsThePictureOrbitsItsOwnViewAndCanFollowAgain) {
+  const nlohmann::json before = nlohmann::json::parse(appliance_->http("GET", "/api/params").body);
+  open(appliance_->url("/control"));  // no #token=: a viewer
+  ASSERT_FALSE(
+      expect_within(live_with_frames(1) + " && ioctView.status.role === 'viewer'", 30s).is_null());
+  page_->evaluate(
+      "(() => { const c = document.getElementById('render'); const r = c.getBoundingClientRect();"
+      " const at = (x, y) => ({pointerId: 7, clientX: r.x + x, clientY: r.y + y, bubbles: true});"
+      " c.dispatchEvent(new PointerEvent('pointerdown', at(100, 100)));"
+      " c.dispatchEvent(new PointerEvent('pointermove', at(220, 130)));"
+      " c.dispatchEvent(new PointerEvent('pointerup', at(220, 130))); })()",
+      5s);
+  ASSERT_FALSE(expect_within("ioctView.status.lastFrame && ioctView.status.lastFrame.view > 0 && "
+                             "!document.getElementById('follow').hidden",
+                             30s)
+                   .is_null())
+      << "the viewer's frames come from a camera of its own";
+  // The shared view is untouched (its auto-rotation turns it meanwhile; the generation counts the
+  // changes of every view, this viewer's own included).
+  nlohmann::json shared_before = before.at("params");
+  nlohmann::json shared_after =
+      nlohmann::json::parse(appliance_->http("GET", "/api/params").body).at("params");
+  shared_before["view"].erase("azimuth_deg");
+  shared_after["view"].erase("azimuth_deg");
+  EXPECT_EQ(shared_after, shared_before) << "the shared view is untouched";
+
+  page_->evaluate("document.getElementById('follow').click()", 5s);
+  EXPECT_FALSE(
+      expect_within("ioctView.status.lastFrame && ioctView.status.lastFrame.view === 0", 30s)
+          .is_null())
+      << "back on the shared view";
+}
+
 }  // namespace
 }  // namespace ioct::view_test

@@ -14,15 +14,20 @@ const $ = (id) => document.getElementById(id);
 const token = tokenFromFragment();
 const controls = [];
 let params = {};
+let role = 'viewer';
+// A viewer (no token) who drags the picture orbits a camera of its own, rendered for it alone;
+// "Follow" goes back to the shared view.
+let ownView = null;
 
 const live = startLiveView({
   token,
   onState: (state) => {
-    const role = state.role === 'operator' ? 'operator' : 'viewer';
+    role = state.role === 'operator' ? 'operator' : 'viewer';
     $('role').textContent = role === 'operator'
       ? 'Operator'
-      : 'Viewer — changes are refused without the operator\u2019s link';
+      : 'Viewer — drag the picture to orbit your own view; other changes need the operator\u2019s link';
     $('role').className = role;
+    $('follow').hidden = role === 'operator' || ownView === null;
     if (state.params) {
       params = state.params;
       for (const control of controls) control.set(getPath(params, control.def.path));
@@ -61,11 +66,32 @@ addControls($('main-controls'), kMainControls);
 addControls($('view-controls'), kViewControls);
 addControls($('advanced-controls'), kAdvancedControls);
 
-attachOrbit($('render'), () => ({ azimuth_deg: 30, elevation_deg: 25, zoom: 1, ...(params.view || {}) }),
+const ownSender = new ParamSender(live.socket, {
+  type: 'own_view',
+  onReply: (reply) => {
+    $('general-error').textContent = reply.ok ? '' : (reply.error || 'refused');
+  },
+});
+
+attachOrbit($('render'),
+  () => ({ azimuth_deg: 30, elevation_deg: 25, zoom: 1, ...(params.view || {}), ...(ownView || {}) }),
   (viewChanges) => {
+    if (role !== 'operator') {
+      ownView = { ...(ownView || params.view || {}), ...viewChanges, auto_rotate: false };
+      for (const [key, value] of Object.entries(viewChanges)) ownSender.change(`view.${key}`, value);
+      ownSender.change('view.auto_rotate', false);
+      $('follow').hidden = false;
+      return;
+    }
     params.view = { ...(params.view || {}), ...viewChanges };
     for (const [key, value] of Object.entries(viewChanges)) sender.change(`view.${key}`, value);
   });
+
+$('follow').addEventListener('click', () => {
+  ownView = null;
+  $('follow').hidden = true;
+  live.socket.send({ type: 'follow' });
+});
 
 async function act(button, message, describe) {
   const reply = await live.socket.request(message);

@@ -8,7 +8,11 @@ export function attachOrbit(canvas, current, onChange) {
   let pinchStart = null;
 
   canvas.addEventListener('pointerdown', (e) => {
-    canvas.setPointerCapture(e.pointerId);
+    try {
+      canvas.setPointerCapture(e.pointerId);  // keeps the drag when the pointer leaves the picture
+    } catch {
+      // a pointer the browser no longer tracks: the drag works without the capture
+    }
     pointers.set(e.pointerId, { x: e.clientX, y: e.clientY });
     if (pointers.size === 2) pinchStart = { distance: spread(pointers), zoom: current().zoom };
   });

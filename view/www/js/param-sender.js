@@ -1,11 +1,12 @@
 // Sends render-parameter changes at most once per interval (30 ms): changes made meanwhile are
 // merged and go out together with the next message, so a dragged slider never floods the server.
-// Each message's reply goes to onReply(reply, paths) with the paths it carried.
+// Each message's reply goes to onReply(reply, paths) with the paths it carried. `type` is the
+// message's: 'params' (the shared view, operators) or 'own_view' (a viewer's own camera).
 import { leafPaths, setPath } from './param-paths.js';
 
 export class ParamSender {
-  constructor(socket, { intervalMs = 30, onReply = () => {} } = {}) {
-    Object.assign(this, { socket, intervalMs, onReply });
+  constructor(socket, { intervalMs = 30, onReply = () => {}, type = 'params' } = {}) {
+    Object.assign(this, { socket, intervalMs, onReply, type });
     this.pending = null;
     this.lastSentAt = -Infinity;
     this.timer = null;
@@ -24,7 +25,7 @@ export class ParamSender {
     this.pending = null;
     if (!changes) return;
     this.lastSentAt = performance.now();
-    const reply = await this.socket.request({ type: 'params', changes });
+    const reply = await this.socket.request({ type: this.type, changes });
     this.onReply(reply, leafPaths(changes));
   }
 }
