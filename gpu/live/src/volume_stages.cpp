@@ -490,28 +490,26 @@ ViewParams VolumeStages::params() const {
   return {views_.generation(), render::to_json(views_.shared(shm::monotonic_ns()))};
 }
 
-std::uint64_t VolumeStages::set_params(const nlohmann::json& changes) {
+std::uint64_t VolumeStages::change_views(
+    const std::function<std::uint64_t(ViewSet&, std::uint64_t)>& change) {
   std::unique_lock lock(mutex_);
-  const std::uint64_t generation = views_.set_shared(changes, shm::monotonic_ns());
+  const std::uint64_t generation = change(views_, shm::monotonic_ns());
   lock.unlock();
-  wake_.notify_all();
+  wake_.notify_all();  // the stages' thread renders the changed view
   return generation;
+}
+
+std::uint64_t VolumeStages::set_params(const nlohmann::json& changes) {
+  return change_views([&](ViewSet& v, std::uint64_t now) { return v.set_shared(changes, now); });
 }
 
 std::uint64_t VolumeStages::open_view(std::uint64_t view, const nlohmann::json& changes) {
-  std::unique_lock lock(mutex_);
-  const std::uint64_t generation = views_.open(view, changes, shm::monotonic_ns());
-  lock.unlock();
-  wake_.notify_all();
-  return generation;
+  return change_views([&](ViewSet& v, std::uint64_t now) { return v.open(view, changes, now); });
 }
 
 std::uint64_t VolumeStages::set_view(std::uint64_t view, const nlohmann::json& changes) {
-  std::unique_lock lock(mutex_);
-  const std::uint64_t generation = views_.set_camera(view, changes, shm::monotonic_ns());
-  lock.unlock();
-  wake_.notify_all();
-  return generation;
+  return change_views(
+      [&](ViewSet& v, std::uint64_t now) { return v.set_camera(view, changes, now); });
 }
 
 void VolumeStages::close_view(std::uint64_t view) {

@@ -173,6 +173,8 @@ class VolumeStages final : public LiveStage, public ViewControl {
   // The render in image_ to the frame ring, to the snapshots waiting for it, and its figures.
   void deliver(const DueRender& render, std::uint64_t rendered_ns, SnapshotWaiters& waiters);
   void publish_frame(const DueRender& render, std::uint64_t rendered_ns);
+  // A change of the views under the lock, then the stages' thread woken; returns the generation.
+  std::uint64_t change_views(const std::function<std::uint64_t(ViewSet&, std::uint64_t)>& change);
   render::RenderConfig live_view() const;
   void write_live_image(std::uint64_t now_ns);
   void fail(const std::string& what);
