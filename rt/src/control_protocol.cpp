@@ -9,6 +9,7 @@
 
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/input_file.hpp"
+#include "ioct/common/strict_json.hpp"
 
 namespace ioct::rt {
 namespace {
@@ -51,35 +52,6 @@ std::uint32_t count(const nlohmann::json& value, const std::string& key, std::ui
   return static_cast<std::uint32_t>(v);
 }
 
-// Parses JSON and notes the first key that occurs twice in one object: with duplicates allowed
-// the last one would silently decide ({"cmd":"stop","cmd":"start"} would start the scan).
-struct StrictJson {
-  nlohmann::json doc;
-  std::string duplicate_key;  // empty: none
-};
-
-StrictJson parse_strict(std::string_view line) {
-  StrictJson result;
-  std::vector<std::set<std::string>> open_objects;
-  const nlohmann::json::parser_callback_t note_keys = [&](int, nlohmann::json::parse_event_t event,
-                                                          nlohmann::json& parsed) {
-    using Event = nlohmann::json::parse_event_t;
-    if (event == Event::object_start) {
-      open_objects.emplace_back();
-    } else if (event == Event::object_end && !open_objects.empty()) {
-      open_objects.pop_back();
-    } else if (event == Event::key && !open_objects.empty() && parsed.is_string()) {
-      const auto& key = parsed.get_ref<const std::string&>();
-      if (!open_objects.back().insert(key).second && result.duplicate_key.empty()) {
-        result.duplicate_key = key;
-      }
-    }
-    return true;
-  };
-  result.doc = nlohmann::json::parse(line, note_keys, /*allow_exceptions=*/false);
-  return result;
-}
-
 }  // namespace
 
 std::string_view to_string(ControlVerb verb) noexcept {
@@ -98,8 +70,8 @@ std::variant<ControlRequest, ControlParseError> parse_control_line(std::string_v
     return ControlParseError{"empty line: expected one JSON object, like {\"cmd\": \"status\"}",
                              nullptr};
   }
-  StrictJson parsed = parse_strict(line);
-  nlohmann::json& doc = parsed.doc;
+  StrictJson parsed = parse_json_strictly(line);
+  nlohmann::json& doc = parsed.value;
   if (doc.is_discarded()) {
     return ControlParseError{
         "not valid JSON: expected one object per line, like {\"cmd\": \"status\"}", nullptr};

@@ -1,5 +1,7 @@
 #include "ioct/gpu/live/view_requests.hpp"
 
+#include "ioct/common/strict_json.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <set>
@@ -37,39 +39,17 @@ std::string shown(const json& value) {
   return text;
 }
 
-// JSON whose objects have each key once: the parser's callback sees every key as it is read.
+// JSON whose objects have each key once.
 json parse_strict(std::string_view line) {
-  std::vector<std::set<std::string>> keys;  // one set per open object
-  std::string duplicate;
-  const json::parser_callback_t check = [&](int, json::parse_event_t event, json& parsed) {
-    switch (event) {
-      case json::parse_event_t::object_start:
-        keys.emplace_back();
-        break;
-      case json::parse_event_t::object_end:
-        if (!keys.empty()) keys.pop_back();
-        break;
-      case json::parse_event_t::key:
-        if (!keys.empty() && !keys.back().insert(parsed.get<std::string>()).second &&
-            duplicate.empty()) {
-          duplicate = parsed.get<std::string>();
-        }
-        break;
-      default:
-        break;
-    }
-    return true;
-  };
-  json request;
-  try {
-    request = json::parse(line.begin(), line.end(), check);
-  } catch (const json::parse_error& e) {
-    throw RequestError("request", std::string("not JSON: ") + e.what());
+  StrictJson parsed = parse_json_strictly(line);
+  if (parsed.value.is_discarded()) {
+    throw RequestError("request", "not JSON: " + parsed.error);
   }
-  if (!duplicate.empty()) {
-    throw RequestError("request", "duplicate key \"" + duplicate + "\" (each key may appear once)");
+  if (!parsed.duplicate_key.empty()) {
+    throw RequestError("request",
+                       "duplicate key \"" + parsed.duplicate_key + "\" (each key may appear once)");
   }
-  return request;
+  return std::move(parsed.value);
 }
 
 // Refuses fields the command does not take.

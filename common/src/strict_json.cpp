@@ -1,0 +1,41 @@
+#include "ioct/common/strict_json.hpp"
+
+#include <set>
+#include <vector>
+
+namespace ioct {
+
+StrictJson parse_json_strictly(std::string_view text) {
+  StrictJson result;
+  std::vector<std::set<std::string>> keys;  // one set per open object
+  const nlohmann::json::parser_callback_t note = [&](int depth, nlohmann::json::parse_event_t event,
+                                                     nlohmann::json& parsed) {
+    using Event = nlohmann::json::parse_event_t;
+    if (depth > 0) result.max_depth = std::max(result.max_depth, static_cast<std::size_t>(depth));
+    if (event == Event::object_start) {
+      keys.emplace_back();
+    } else if (event == Event::object_end && !keys.empty()) {
+      keys.pop_back();
+    } else if (event == Event::key && !keys.empty() && parsed.is_string()) {
+      const auto& key = parsed.get_ref<const std::string&>();
+      if (!keys.back().insert(key).second && result.duplicate_key.empty()) {
+        result.duplicate_key = key;
+      }
+    }
+    return true;
+  };
+  try {
+    result.value = nlohmann::json::parse(text.begin(), text.end(), note);
+  } catch (const nlohmann::json::parse_error& e) {
+    result.value = nlohmann::json::value_t::discarded;
+    result.error = e.what();
+    result.error_byte = e.byte;
+  } catch (const nlohmann::json::exception& e) {  // e.g. a number too large for a double
+    result.value = nlohmann::json::value_t::discarded;
+    result.error = e.what();
+    result.error_byte = text.size();
+  }
+  return result;
+}
+
+}  // namespace ioct
