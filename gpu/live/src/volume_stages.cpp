@@ -407,28 +407,32 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
   }
   bscan_stale_ = true;
 
+  record_pass(StagesPass{groups, first, count, false, render_now, t0, t1, t2, t3}, t1 - t0, t2 - t1,
+              t3 - t2);
+  if (render_now) deliver(shared, t3, waiters);
+}
+
+void VolumeStages::record_pass(const StagesPass& pass, std::uint64_t filter_ns,
+                               std::uint64_t segment_ns, std::uint64_t render_ns) {
   {
     std::lock_guard lock(mutex_);
     Figures& f = figures_;
     ++f.passes;
-    f.groups += groups;
-    f.groups_folded += groups - 1;
-    f.largest_fold = std::max(f.largest_fold, groups);
-    f.bscans += count;
-    f.filter.record(t1 - t0);
-    f.segment.record(t2 - t1);
-    if (render_now) {
+    f.groups += pass.groups;
+    f.groups_folded += pass.groups - 1;
+    f.largest_fold = std::max(f.largest_fold, pass.groups);
+    f.bscans += pass.count;
+    f.filter.record(filter_ns);
+    f.segment.record(segment_ns);
+    if (pass.rendered) {
       ++f.renders;
-      f.render.record(t3 - t2);
+      f.render.record(render_ns);
     }
-    f.pass.record(t3 - t0);
+    f.pass.record(pass.rendered_ns - pass.taken_ns);
     have_volume_ = true;
   }
-  if (config_.on_pass) {
-    config_.on_pass(StagesPass{groups, first, count, false, render_now, t0, t1, t2, t3});
-  }
+  if (config_.on_pass) config_.on_pass(pass);
   if (publisher_) publisher_->note_pass();
-  if (render_now) deliver(shared, t3, waiters);
 }
 
 bool VolumeStages::live_image_due(std::uint64_t now_ns) const {
@@ -450,26 +454,9 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
   last_render_ns_ = t.rendered_ns;
   bscan_stale_ = true;
   const auto ns = [](double ms) { return static_cast<std::uint64_t>(ms * 1e6); };
-  {
-    std::lock_guard lock(mutex_);
-    Figures& f = figures_;
-    ++f.passes;
-    f.groups += groups;
-    f.groups_folded += groups - 1;
-    f.largest_fold = std::max(f.largest_fold, groups);
-    f.bscans += count;
-    f.filter.record(ns(t.filter_ms));
-    f.segment.record(ns(t.segment_ms));
-    ++f.renders;
-    f.render.record(ns(t.render_ms));
-    f.pass.record(t.rendered_ns - taken_ns);
-    have_volume_ = true;
-  }
-  if (config_.on_pass) {
-    config_.on_pass(StagesPass{groups, first, count, true, true, taken_ns, t.filtered_ns,
-                               t.segmented_ns, t.rendered_ns});
-  }
-  if (publisher_) publisher_->note_pass();
+  record_pass(StagesPass{groups, first, count, true, true, taken_ns, t.filtered_ns, t.segmented_ns,
+                         t.rendered_ns},
+              ns(t.filter_ms), ns(t.segment_ms), ns(t.render_ms));
   if (frame_wanted) deliver(shared, t.rendered_ns, waiters);
 }
 

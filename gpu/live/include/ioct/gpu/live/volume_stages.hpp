@@ -166,6 +166,9 @@ class VolumeStages final : public LiveStage, public ViewControl {
   void run_device_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups,
                        std::uint64_t taken_ns);
   bool live_image_due(std::uint64_t now_ns) const;
+  // A pass's figures (the render's only when it rendered), then on_pass and the frame ring's count.
+  void record_pass(const StagesPass& pass, std::uint64_t filter_ns, std::uint64_t segment_ns,
+                   std::uint64_t render_ns);
   // The shared view to render now and the snapshots waiting for it (under the lock).
   DueRender take_shared_render(SnapshotWaiters& waiters);
   // Renders views between passes (interaction, rotation, private views).
