@@ -220,7 +220,9 @@ TEST_F(ViewServerTest, EightViewersKeepTheirFramesWhileANinthNeverReads) {
   WsViewer idle(port_);  // connected, never reads
   std::vector<std::unique_ptr<WsViewer>> viewers;
   for (int i = 0; i < 8; ++i) viewers.push_back(std::make_unique<WsViewer>(port_));
-  std::this_thread::sleep_for(100ms);  // all joined
+  // Each has joined once its first state arrived; the idle one reads that and nothing more.
+  ASSERT_TRUE(idle.next_text("state", 2s)) << "joined";
+  for (auto& v : viewers) ASSERT_TRUE(v->next_text("state", 2s)) << "joined";
   constexpr std::uint64_t kFrames = 40;
   for (std::uint64_t g = 0; g < kFrames; ++g) {
     publish(g, 0, 400'000);  // large frames, so the idle viewer's socket fills up
@@ -371,6 +373,7 @@ TEST_F(ViewServerTest, AViewerMayOrbitItsOwnCameraOnly) {
   EXPECT_EQ((*reply)["ok"], false) << "render parameters are for operators";
 
   WsViewer other(port_);
+  ASSERT_TRUE(other.next_text("state", 2s)) << "joined";
   publish(5, 0);
   publish(6, view);
   auto frame = viewer.next_frame(2s);
@@ -424,6 +427,7 @@ TEST_F(ViewServerTest, ARestartedViewServesFramesAgainAndTheWriterNeverWaits) {
   start();
   {
     WsViewer viewer(port_);
+    ASSERT_TRUE(viewer.next_text("state", 2s)) << "joined";  // frames before joining are not its
     publish(1);
     auto frame = viewer.next_frame(2s);
     ASSERT_TRUE(frame);
@@ -433,7 +437,7 @@ TEST_F(ViewServerTest, ARestartedViewServesFramesAgainAndTheWriterNeverWaits) {
   for (std::uint64_t g = 2; g < 40; ++g) publish(g);  // nobody reads: the writer goes on
   start_server();
   WsViewer viewer(port_);
-  std::this_thread::sleep_for(100ms);
+  ASSERT_TRUE(viewer.next_text("state", 2s)) << "joined";
   publish(40);
   std::optional<testing::ReceivedFrame> frame;
   do {

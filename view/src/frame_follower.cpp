@@ -63,6 +63,8 @@ void FrameFollower::run() {
           next_attach_ns = now;
         }
       }
+      // The age is judged after the status was read, so it is never shown younger than it is.
+      in.now_ns = shm::monotonic_ns();
       snap.attached = in.attached;
       snap.health = in.health;
       snap.status = in.status;
