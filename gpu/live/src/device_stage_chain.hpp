@@ -9,9 +9,9 @@
 //
 // Pass (the stages' thread): the pending B-scans are copied into the input volume, then the
 // filter, the segmentation and the renderer's update and frame are enqueued on one stream, each
-// on the previous one's device output, with no copy of the volume to the host. The renderer's
-// update makes the pass's one round trip to the host (the centre-of-mass sums and the ILM and
-// RPE, for the layer reference); the pass ends by waiting for its frame. Only what is asked for
+// on the previous one's device output, with no copy of the volume to the host and no wait for the
+// host in between (the renderer makes its layer reference on the device too); the pass ends by
+// waiting for its frame. Only what is asked for
 // (a frame to write, the files at the end) comes back.
 #pragma once
 

@@ -181,7 +181,7 @@ IOCT_RENDER_HD Rgba render_ray(const RenderParams& p, const Sampler& s, const Sk
     if (layer) {
       const float alpha = layer_opacity(p, intensity);
       if (alpha <= 0.0f) continue;
-      const float ds = delta_star(v.z, reference_at(p, v.x, v.y), p.d_rpe_px);
+      const float ds = delta_star(v.z, reference_at(p, v.x, v.y), d_rpe(p));
       Vec3 c = lab_lookup(p.lab_lut, intensity, ds);
       if (p.shadow_steps > 0) c = shadow_factor(p, e, s, v) * c;
       composite(acc, c, alpha);
@@ -191,8 +191,7 @@ IOCT_RENDER_HD Rgba render_ray(const RenderParams& p, const Sampler& s, const Sk
       float alpha = tf.a;
       Vec3 c{tf.r, tf.g, tf.b};
       if (p.kind == PixelKind::axial_colorization) {
-        c = lab_lookup(p.lab_lut, intensity,
-                       delta_star(v.z, reference_at(p, v.x, v.y), p.d_rpe_px));
+        c = lab_lookup(p.lab_lut, intensity, delta_star(v.z, reference_at(p, v.x, v.y), d_rpe(p)));
       }
       if (p.kind != PixelKind::basic) {
         Vec3 g{0, 0, 0};
