@@ -73,6 +73,7 @@ TEST(CudaVsCpu, EveryModeWithinTolerance) {
       {RenderMode::layer_aware, false, kShadowStepsLimited, 210},
       {RenderMode::layer_aware, true, kShadowStepsFull, 300},
       {RenderMode::axial_colorization, false, 0, 30},
+      {RenderMode::axial_colorization, false, kShadowStepsLimited, 75},  // Weiss Fig. 4 B4
       {RenderMode::la_mip_composite, false, 0, 0},
       {RenderMode::bscan_slice, false, 0, 0},
       {RenderMode::en_face_slice, false, 0, 0},
@@ -83,6 +84,7 @@ TEST(CudaVsCpu, EveryModeWithinTolerance) {
     config.view.stereo = c.stereo;
     config.view.azimuth_deg = c.azimuth;
     config.layer_aware.shadow_steps = c.shadow_steps;
+    if (c.mode == RenderMode::axial_colorization) config.axial.shadow_steps = c.shadow_steps;
     RgbaImage from_cuda, from_cpu;
     cuda->render(config, from_cuda);
     cpu.render(config, from_cpu);

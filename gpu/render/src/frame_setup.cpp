@@ -143,7 +143,10 @@ RenderParams bake_params(const RenderConfig& config, VolumeDims dims, float mean
   p.edge = en.edge_enhancement;
   p.feature = en.feature_enhancement;
   p.depth_cues = en.depth_cues;
-  p.phong = config.mode == RenderMode::axial_colorization ? config.axial.phong : en.phong;
+  // Axial colorization: shadow rays, when asked for, take Phong's place (Weiss Fig. 4 B4).
+  p.phong = config.mode == RenderMode::axial_colorization
+                ? config.axial.phong && config.axial.shadow_steps == 0
+                : en.phong;
   p.kg1 = static_cast<float>(en.kg1);
   p.kg2 = static_cast<float>(en.kg2);
   p.kf1 = static_cast<float>(en.kf1);
@@ -161,7 +164,8 @@ RenderParams bake_params(const RenderConfig& config, VolumeDims dims, float mean
   p.i_min = static_cast<float>(la.i_min);
   p.i_max = static_cast<float>(la.i_max);
   p.alpha_max = static_cast<float>(la.alpha_max);
-  p.shadow_steps = static_cast<std::int32_t>(la.shadow_steps);
+  p.shadow_steps = static_cast<std::int32_t>(
+      config.mode == RenderMode::axial_colorization ? config.axial.shadow_steps : la.shadow_steps);
   p.d_rpe_px = d_rpe_px(config, mean_thickness_px);
 
   // Planar modes: the volume's physical aspect, letterboxed into the output.

@@ -50,4 +50,7 @@ export const kAdvancedControls = [
   coefficient('layer_aware.i_min', 'Layer-aware I min', 1, 0.01),
   coefficient('layer_aware.i_max', 'Layer-aware I max', 1, 0.01),
   coefficient('layer_aware.alpha_max', 'Layer-aware α max', 1, 0.01),
+  { path: 'axial.phong', label: 'Axial colorization: Phong', kind: 'toggle' },
+  { path: 'axial.shadow_steps', label: 'Axial colorization: shadow steps (Nₛ, replace Phong)', kind: 'range',
+    min: 0, max: 200, step: 1 },
 ];
