@@ -92,6 +92,12 @@ int main(int argc, char** argv) {
                "only process: no filters, segmentation or rendering of the live volume");
   app.add_option("--stage-threads", stages.cpu_threads,
                  "threads of each CPU stage (filters, segmentation, rendering)");
+  std::string filter = "median-gauss";
+  app.add_option(
+      "--filter", filter,
+      "the live volume's filter (segmentation and every view use it): median-gauss "
+      "(3x3x3 median + 5x5 Gaussian, Viehland 2016) or median-bscan (3x3 median per "
+      "B-scan, Weiss 2019: keeps small superficial structure, for the layer-aware modes)");
   app.add_option("--render-mode", render_mode,
                  "live view: basic, enhanced, layer-aware, axial-colorization, la-mip, bscan or "
                  "en-face");
@@ -142,6 +148,9 @@ int main(int argc, char** argv) {
     if (!no_stages) {
       stages.backend = config.backend;
       stages.render.mode = render::parse_render_mode(render_mode);
+      const double sigma = stages.filter.gaussian_sigma;
+      stages.filter = filters::filter_by_name("filter", filter);
+      stages.filter.gaussian_sigma = sigma;
       stages.render.spacing = {stages.sampling.ascan_spacing_um, stages.sampling.bscan_spacing_um,
                                stages.sampling.axial_um_per_px};
       stages.live_image = config.out_dir / "render.png";

@@ -274,7 +274,8 @@ bool VolumeStages::make_backends() {
     std::lock_guard lock(mutex_);
     device_ = std::move(device);
     views_.set_timing(view_timing(config_, cpu_renderer));
-    backends_ = "filter " + std::string(filter_->backend_name()) + ", segmentation " +
+    backends_ = "filter " + std::string(filters::filter_name(config_.filter)) + " " +
+                std::string(filter_->backend_name()) + ", segmentation " +
                 std::string(segmenter_->backend_name()) + ", render " +
                 std::string(renderer_->backend_name());
     return true;
