@@ -42,6 +42,8 @@ class DeviceStageChain {
   struct PassTimes {
     double filter_ms = 0.0, segment_ms = 0.0, render_ms = 0.0;
     std::uint64_t filtered_ns = 0, segmented_ns = 0, rendered_ns = 0;
+    // The B-scans whose filtered pixels or surfaces the pass changed.
+    std::uint32_t changed_first = 0, changed_count = 0;
   };
 
   // Null when the stages are not all CUDA ones (or the build has no CUDA): they then work on
