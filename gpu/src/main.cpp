@@ -10,6 +10,7 @@
 #include <string>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/gpu/live/processing_view_control.hpp"
 #include "ioct/gpu/live/view_socket.hpp"
 #include "ioct/gpu/live/volume_stages.hpp"
 #include "ioct/gpu/live_processor.hpp"
@@ -160,6 +161,7 @@ int main(int argc, char** argv) {
       volume_stages = std::make_unique<live::VolumeStages>(stages);
       processor.set_stage(volume_stages.get());
     }
+    std::unique_ptr<live::ProcessingViewControl> controls;
     std::unique_ptr<live::ViewSocket> socket;
     if (!view_socket.empty()) {
       if (!volume_stages) {
@@ -172,7 +174,11 @@ int main(int argc, char** argv) {
       socket_config.snapshot_dir = snapshot_dir == "<out>/snapshots"
                                        ? config.out_dir / "snapshots"
                                        : std::filesystem::path(snapshot_dir);
-      socket = std::make_unique<live::ViewSocket>(socket_config, *volume_stages);
+      // The views' parameters and the processing's dB range, as the viewers change them.
+      controls = std::make_unique<live::ProcessingViewControl>(
+          *volume_stages, config.processing.scale,
+          [&processor](const DbScaleConfig& scale) { processor.set_db_range(scale); });
+      socket = std::make_unique<live::ViewSocket>(socket_config, *controls);
     }
     processor.set_status_stream(&std::cerr);
     g_processor = &processor;
