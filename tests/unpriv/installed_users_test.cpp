@@ -300,7 +300,8 @@ TEST(InstalledUsers, TheApplianceRunsAsItsServiceUsersWithoutRoot) {
     const view_test::HttpReply reply = view_test::http_request(port, "GET", "/api/state");
     if (reply.status == 200) {
       state = nlohmann::json::parse(reply.body, nullptr, false);
-      if (state.is_object() && state["gpu"].value("groups_consumed", 0) >= 3 &&
+      if (state.is_object() && state["gpu"].is_object() &&
+          state["gpu"].value("groups_consumed", 0) >= 3 && state["rt"].is_object() &&
           state["rt"].contains("readers") && !state["rt"]["readers"].empty() &&
           state["rt"]["readers"][0].value("consumed", 0) >= 3) {
         break;
@@ -310,8 +311,13 @@ TEST(InstalledUsers, TheApplianceRunsAsItsServiceUsersWithoutRoot) {
     std::this_thread::sleep_for(200ms);
   }
   ASSERT_TRUE(state.is_object()) << "ioct-view never answered GET /api/state\n" << logs();
-  EXPECT_GE(state["gpu"].value("groups_consumed", 0), 3) << state.dump() << "\n" << logs();
   EXPECT_EQ(state.value("rt_error", "?"), "") << state.dump();
+  ASSERT_TRUE(state["gpu"].is_object()) << "ioct-view cannot reach ioct-gpu\n" << logs();
+  EXPECT_GE(state["gpu"].value("groups_consumed", 0), 3) << state.dump() << "\n" << logs();
+  ASSERT_TRUE(state["rt"].is_object() && state["rt"].contains("readers") &&
+              !state["rt"]["readers"].empty())
+      << "ioct-view cannot reach ioct-rt, or ioct-rt lists no reader\n"
+      << logs();
   EXPECT_EQ(state["rt"]["readers"][0].value("label", ""), "ioct-gpu") << state.dump();
   EXPECT_GE(state["rt"]["readers"][0].value("consumed", 0), 3) << state.dump();
 
