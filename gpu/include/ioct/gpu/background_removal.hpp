@@ -66,7 +66,7 @@ class RollingSums {
 };
 
 // The mean of `total` over `count` A-scans as both implementations round it.
-IOCT_HOST_DEVICE inline float background_mean(std::uint64_t total, std::uint64_t count) noexcept {
+IOCT_HD float background_mean(std::uint64_t total, std::uint64_t count) noexcept {
   return static_cast<float>(static_cast<double>(total) / static_cast<double>(count));
 }
 

@@ -5,11 +5,7 @@
 #include <cstdint>
 #include <cstring>
 
-#if defined(__CUDACC__)
-#define IOCT_HOST_DEVICE __host__ __device__
-#else
-#define IOCT_HOST_DEVICE
-#endif
+#include "ioct/gpu/host_device_function.hpp"
 
 namespace ioct::gpu {
 
@@ -17,7 +13,7 @@ namespace ioct::gpu {
 // compiler vectorises it; the library log2f is not. x = 2^e * m with m in [1, 2):
 // log2(x) = e + log2(m), log2(m) by a polynomial in t = m - 1. Zero and denormals come out very
 // negative, which maps to 0.
-IOCT_HOST_DEVICE inline float fast_log2(float x) noexcept {
+IOCT_HD float fast_log2(float x) noexcept {
 #if defined(__CUDA_ARCH__)
   const std::uint32_t bits = __float_as_uint(x);
   const float mantissa = __uint_as_float((bits & 0x007FFFFFu) | 0x3F800000u);
@@ -41,13 +37,13 @@ IOCT_HOST_DEVICE inline float fast_log2(float x) noexcept {
 // Rounds a display level to the nearest u8, clamped. The level is always finite (fast_log2 is),
 // so the conversion is defined; clamping as integers keeps the CPU loop free of FP compares,
 // which GCC will not turn into vector selects while FP traps are possible.
-IOCT_HOST_DEVICE inline std::uint8_t level_to_u8(float level) noexcept {
+IOCT_HD std::uint8_t level_to_u8(float level) noexcept {
   const auto rounded = static_cast<std::int32_t>(level + 0.5f);  // toward zero: < 0.5 -> 0
   return static_cast<std::uint8_t>(rounded < 0 ? 0 : (rounded > 255 ? 255 : rounded));
 }
 
 // The u8 pixel of an unnormalised FFT power |X|^2: gain and offset come from DbToU8.
-IOCT_HOST_DEVICE inline std::uint8_t power_to_u8(float power, float gain, float offset) noexcept {
+IOCT_HD std::uint8_t power_to_u8(float power, float gain, float offset) noexcept {
   return level_to_u8(gain * fast_log2(power) + offset);
 }
 

@@ -20,22 +20,22 @@
 //    per output against about 300 for (1).
 #pragma once
 
-#include "ioct/gpu/filters/filters_host_device.hpp"
+#include "ioct/gpu/host_device_function.hpp"
 
 namespace ioct::gpu::filters {
 
 template <class T>
-IOCT_FILTERS_HD T lane_min(T a, T b) {
+IOCT_HD T lane_min(T a, T b) {
   return b < a ? b : a;
 }
 template <class T>
-IOCT_FILTERS_HD T lane_max(T a, T b) {
+IOCT_HD T lane_max(T a, T b) {
   return b < a ? a : b;
 }
 
 // Afterwards a <= b.
 template <class T>
-IOCT_FILTERS_HD void compare_exchange(T& a, T& b) {
+IOCT_HD void compare_exchange(T& a, T& b) {
   const T low = lane_min(a, b);
   b = lane_max(a, b);
   a = low;
@@ -46,7 +46,7 @@ IOCT_FILTERS_HD void compare_exchange(T& a, T& b) {
 // upper: about 1.5 (Hi - Lo + 1) compare-exchanges. The bounds are template arguments so that
 // every index is a constant and the values stay in registers.
 template <int Lo, int Hi, class T>
-IOCT_FILTERS_HD void move_min_max_to_ends(T* v) {
+IOCT_HD void move_min_max_to_ends(T* v) {
 #if defined(__CUDA_ARCH__)
 #pragma unroll
 #endif
@@ -64,7 +64,7 @@ IOCT_FILTERS_HD void move_min_max_to_ends(T* v) {
 // Rounds Round..12 of algorithm (1): the next value goes into slot 14, where the maximum just
 // forgotten was, and the new minimum is forgotten by starting the next round one slot higher.
 template <int Round, class T>
-IOCT_FILTERS_HD void forget_rounds(T (&v)[27]) {
+IOCT_HD void forget_rounds(T (&v)[27]) {
   if constexpr (Round <= 12) {
     v[14] = v[14 + Round];
     move_min_max_to_ends<Round, 14>(v);
@@ -74,7 +74,7 @@ IOCT_FILTERS_HD void forget_rounds(T (&v)[27]) {
 
 // Algorithm (1). `v` is used as scratch.
 template <class T>
-IOCT_FILTERS_HD T median27_forgetful(T (&v)[27]) {
+IOCT_HD T median27_forgetful(T (&v)[27]) {
   move_min_max_to_ends<0, 14>(v);  // the first 15 values
   forget_rounds<1>(v);
   return v[13];
@@ -82,7 +82,7 @@ IOCT_FILTERS_HD T median27_forgetful(T (&v)[27]) {
 
 // Sorts 9 values ascending: Floyd's network of 25 comparators (depth 7).
 template <class T>
-IOCT_FILTERS_HD void sort9(T (&v)[9]) {
+IOCT_HD void sort9(T (&v)[9]) {
   compare_exchange(v[0], v[3]);
   compare_exchange(v[1], v[7]);
   compare_exchange(v[2], v[5]);
@@ -114,7 +114,7 @@ IOCT_FILTERS_HD void sort9(T (&v)[9]) {
 // odd-even merge of x (wires 0..8) and y (wires 9..17). Comparators that only feed the 4 smallest
 // or 4 largest ranks are left to the compiler to drop.
 template <class T>
-IOCT_FILTERS_HD void merge9_middle10(const T (&x)[9], const T (&y)[9], T (&middle)[10]) {
+IOCT_HD void merge9_middle10(const T (&x)[9], const T (&y)[9], T (&middle)[10]) {
   T w[18] = {x[0], x[1], x[2], x[3], x[4], x[5], x[6], x[7], x[8],
              y[0], y[1], y[2], y[3], y[4], y[5], y[6], y[7], y[8]};
   compare_exchange(w[0], w[9]);
@@ -165,7 +165,7 @@ IOCT_FILTERS_HD void merge9_middle10(const T (&x)[9], const T (&y)[9], T (&middl
 // one. With merge9_middle10 of two planes as a and the third plane as b, this is the median of
 // the 27.
 template <class T>
-IOCT_FILTERS_HD T select_median(const T (&a)[10], const T (&b)[9]) {
+IOCT_HD T select_median(const T (&a)[10], const T (&b)[9]) {
   T result = a[9];  // i = 10: all ten from a
 #if defined(__CUDA_ARCH__)
 #pragma unroll
@@ -177,7 +177,7 @@ IOCT_FILTERS_HD T select_median(const T (&a)[10], const T (&b)[9]) {
 // Algorithm (2) for one output from three unsorted planes (for tests and the CPU; the kernel
 // keeps sorted planes and merges between outputs).
 template <class T>
-IOCT_FILTERS_HD T median27_sorted_runs(T (&below)[9], T (&centre)[9], T (&above)[9]) {
+IOCT_HD T median27_sorted_runs(T (&below)[9], T (&centre)[9], T (&above)[9]) {
   sort9(below);
   sort9(centre);
   sort9(above);

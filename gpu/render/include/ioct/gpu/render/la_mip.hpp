@@ -20,14 +20,14 @@ namespace ioct::gpu::render {
 // across the B-scans [z][a], LA-MIP along the A-scans [z][b]; z is the panel's depth in px.
 struct LaMipBuffer {
   std::size_t a, b, d;
-  IOCT_RENDER_HD std::size_t en_face_max() const { return 0; }
-  IOCT_RENDER_HD std::size_t en_face_depth() const { return a * b; }
-  IOCT_RENDER_HD std::size_t across_bscans() const { return 2 * a * b; }
-  IOCT_RENDER_HD std::size_t along_ascans() const { return 2 * a * b + d * a; }
-  IOCT_RENDER_HD std::size_t size() const { return 2 * a * b + d * a + d * b; }
+  IOCT_HD std::size_t en_face_max() const { return 0; }
+  IOCT_HD std::size_t en_face_depth() const { return a * b; }
+  IOCT_HD std::size_t across_bscans() const { return 2 * a * b; }
+  IOCT_HD std::size_t along_ascans() const { return 2 * a * b + d * a; }
+  IOCT_HD std::size_t size() const { return 2 * a * b + d * a + d * b; }
 };
 
-IOCT_RENDER_HD LaMipBuffer la_mip_buffer(const RenderParams& p) {
+IOCT_HD LaMipBuffer la_mip_buffer(const RenderParams& p) {
   return {static_cast<std::size_t>(p.dim_a), static_cast<std::size_t>(p.dim_b),
           static_cast<std::size_t>(p.dim_d)};
 }
@@ -35,8 +35,8 @@ IOCT_RENDER_HD LaMipBuffer la_mip_buffer(const RenderParams& p) {
 // En face MIP of column (a, b): the brightest sample and, among equals, the shallowest. (The CUDA
 // renderer reduces a column across a warp to the same result.)
 template <class Sampler>
-IOCT_RENDER_HD void la_mip_en_face_texel(const RenderParams& p, const Sampler& s, int a, int b,
-                                         float* buffer) {
+IOCT_HD void la_mip_en_face_texel(const RenderParams& p, const Sampler& s, int a, int b,
+                                  float* buffer) {
   float best = 0.0f;
   int best_d = 0;
   for (int d = 0; d < p.dim_d; ++d) {
@@ -62,8 +62,8 @@ enum class LaMipAxis { across_bscans, along_ascans };
 // of the parts is the whole's.) At whole (a, b) the RPE is reference_at()'s value without
 // interpolating.
 template <class Sampler>
-IOCT_RENDER_HD float la_mip_curve_max(const RenderParams& p, const Sampler& s, LaMipAxis axis,
-                                      int at, int z, int k0, int k1) {
+IOCT_HD float la_mip_curve_max(const RenderParams& p, const Sampler& s, LaMipAxis axis, int at,
+                               int z, int k0, int k1) {
   const bool across = axis == LaMipAxis::across_bscans;
   const float fat = static_cast<float>(at);
   const float middle = across ? reference_at(p, fat, 0.5f * (p.dim_b - 1))
@@ -81,23 +81,22 @@ IOCT_RENDER_HD float la_mip_curve_max(const RenderParams& p, const Sampler& s, L
 
 // Where texel (z, at) of `axis`'s LA-MIP image lies in the buffer; how many lateral positions
 // that image has, and how many samples its curves.
-IOCT_RENDER_HD std::size_t la_mip_texel(const LaMipBuffer& l, LaMipAxis axis, int at, int z) {
+IOCT_HD std::size_t la_mip_texel(const LaMipBuffer& l, LaMipAxis axis, int at, int z) {
   return axis == LaMipAxis::across_bscans
              ? l.across_bscans() + static_cast<std::size_t>(z) * l.a + static_cast<std::size_t>(at)
              : l.along_ascans() + static_cast<std::size_t>(z) * l.b + static_cast<std::size_t>(at);
 }
-IOCT_RENDER_HD int la_mip_positions(const RenderParams& p, LaMipAxis axis) {
+IOCT_HD int la_mip_positions(const RenderParams& p, LaMipAxis axis) {
   return axis == LaMipAxis::across_bscans ? p.dim_a : p.dim_b;
 }
-IOCT_RENDER_HD int la_mip_curve_length(const RenderParams& p, LaMipAxis axis) {
+IOCT_HD int la_mip_curve_length(const RenderParams& p, LaMipAxis axis) {
   return axis == LaMipAxis::across_bscans ? p.dim_b : p.dim_a;
 }
 
 // One output pixel of the composite: en face (top left), LA-MIP across the B-scans (below, depth
 // down), LA-MIP along the A-scans (right, depth to the right). Eq. 5: colour from the maximum and
 // delta* of the curve's distance from the RPE (en face: of the maximum's depth).
-IOCT_RENDER_HD Rgba la_mip_composite_pixel(const RenderParams& p, const float* buffer, int x,
-                                           int y) {
+IOCT_HD Rgba la_mip_composite_pixel(const RenderParams& p, const float* buffer, int x, int y) {
   const CompositeLayout& l = p.layout;
   const LaMipBuffer layout = la_mip_buffer(p);
   const int px = x - l.x0;

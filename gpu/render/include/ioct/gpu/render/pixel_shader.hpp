@@ -16,10 +16,10 @@ struct Rgba {
 
 // Never skips: the CPU reference.
 struct NoSkip {
-  IOCT_RENDER_HD int next_sample(Vec3, Vec3, float, float, int k) const { return k; }
+  IOCT_HD int next_sample(Vec3, Vec3, float, float, int k) const { return k; }
 };
 
-IOCT_RENDER_HD Rgba transfer_lookup(const float* lut, float intensity) {
+IOCT_HD Rgba transfer_lookup(const float* lut, float intensity) {
   const float x = clamp01(intensity) * (kTransferLutSize - 1);
   const int i0 = static_cast<int>(floorf(x));
   const int i1 = i0 + 1 < kTransferLutSize ? i0 + 1 : i0;
@@ -30,7 +30,7 @@ IOCT_RENDER_HD Rgba transfer_lookup(const float* lut, float intensity) {
 }
 
 // The L*a*b* map as sRGB in [0, 1], bilinear in intensity and delta*.
-IOCT_RENDER_HD Vec3 lab_lookup(const float* lut, float intensity, float delta_star) {
+IOCT_HD Vec3 lab_lookup(const float* lut, float intensity, float delta_star) {
   const float x = clamp01(intensity) * (kLabLutIntensities - 1);
   const float y = clamp01(delta_star) * (kLabLutDepths - 1);
   const int x0 = static_cast<int>(floorf(x));
@@ -51,12 +51,12 @@ IOCT_RENDER_HD Vec3 lab_lookup(const float* lut, float intensity, float delta_st
 }
 
 // delta* = clamp((delta + 1) / 3) with delta = (depth - reference) / d_rpe (Weiss Sec. 3.1).
-IOCT_RENDER_HD float delta_star(float depth_px, float reference_px, float d_rpe_px) {
+IOCT_HD float delta_star(float depth_px, float reference_px, float d_rpe_px) {
   return clamp01(((depth_px - reference_px) / d_rpe_px + 1.0f) / 3.0f);
 }
 
 // Bilinear lookup in a w x h float image at (x, y) in texel units, edges clamped.
-IOCT_RENDER_HD float bilinear(const float* image, int w, int h, float x, float y) {
+IOCT_HD float bilinear(const float* image, int w, int h, float x, float y) {
   x = fminf(fmaxf(x, 0.0f), static_cast<float>(w - 1));
   y = fminf(fmaxf(y, 0.0f), static_cast<float>(h - 1));
   const int x0 = static_cast<int>(floorf(x));
@@ -70,19 +70,19 @@ IOCT_RENDER_HD float bilinear(const float* image, int w, int h, float x, float y
 }
 
 // The reference surface (RPE or the axial plane) at a lateral position, bilinear, edges clamped.
-IOCT_RENDER_HD float reference_at(const RenderParams& p, float a, float b) {
+IOCT_HD float reference_at(const RenderParams& p, float a, float b) {
   return bilinear(p.reference_px, p.dim_a, p.dim_b, a, b);
 }
 
 // Linear opacity transfer function of the layer-aware DVR: 0 up to i_min, alpha_max from i_max.
-IOCT_RENDER_HD float layer_opacity(const RenderParams& p, float intensity) {
+IOCT_HD float layer_opacity(const RenderParams& p, float intensity) {
   return p.alpha_max * clamp01((intensity - p.i_min) / (p.i_max - p.i_min));
 }
 
 // Central differences over one voxel along each axis, turned into a world-space gradient
 // (intensity per finest voxel spacing; z up, so the depth difference changes sign).
 template <class Sampler>
-IOCT_RENDER_HD Vec3 gradient_at(const RenderParams& p, const Sampler& s, Vec3 v) {
+IOCT_HD Vec3 gradient_at(const RenderParams& p, const Sampler& s, Vec3 v) {
   const float gx = 0.5f * (s(v.x + 1, v.y, v.z) - s(v.x - 1, v.y, v.z));
   const float gy = 0.5f * (s(v.x, v.y + 1, v.z) - s(v.x, v.y - 1, v.z));
   const float gz = 0.5f * (s(v.x, v.y, v.z + 1) - s(v.x, v.y, v.z - 1));
@@ -90,8 +90,7 @@ IOCT_RENDER_HD Vec3 gradient_at(const RenderParams& p, const Sampler& s, Vec3 v)
 }
 
 // Ray parameter range [t_near, t_far] inside the volume's box [-0.5, n - 0.5] (voxel space).
-IOCT_RENDER_HD bool intersect_box(const RenderParams& p, Vec3 o, Vec3 d, float& t_near,
-                                  float& t_far) {
+IOCT_HD bool intersect_box(const RenderParams& p, Vec3 o, Vec3 d, float& t_near, float& t_far) {
   const float lo[3] = {-0.5f, -0.5f, -0.5f};
   const float hi[3] = {p.dim_a - 0.5f, p.dim_b - 0.5f, p.dim_d - 0.5f};
   const float oo[3] = {o.x, o.y, o.z};
@@ -116,14 +115,14 @@ IOCT_RENDER_HD bool intersect_box(const RenderParams& p, Vec3 o, Vec3 d, float& 
   return t_far > t_near;
 }
 
-IOCT_RENDER_HD bool inside_box(const RenderParams& p, Vec3 v) {
+IOCT_HD bool inside_box(const RenderParams& p, Vec3 v) {
   return v.x >= -0.5f && v.y >= -0.5f && v.z >= -0.5f && v.x <= p.dim_a - 0.5f &&
          v.y <= p.dim_b - 0.5f && v.z <= p.dim_d - 0.5f;
 }
 
 // Front-to-back compositing of one sample (Viehland Eq. 1, the product over the samples in
 // front of it).
-IOCT_RENDER_HD void composite(Rgba& acc, Vec3 c, float alpha) {
+IOCT_HD void composite(Rgba& acc, Vec3 c, float alpha) {
   const float w = (1.0f - acc.a) * alpha;
   acc.r += w * c.x;
   acc.g += w * c.y;
@@ -131,7 +130,7 @@ IOCT_RENDER_HD void composite(Rgba& acc, Vec3 c, float alpha) {
   acc.a += w;
 }
 
-IOCT_RENDER_HD Rgba over_background(const RenderParams& p, Rgba acc) {
+IOCT_HD Rgba over_background(const RenderParams& p, Rgba acc) {
   const float t = 1.0f - acc.a;
   return {acc.r + t * p.background[0], acc.g + t * p.background[1], acc.b + t * p.background[2],
           acc.a};
@@ -141,11 +140,11 @@ IOCT_RENDER_HD Rgba over_background(const RenderParams& p, Rgba acc) {
 // with shadow rays, Weiss Fig. 4 B4) the enhanced transfer function's, below the threshold 0.
 struct LayerOpacity {
   const RenderParams& p;
-  IOCT_RENDER_HD float operator()(float intensity) const { return layer_opacity(p, intensity); }
+  IOCT_HD float operator()(float intensity) const { return layer_opacity(p, intensity); }
 };
 struct TransferOpacity {
   const RenderParams& p;
-  IOCT_RENDER_HD float operator()(float intensity) const {
+  IOCT_HD float operator()(float intensity) const {
     if (p.use_threshold && intensity < p.threshold) return 0.0f;
     return transfer_lookup(p.transfer_lut, intensity).a;
   }
@@ -155,8 +154,8 @@ struct TransferOpacity {
 // first step beyond the sample; stops at the volume's edge or once it is below 1/1000. (Skipping
 // empty bricks here was measured slower: shadow rays start in tissue and rarely meet one.)
 template <class Sampler, class Opacity>
-IOCT_RENDER_HD float shadow_factor(const RenderParams& p, const EyeParams& e, const Sampler& s,
-                                   Vec3 v, const Opacity& opacity) {
+IOCT_HD float shadow_factor(const RenderParams& p, const EyeParams& e, const Sampler& s, Vec3 v,
+                            const Opacity& opacity) {
   float transmittance = 1.0f;
   for (int i = 1; i <= p.shadow_steps; ++i) {
     const Vec3 q = v + (static_cast<float>(i) * e.step) * e.light_voxel;
@@ -169,8 +168,8 @@ IOCT_RENDER_HD float shadow_factor(const RenderParams& p, const EyeParams& e, co
 
 // One ray of the volume modes (basic, enhanced, layer-aware, axial colorization).
 template <class Sampler, class Skipper>
-IOCT_RENDER_HD Rgba render_ray(const RenderParams& p, const Sampler& s, const Skipper& skip, int x,
-                               int y, int eye_index) {
+IOCT_HD Rgba render_ray(const RenderParams& p, const Sampler& s, const Skipper& skip, int x, int y,
+                        int eye_index) {
   const EyeParams& e = p.eye[eye_index];
   const float sx =
       ((static_cast<float>(x) + 0.5f) / p.width * 2.0f - 1.0f) * p.half_width + p.pan_x;
@@ -257,15 +256,14 @@ IOCT_RENDER_HD Rgba render_ray(const RenderParams& p, const Sampler& s, const Sk
 
 // Intensity at a depth, zero outside the volume's depth range (LA-MIP curves leave it).
 template <class Sampler>
-IOCT_RENDER_HD float sample_or_zero(const RenderParams& p, const Sampler& s, float a, float b,
-                                    float d) {
+IOCT_HD float sample_or_zero(const RenderParams& p, const Sampler& s, float a, float b, float d) {
   if (d < -0.5f || d > p.dim_d - 0.5f) return 0.0f;
   return s(a, b, d);
 }
 
 // The slices (B-scan, en face). One eye only; the LA-MIP composite is in la_mip.hpp.
 template <class Sampler>
-IOCT_RENDER_HD Rgba render_plane(const RenderParams& p, const Sampler& s, int x, int y) {
+IOCT_HD Rgba render_plane(const RenderParams& p, const Sampler& s, int x, int y) {
   Rgba out{p.background[0], p.background[1], p.background[2], 0.0f};
   const float u = (static_cast<float>(x) + 0.5f - p.plane_x0) * p.plane_scale_x - 0.5f;
   const float w = (static_cast<float>(y) + 0.5f - p.plane_y0) * p.plane_scale_y - 0.5f;
@@ -281,7 +279,7 @@ IOCT_RENDER_HD Rgba render_plane(const RenderParams& p, const Sampler& s, int x,
   return {i, i, i, 1.0f};
 }
 
-IOCT_RENDER_HD unsigned char to_u8(float v) {
+IOCT_HD unsigned char to_u8(float v) {
   return static_cast<unsigned char>(clamp01(v) * 255.0f + 0.5f);
 }
 

@@ -88,7 +88,7 @@ struct RenderParams {
 
 // d_rpe as the pixels use it: the measured thickness when there is one above 1 px, else the
 // baked d_rpe_px (the configured value, the host reference's thickness, or the default).
-IOCT_RENDER_HD float d_rpe(const RenderParams& p) {
+IOCT_HD float d_rpe(const RenderParams& p) {
   if (p.measured_d_rpe_px != nullptr && *p.measured_d_rpe_px > 1.0f) return *p.measured_d_rpe_px;
   return p.d_rpe_px;
 }

@@ -9,7 +9,7 @@
 
 #include <cstdint>
 
-#include "ioct/gpu/segmentation/host_device.hpp"
+#include "ioct/gpu/host_device_function.hpp"
 #include "ioct/gpu/segmentation/segmentation_config.hpp"
 
 namespace ioct::gpu::segmentation::detail {
@@ -47,29 +47,29 @@ inline constexpr int kIlmBaseReach = 8;
 inline constexpr int kRpePeakReach = 2;
 inline constexpr int kBmReach = 10;
 
-IOCT_SEG_HD int clamp_int(int v, int lo, int hi) {
+IOCT_HD int clamp_int(int v, int lo, int hi) {
   return v < lo ? lo : (v > hi ? hi : v);
 }
-IOCT_SEG_HD int max_int(int a, int b) {
+IOCT_HD int max_int(int a, int b) {
   return a > b ? a : b;
 }
-IOCT_SEG_HD int min_int(int a, int b) {
+IOCT_HD int min_int(int a, int b) {
   return a < b ? a : b;
 }
-IOCT_SEG_HD int abs_int(int a) {
+IOCT_HD int abs_int(int a) {
   return a < 0 ? -a : a;
 }
 
 // Px `d` of a column, the edge px repeated outside it.
-IOCT_SEG_HD int px(const std::uint8_t* column, int depth, int d) {
+IOCT_HD int px(const std::uint8_t* column, int depth, int d) {
   return column[clamp_int(d, 0, depth - 1)];
 }
 // Level above the background.
-IOCT_SEG_HD int above_floor(int value, int floor) {
+IOCT_HD int above_floor(int value, int floor) {
   return value > floor ? value - floor : 0;
 }
 
-IOCT_SEG_HD int rpe_score(const std::uint8_t* column, int depth, int d, int floor) {
+IOCT_HD int rpe_score(const std::uint8_t* column, int depth, int d, int floor) {
   int above = 0;
   for (int k = kRpeAboveFirst; k <= kRpeAboveLast; ++k) {
     above = max_int(above, above_floor(px(column, depth, d - k), floor));
@@ -81,7 +81,7 @@ IOCT_SEG_HD int rpe_score(const std::uint8_t* column, int depth, int d, int floo
   return 2 * above_floor(px(column, depth, d), floor) - above / 2 - below / 2;
 }
 
-IOCT_SEG_HD int ilm_score(const std::uint8_t* column, int depth, int d, int floor) {
+IOCT_HD int ilm_score(const std::uint8_t* column, int depth, int d, int floor) {
   // Levels above the background: a dark border (no data) above the vitreous is no edge.
   const auto level = [&](int x) { return above_floor(px(column, depth, x), floor); };
   const int rise =
@@ -104,7 +104,7 @@ IOCT_SEG_HD int ilm_score(const std::uint8_t* column, int depth, int d, int floo
 inline constexpr int kAboveCells = 6;
 inline constexpr int kAboveCap = 40;
 
-IOCT_SEG_HD int cell_level(const std::uint8_t* column, int depth, int cell) {
+IOCT_HD int cell_level(const std::uint8_t* column, int depth, int cell) {
   int level = 0;
   for (int k = 0; k < kCoarseCellPx; ++k) {
     level = max_int(level, px(column, depth, cell * kCoarseCellPx + k));
@@ -113,7 +113,7 @@ IOCT_SEG_HD int cell_level(const std::uint8_t* column, int depth, int cell) {
 }
 
 // `levels` holds the cell levels of one column (`cells` of them); reads outside repeat the edge.
-IOCT_SEG_HD int coarse_score(const std::uint8_t* levels, int cells, int k) {
+IOCT_HD int coarse_score(const std::uint8_t* levels, int cells, int k) {
   const auto at = [&](int i) { return static_cast<int>(levels[clamp_int(i, 0, cells - 1)]); };
   const int below = max_int(at(k + 2), max_int(at(k + 3), at(k + 4)));
   int above = 0;
@@ -126,17 +126,17 @@ IOCT_SEG_HD int coarse_score(const std::uint8_t* levels, int cells, int k) {
 // above it and can be as bright as the RPE, but the RPE lies deeper; where the retina is missing
 // (a macular hole) the RPE's evidence still wins against the dimmer choroid beneath it.
 inline constexpr int kDepthPriorWeight = 2;
-IOCT_SEG_HD std::int32_t rpe_cost(const std::uint8_t* column, int depth, int d, int below_ilm,
-                                  int depth_cap, int floor) {
+IOCT_HD std::int32_t rpe_cost(const std::uint8_t* column, int depth, int d, int below_ilm,
+                              int depth_cap, int floor) {
   if (d < 0 || d >= depth) return kOutsideCost;
   return -(rpe_score(column, depth, d, floor) + kDepthPriorWeight * min_int(below_ilm, depth_cap));
 }
-IOCT_SEG_HD std::int32_t ilm_cost(const std::uint8_t* column, int depth, int d, int floor) {
+IOCT_HD std::int32_t ilm_cost(const std::uint8_t* column, int depth, int d, int floor) {
   if (d < 0 || d >= depth) return kOutsideCost;
   return -clamp_int(ilm_score(column, depth, d, floor), -255, 255);
 }
 // The median of three coarse cells: the prior a B-scan takes from itself and its neighbours.
-IOCT_SEG_HD std::int32_t median3(std::int32_t a, std::int32_t b, std::int32_t c) {
+IOCT_HD std::int32_t median3(std::int32_t a, std::int32_t b, std::int32_t c) {
   const std::int32_t low = a < b ? a : b;
   const std::int32_t high = a < b ? b : a;
   return c < low ? low : (c > high ? high : c);
@@ -144,7 +144,7 @@ IOCT_SEG_HD std::int32_t median3(std::int32_t a, std::int32_t b, std::int32_t c)
 
 // Depth of state 0 of the ILM band above a coarse RPE cell: the band ends 4 px below the cell's
 // centre (in a macular hole the first tissue is the RPE itself).
-IOCT_SEG_HD std::int32_t ilm_band_origin(std::int32_t coarse_cell, std::int32_t band) {
+IOCT_HD std::int32_t ilm_band_origin(std::int32_t coarse_cell, std::int32_t band) {
   return coarse_cell * kCoarseCellPx + kCoarseCellPx / 2 + 4 - band;
 }
 
@@ -157,8 +157,8 @@ IOCT_SEG_HD std::int32_t ilm_band_origin(std::int32_t coarse_cell, std::int32_t 
 // kFixedStep > 0 fixes the bound at compile time: every candidate is read before any is compared
 // (the GPU issues the reads together); 0 takes it from `max_step`. Both give the same result.
 template <int kFixedStep>
-IOCT_SEG_HD std::int32_t best_step_of(const std::int32_t* previous, int states, int s, int shift,
-                                      int max_step, int penalty, int* step) {
+IOCT_HD std::int32_t best_step_of(const std::int32_t* previous, int states, int s, int shift,
+                                  int max_step, int penalty, int* step) {
   constexpr int kCandidates = kFixedStep > 0 ? 2 * kFixedStep + 1 : 1;
   const int candidates = kFixedStep > 0 ? kCandidates : 2 * max_step + 1;
   std::int32_t best = kUnreachable;
@@ -203,13 +203,13 @@ IOCT_SEG_HD std::int32_t best_step_of(const std::int32_t* previous, int states, 
   return best;
 }
 
-IOCT_SEG_HD std::int32_t best_step(const std::int32_t* previous, int states, int s, int shift,
-                                   int max_step, int penalty, int* step) {
+IOCT_HD std::int32_t best_step(const std::int32_t* previous, int states, int s, int shift,
+                               int max_step, int penalty, int* step) {
   return best_step_of<0>(previous, states, s, shift, max_step, penalty, step);
 }
 
 // A path total plus a state's cost, staying at kUnreachable.
-IOCT_SEG_HD std::int32_t add_cost(std::int32_t total, std::int32_t cost) {
+IOCT_HD std::int32_t add_cost(std::int32_t total, std::int32_t cost) {
   return total >= kUnreachable ? kUnreachable : total + cost;
 }
 
@@ -225,7 +225,7 @@ struct ColumnFit {
 
 // The RPE centre: the brightest px within kRpePeakReach of `d` (the first of equals, nearest
 // first), and a parabola through it and its neighbours.
-IOCT_SEG_HD int rpe_peak_px(const std::uint8_t* column, int depth, int d) {
+IOCT_HD int rpe_peak_px(const std::uint8_t* column, int depth, int d) {
   int best = clamp_int(d, 0, depth - 1);
   int value = column[best];
   for (int i = 1; i <= 2 * kRpePeakReach; ++i) {
@@ -240,7 +240,7 @@ IOCT_SEG_HD int rpe_peak_px(const std::uint8_t* column, int depth, int d) {
   return best;
 }
 
-IOCT_SEG_HD float parabola_offset(int left, int centre, int right) {
+IOCT_HD float parabola_offset(int left, int centre, int right) {
   const int curvature = left - 2 * centre + right;
   if (curvature >= 0) return 0.0f;
   float offset = 0.5f * static_cast<float>(left - right) / static_cast<float>(curvature);
@@ -249,8 +249,8 @@ IOCT_SEG_HD float parabola_offset(int left, int centre, int right) {
 }
 
 // Refines the search's px (ILM at the steepest rise, RPE near its centre) of one A-scan.
-IOCT_SEG_HD ColumnFit fit_column(const std::uint8_t* column, int depth, int ilm_px, int rpe_px,
-                                 int floor, float ilm_level) {
+IOCT_HD ColumnFit fit_column(const std::uint8_t* column, int depth, int ilm_px, int rpe_px,
+                             int floor, float ilm_level) {
   ColumnFit fit;
   // RPE centre.
   const int r = rpe_peak_px(column, depth, rpe_px);
@@ -316,7 +316,7 @@ IOCT_SEG_HD ColumnFit fit_column(const std::uint8_t* column, int depth, int ilm_
 // beneath the RPE (choroid) at kChoroidShare of the typical RPE contrast; the weakest one decides.
 // An instrument's reflection has the dark vitreous above and its shadow beneath: no choroid.
 inline constexpr float kChoroidShare = 0.05f;
-IOCT_SEG_HD float column_confidence(const ColumnFit& fit, int typical_rpe, int typical_ilm) {
+IOCT_HD float column_confidence(const ColumnFit& fit, int typical_rpe, int typical_ilm) {
   const float rpe_ref = 0.5f * static_cast<float>(max_int(typical_rpe, 1));
   const float ilm_ref = 0.5f * static_cast<float>(max_int(typical_ilm, 1));
   const float choroid_ref = kChoroidShare * static_cast<float>(max_int(typical_rpe, 1));
@@ -332,9 +332,9 @@ IOCT_SEG_HD float column_confidence(const ColumnFit& fit, int typical_rpe, int t
 // min_contrast, a typical (median) ILM-to-RPE distance of at least min_thickness px (the cornea's
 // epithelium and Bowman's layer look like an ILM over a thin RPE), and at least presence_fraction
 // of its A-scans confident (>= 0.5).
-IOCT_SEG_HD bool retina_present(int confident_ascans, int ascans, float presence_fraction,
-                                int typical_rpe, int typical_ilm, int min_contrast,
-                                int typical_thickness, int min_thickness) {
+IOCT_HD bool retina_present(int confident_ascans, int ascans, float presence_fraction,
+                            int typical_rpe, int typical_ilm, int min_contrast,
+                            int typical_thickness, int min_thickness) {
   return typical_rpe >= min_contrast && typical_ilm >= min_contrast &&
          typical_thickness >= min_thickness &&
          static_cast<float>(confident_ascans) >= presence_fraction * static_cast<float>(ascans);

@@ -16,7 +16,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "ioct/gpu/segmentation/host_device.hpp"
+#include "ioct/gpu/host_device_function.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
 
 namespace ioct::gpu::segmentation::detail {
@@ -54,17 +54,17 @@ struct FinishedAscan {
   SurfaceState state;
 };
 
-IOCT_SEG_HD bool has_retina(const RawFits& raw, int b) {
+IOCT_HD bool has_retina(const RawFits& raw, int b) {
   return raw.verdict[b] == static_cast<std::uint8_t>(BscanVerdict::retina);
 }
 
-IOCT_SEG_HD bool is_measured(const RawFits& raw, const FinishSettings& s, int b, int a) {
+IOCT_HD bool is_measured(const RawFits& raw, const FinishSettings& s, int b, int a) {
   return has_retina(raw, b) && raw.confidence[b * raw.ascans + a] >= s.min_confidence;
 }
 
 // Weighted mean of one surface over the measured 3 x 3 neighbourhood of (b, a), in a fixed order.
-IOCT_SEG_HD float smoothed(const float* surface, const RawFits& raw, const FinishSettings& s, int b,
-                           int a) {
+IOCT_HD float smoothed(const float* surface, const RawFits& raw, const FinishSettings& s, int b,
+                       int a) {
   const float centre = surface[b * raw.ascans + a];
   float sum = 0.0f;
   float weights = 0.0f;
@@ -92,7 +92,7 @@ struct Triple {
   float bm = 0.0f;
 };
 
-IOCT_SEG_HD Triple triple_at(const RawFits& raw, int index) {
+IOCT_HD Triple triple_at(const RawFits& raw, int index) {
   return {raw.ilm[index], raw.rpe[index], raw.bm[index]};
 }
 
@@ -104,8 +104,8 @@ struct DirectionBridge {
   float weight = 0.0f;
 };
 
-IOCT_SEG_HD int nearest_measured(const RawFits& raw, const FinishSettings& s, int b, int a,
-                                 int step_b, int step_a, int first, int reach) {
+IOCT_HD int nearest_measured(const RawFits& raw, const FinishSettings& s, int b, int a, int step_b,
+                             int step_a, int first, int reach) {
   for (int k = first; k <= reach; ++k) {
     const int nb = b + k * step_b;
     const int na = a + k * step_a;
@@ -115,9 +115,9 @@ IOCT_SEG_HD int nearest_measured(const RawFits& raw, const FinishSettings& s, in
   return -1;
 }
 
-IOCT_SEG_HD DirectionBridge bridge_direction(const RawFits& raw, const FinishSettings& s, int b,
-                                             int a, int step_b, int step_a, int reach,
-                                             float spacing_um, int baseline) {
+IOCT_HD DirectionBridge bridge_direction(const RawFits& raw, const FinishSettings& s, int b, int a,
+                                         int step_b, int step_a, int reach, float spacing_um,
+                                         int baseline) {
   DirectionBridge bridge;
   const int ahead = nearest_measured(raw, s, b, a, step_b, step_a, 1, reach);
   const int behind = nearest_measured(raw, s, b, a, -step_b, -step_a, 1, reach);
@@ -154,7 +154,7 @@ IOCT_SEG_HD DirectionBridge bridge_direction(const RawFits& raw, const FinishSet
   return bridge;
 }
 
-IOCT_SEG_HD FinishedAscan finish_ascan(const RawFits& raw, const FinishSettings& s, int b, int a) {
+IOCT_HD FinishedAscan finish_ascan(const RawFits& raw, const FinishSettings& s, int b, int a) {
   const float nan = NAN;
   const int i = b * raw.ascans + a;
   if (!has_retina(raw, b)) return {nan, nan, nan, 0.0f, SurfaceState::none};

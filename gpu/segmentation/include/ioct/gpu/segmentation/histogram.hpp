@@ -4,7 +4,7 @@
 
 #include <cstdint>
 
-#include "ioct/gpu/segmentation/host_device.hpp"
+#include "ioct/gpu/host_device_function.hpp"
 
 namespace ioct::gpu::segmentation::detail {
 
@@ -12,8 +12,8 @@ inline constexpr int kHistogramBins = 256;
 
 // The smallest value v whose cumulative count reaches numerator / denominator of `count`
 // (count * numerator <= cumulative * denominator); 0 for no values.
-IOCT_SEG_HD int histogram_quantile(const std::uint32_t* histogram, std::uint32_t count,
-                                   std::uint32_t numerator, std::uint32_t denominator) {
+IOCT_HD int histogram_quantile(const std::uint32_t* histogram, std::uint32_t count,
+                               std::uint32_t numerator, std::uint32_t denominator) {
   if (count == 0) return 0;
   std::uint64_t cumulative = 0;
   for (int v = 0; v < kHistogramBins; ++v) {
@@ -30,7 +30,7 @@ inline constexpr std::uint32_t kFloorNumerator = 3;
 inline constexpr std::uint32_t kFloorDenominator = 10;
 inline constexpr std::uint32_t kFloorSampleStride = 16;
 
-IOCT_SEG_HD int clamp_u8(int v) {
+IOCT_HD int clamp_u8(int v) {
   return v < 0 ? 0 : (v > 255 ? 255 : v);
 }
 
