@@ -497,7 +497,7 @@ void load_config_text(const std::string& text, const std::string& origin, RtConf
     root = toml::parse(text, origin);
   } catch (const toml::parse_error& e) {
     throw ConfigFileError(origin, position_of(e.source()),
-                          "not valid TOML: " + std::string(e.description()));
+                          "not valid TOML: " + quote_input(e.description(), 240));
   }
   const SourcePosition end{
       static_cast<std::uint32_t>(std::count(text.begin(), text.end(), '\n') + 1), 1};
