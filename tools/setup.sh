@@ -13,6 +13,7 @@ ioct_packages=(
   libusb-1.0-0-dev libgpiod-dev
   libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev
   chromium  # the live view's browser tests drive it headless (tests/view)
+  clang libclang-rt-14-dev  # libFuzzer for the fuzz preset (tools/ioct-fuzz)
 )
 
 ioct_install_packages() {
