@@ -15,6 +15,7 @@ ioct_packages=(
   chromium  # the live view's browser tests drive it headless (tests/view)
   systemd   # systemd-analyze, -sysusers, -tmpfiles: the units' tests (tests/rt, tests/unpriv)
   python3   # tools/ioct-soak
+  clang libclang-rt-14-dev  # libFuzzer for the fuzz preset (tools/ioct-fuzz)
 )
 
 ioct_install_packages() {

@@ -1,9 +1,16 @@
 #include "ioct/common/strict_json.hpp"
 
+#include "ioct/common/input_file.hpp"
+
 #include <set>
 #include <vector>
 
 namespace ioct {
+namespace {
+
+constexpr std::size_t kMaxErrorChars = 240;
+
+}  // namespace
 
 StrictJson parse_json_strictly(std::string_view text) {
   StrictJson result;
@@ -28,11 +35,12 @@ StrictJson parse_json_strictly(std::string_view text) {
     result.value = nlohmann::json::parse(text.begin(), text.end(), note);
   } catch (const nlohmann::json::parse_error& e) {
     result.value = nlohmann::json::value_t::discarded;
-    result.error = e.what();
+    // The parser's message shows the bytes it stopped at, DEL and non-ASCII ones raw.
+    result.error = quote_input(e.what(), kMaxErrorChars);
     result.error_byte = e.byte;
   } catch (const nlohmann::json::exception& e) {  // e.g. a number too large for a double
     result.value = nlohmann::json::value_t::discarded;
-    result.error = e.what();
+    result.error = quote_input(e.what(), kMaxErrorChars);
     result.error_byte = text.size();
   }
   return result;

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/common/input_file.hpp"
 
 namespace ioct::gpu {
 namespace {
@@ -64,7 +65,8 @@ std::vector<double> parse_coefficients(std::string_view text) {
     double value = 0.0;
     const auto [end, error] = std::from_chars(item.data(), item.data() + item.size(), value);
     if (item.empty() || error != std::errc{} || end != item.data() + item.size()) {
-      throw ConfigError(kKey, "'" + std::string(text) + "'",
+      // The text may be a whole calibration file: shown printable and shortened.
+      throw ConfigError(kKey, "'" + quote_input(text, 80) + "'",
                         "must be numbers separated by commas, e.g. 0,1,-0.02 (c0, c1, c2, ...)");
     }
     values.push_back(value);

@@ -19,8 +19,9 @@
 namespace ioct::rt {
 namespace {
 
+// A string of the file as a message shows it: printable, shortened (quote_input).
 std::string quoted(std::string_view text) {
-  return "\"" + std::string(text) + "\"";
+  return "\"" + quote_input(text, 60) + "\"";
 }
 
 std::string type_name(const toml::node& node) {
@@ -143,7 +144,8 @@ class Section {
       if (read_.count(std::string(key.str())) != 0) continue;
       std::string list;
       for (const std::string& k : known_) list += (list.empty() ? "" : ", ") + k;
-      const std::string name = full(key.str());
+      // A quoted TOML key may hold any character: shown printable.
+      const std::string name = quote_input(full(key.str()), 80);
       throw ConfigFileError(origin_, position_of(key.source()),
                             name + ": unknown key; " +
                                 (prefix_.empty() ? std::string("the file") : "[" + prefix_ + "]") +
@@ -497,7 +499,7 @@ void load_config_text(const std::string& text, const std::string& origin, RtConf
     root = toml::parse(text, origin);
   } catch (const toml::parse_error& e) {
     throw ConfigFileError(origin, position_of(e.source()),
-                          "not valid TOML: " + std::string(e.description()));
+                          "not valid TOML: " + quote_input(e.description(), 240));
   }
   const SourcePosition end{
       static_cast<std::uint32_t>(std::count(text.begin(), text.end(), '\n') + 1), 1};

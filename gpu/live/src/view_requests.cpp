@@ -33,8 +33,14 @@ json refusal(const std::string& key, const std::string& error) {
   return {{"ok", false}, {"error", error}, {"key", key}};
 }
 
+// As JSON, every byte outside printable ASCII escaped (\u007f, \u00e9): a message never carries
+// the client's raw bytes.
+std::string ascii_json(const json& value) {
+  return value.dump(-1, ' ', true);
+}
+
 std::string shown(const json& value) {
-  std::string text = value.dump();
+  std::string text = ascii_json(value);
   if (text.size() > 60) text = text.substr(0, 60) + "...";
   return text;
 }
@@ -56,7 +62,7 @@ json parse_strict(std::string_view line) {
 void only_fields(const json& request, std::initializer_list<std::string_view> allowed) {
   for (const auto& [name, value] : request.items()) {
     if (std::ranges::find(allowed, name) == allowed.end()) {
-      throw RequestError(name, name + " = " + shown(value) + ": not a field of " +
+      throw RequestError(name, ascii_json(name) + " = " + shown(value) + ": not a field of " +
                                    request.at("cmd").get<std::string>());
     }
   }
@@ -200,7 +206,7 @@ json ViewRequests::snapshot(const json& request) {
   try {
     check_snapshot_name(name);
   } catch (const std::invalid_argument& e) {
-    throw RequestError("name", "name = " + json(name).dump() + ": " + e.what());
+    throw RequestError("name", "name = " + ascii_json(name) + ": " + e.what());
   }
   std::error_code ec;
   std::filesystem::create_directories(snapshot_dir_, ec);
@@ -209,7 +215,7 @@ json ViewRequests::snapshot(const json& request) {
   // Never over an earlier snapshot (or whatever else lies there, links included).
   for (const auto& path : {png, params}) {
     if (std::filesystem::exists(std::filesystem::symlink_status(path, ec))) {
-      throw RequestError("name", "name = " + json(name).dump() + ": " + path.filename().string() +
+      throw RequestError("name", "name = " + ascii_json(name) + ": " + path.filename().string() +
                                      " exists in the snapshot folder");
     }
   }

@@ -72,8 +72,8 @@ RecordingReader::RecordingReader(const std::filesystem::path& path) {
   nlohmann::json json;
   try {
     json = nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
-    fail(json_path_, std::string("not valid JSON: ") + e.what());
+  } catch (const nlohmann::json::exception& e) {  // also a number no double holds (1e400)
+    fail(json_path_, "not valid JSON: " + quote_input(e.what(), 240));
   }
   metadata_ = metadata_from_json(json, json_path_.string());
   const RecordingGeometry& g = metadata_.geometry;

@@ -12,7 +12,7 @@ namespace ioct {
 
 struct StrictJson {
   nlohmann::json value;        // discarded when the text is not JSON
-  std::string error;           // the parser's message when it is not; empty otherwise
+  std::string error;           // the parser's message, printable (quote_input); empty if JSON
   std::size_t error_byte = 0;  // where the parser stopped
   std::string duplicate_key;   // the first key found twice in one object; empty: none
   std::size_t max_depth = 0;   // the deepest nesting met
