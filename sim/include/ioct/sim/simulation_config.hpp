@@ -35,6 +35,14 @@ struct SimulationConfig {
   BenchConfig bench;       // used when the digitizer makes its own bench
   hal::RasterScan scan;    // the galvo pattern the beam follows when no galvo output drives it
   std::uint64_t seed = 1;  // same seed, config and build: same bytes
+  // Threads that synthesise groups ahead of acquire_group(), B-scan by B-scan (same bytes for
+  // any count). 0: each group is synthesised inside acquire_group() on the caller's thread.
+  std::uint32_t workers = 0;
+  static constexpr std::uint32_t kMaxWorkers = 64;
+
+  // A worker count for a host with `hardware_threads` (0: unknown) that leaves cores to the
+  // acquisition thread and the GPU process: hardware_threads - 3, at least 1, at most 8.
+  static std::uint32_t default_workers(unsigned hardware_threads) noexcept;
 
   // Throws ioct::ConfigError naming the key ("source.", "interferometer.", "detector.",
   // "retina.", "anterior.", "mirror.", "instruments[i].", "bench.", "scan.", "simulation.").
