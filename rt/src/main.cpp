@@ -93,6 +93,9 @@ std::string describe_startup(const shm::RingWriter& ring, const rt::RtSetup& set
              backends.description.c_str(), d.samples_per_ascan, d.ascans_per_bscan,
              d.flyback_sweeps, d.bscans_per_group, d.ascan_rate_hz, group_ms, 1e3 / group_ms,
              static_cast<unsigned long long>(setup.config.simulation_seed)) +
+         (setup.config.digitizer_backend == "simulated"
+              ? printf_string(", %u synthesis workers", setup.simulation.workers)
+              : std::string()) +
          "; scan " + pattern.describe() +
          printf_string(" (galvo peak %.3g units/s, %.3g units/s^2)", pattern.usage.peak_velocity,
                        pattern.usage.peak_acceleration);
@@ -161,6 +164,11 @@ std::string describe_loop_event(const rt::LoopEvent& e) {
     case rt::LoopEventKind::scan_changed:
       return printf_string("acquisition: scan generation %u scheduled at a volume boundary",
                            e.value);
+    case rt::LoopEventKind::simulator_behind:
+      return printf_string(
+          "acquisition: the simulator is behind: group %llu came %.1f ms after its last sweep "
+          "(its synthesis workers, not this loop, are too slow; see simulation.workers)",
+          static_cast<unsigned long long>(e.group), static_cast<double>(e.value) * 1e-3);
   }
   return "acquisition: event";
 }

@@ -79,6 +79,8 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
   simulation.scan.ascans_per_bscan = geometry.ascans_per_bscan;
   simulation.scan.bscans_per_volume = bscans_per_volume;
   simulation.scan.extent_x = simulation.scan.extent_y = 0.95f;
+  // As ioct-rt runs it: synthesis on worker threads, as many as this host's default.
+  simulation.workers = sim::SimulationConfig::default_workers(std::thread::hardware_concurrency());
   ProbedSimulator digitizer(simulation);
   digitizer.prepare(geometry);
   test::FakeGalvo galvo(nullptr, 0);
@@ -183,7 +185,7 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
       "86.08 ms, DAC fill min %llu samples, live reader consumed %llu dropped %llu, stalled reader "
       "dropped %llu, restarted reader consumed %llu, acquisition thread: %llu allocations and "
       "%llu page faults after the first two laps (%llu page faults in steady state counted by "
-      "the loop)\n",
+      "the loop), %u synthesis workers, simulator late groups %llu (worst %.2f ms)\n",
       realtime ? "SCHED_FIFO" : "not real-time",
       static_cast<unsigned long long>(c.groups_published),
       static_cast<unsigned long long>(c.deadline_misses),
@@ -197,7 +199,9 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
       static_cast<unsigned long long>(stalled_drops),
       static_cast<unsigned long long>(restarted_consumed),
       static_cast<unsigned long long>(allocations), static_cast<unsigned long long>(faults),
-      static_cast<unsigned long long>(c.page_faults_steady));
+      static_cast<unsigned long long>(c.page_faults_steady), simulation.workers,
+      static_cast<unsigned long long>(c.simulator_late_groups),
+      static_cast<double>(c.simulator_worst_lateness_ns) * 1e-6);
 
   EXPECT_EQ(safety.state, SafetyState::scanning) << describe_faults(safety.record.faults);
   EXPECT_EQ(safety.record.faults_total, 0u) << describe_faults(safety.record.faults);
