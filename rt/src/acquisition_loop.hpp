@@ -197,7 +197,7 @@ class AcquisitionLoop {
   std::uint64_t underruns_at_arm_ = 0;
   std::uint32_t consecutive_misses_ = 0;
   bool simulator_behind_ = false;  // the last group came late from the digitizer
-  bool deadline_faults_ = true;  // decided when the thread starts (see LoopSettings)
+  bool deadline_faults_ = true;    // decided when the thread starts (see LoopSettings)
   std::uint64_t groups_this_cycle_ = 0;
   std::uint64_t last_group_sweep_ = 0;
   std::array<const ScanPattern*, 16> retire_backlog_{};

@@ -26,6 +26,7 @@
 #include "ioct/shm/ring_layout.hpp"
 #include "ioct/shm/ring_writer.hpp"
 #include "ioct/shm/shm_object.hpp"
+#include "ioct/sim/simulated_digitizer.hpp"
 #include "rt_options.hpp"
 #include "run_summary.hpp"
 #include "safety_supervisor.hpp"
@@ -339,6 +340,16 @@ int Process::run() {
   backends.lines->prepare(config.lines);
   ring_.emplace(shm::RingWriter::create(setup_.ring));
   say(describe_startup(*ring_, setup_, backends, *initial));
+  if (const auto* simulator =
+          dynamic_cast<const sim::SimulatedDigitizer*>(backends.digitizer.get());
+      simulator != nullptr && setup_.simulation.worker_priority > 0 &&
+      simulator->realtime_workers() < simulator->workers()) {
+    say(
+        printf_string("simulator: %u of %u synthesis workers could not get SCHED_FIFO %d; they "
+                      "run with normal scheduling and may fall behind on a loaded host",
+                      simulator->workers() - simulator->realtime_workers(), simulator->workers(),
+                      setup_.simulation.worker_priority));
+  }
 
   loop_ = std::make_unique<rt::AcquisitionLoop>(*ring_, *backends.digitizer, *backends.galvo,
                                                 initial, loop_settings(setup_));

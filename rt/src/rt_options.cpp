@@ -198,6 +198,8 @@ RtSetup make_setup(const RtOptions& options) {
     simulation.bench.mirrors.damping = config.mirror_damping;
     simulation.bench.watchdog_timeout_ms = config.laser_watchdog_timeout_ms;
     simulation.workers = config.resolved_simulation_workers();
+    // Under a real-time acquisition thread the simulator's workers run real-time too, below it.
+    simulation.worker_priority = config.rt_priority > 0 ? 1 : 0;
     simulation.validate();
 
     shm::RingConfig& ring = setup.ring;

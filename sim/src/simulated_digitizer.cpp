@@ -146,7 +146,8 @@ void SimulatedDigitizer::start_pipeline(const hal::DigitizerConfig& config) {
             std::size_t{geometry.ascans_per_bscan} * geometry.samples_per_ascan;
         synthesize_bscan(contexts_[worker], job, bscan, job.samples.data() + bscan * per_bscan,
                          job.truth);
-      });
+      },
+      simulation_.worker_priority);
 }
 
 void SimulatedDigitizer::do_start() {

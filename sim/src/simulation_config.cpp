@@ -50,6 +50,11 @@ void SimulationConfig::validate() const {
         "simulation.workers", ioct::format_value(std::uint64_t{workers}),
         "must be 0 (synthesis on the acquisition thread) to " + std::to_string(kMaxWorkers));
   }
+  if (worker_priority < 0 || worker_priority > 99) {
+    throw ioct::ConfigError("simulation.worker_priority",
+                            ioct::format_value(std::int64_t{worker_priority}),
+                            "must be 0 (normal scheduling) or a SCHED_FIFO priority 1 to 99");
+  }
   ioct::require_real_in_range("simulation.speckle_grain_um", speckle_grain_um, 0.5, 1000.0);
   bench.validate();
   scan.validate();

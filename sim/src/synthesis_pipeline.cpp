@@ -1,11 +1,15 @@
 #include "ioct/sim/synthesis_pipeline.hpp"
 
+#include <pthread.h>
+#include <sched.h>
+
 #include <stdexcept>
 
 namespace ioct::sim {
 
 SynthesisPipeline::SynthesisPipeline(std::uint32_t workers, std::uint32_t slots,
-                                     std::uint32_t bscans_per_slot, BscanTask task)
+                                     std::uint32_t bscans_per_slot, BscanTask task,
+                                     int fifo_priority)
     : bscans_(bscans_per_slot), task_(std::move(task)), slot_storage_(new Slot[slots]) {
   if (workers == 0 || slots == 0 || bscans_per_slot == 0) {
     throw std::invalid_argument("synthesis pipeline: workers, slots and B-scans must be > 0");
@@ -17,7 +21,16 @@ SynthesisPipeline::SynthesisPipeline(std::uint32_t workers, std::uint32_t slots,
   }
   threads_.reserve(workers);
   try {
-    for (std::uint32_t w = 0; w < workers; ++w) threads_.emplace_back([this, w] { work(w); });
+    for (std::uint32_t w = 0; w < workers; ++w) {
+      threads_.emplace_back([this, w] { work(w); });
+      if (fifo_priority > 0) {
+        sched_param param{};
+        param.sched_priority = fifo_priority;
+        if (::pthread_setschedparam(threads_.back().native_handle(), SCHED_FIFO, &param) == 0) {
+          ++realtime_workers_;
+        }
+      }
+    }
   } catch (...) {
     quit_.store(true);
     epoch_.fetch_add(1);

@@ -81,6 +81,8 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
   simulation.scan.extent_x = simulation.scan.extent_y = 0.95f;
   // As ioct-rt runs it: synthesis on worker threads, as many as this host's default.
   simulation.workers = sim::SimulationConfig::default_workers(std::thread::hardware_concurrency());
+  const int priority = test::test_rt_priority();
+  simulation.worker_priority = priority > 0 ? 1 : 0;
   ProbedSimulator digitizer(simulation);
   digitizer.prepare(geometry);
   test::FakeGalvo galvo(nullptr, 0);
@@ -93,7 +95,6 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
                           geometry.ascan_rate_hz},
                          GalvoLimits{});
 
-  const int priority = test::test_rt_priority();
   LoopSettings settings = test::loop_settings(geometry, priority);
   settings.publish_slack_ns = 2'000'000;  // the production default
   settings.realtime.lock_memory = priority > 0;
@@ -214,9 +215,10 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
     EXPECT_NEAR(static_cast<double>(c.groups_published), 10.0 / 0.08608, 3.0);
     EXPECT_EQ(c.dac_underruns, 0u);
   } else {
-    std::printf("[ note     ] the box is too loaded to judge the schedule: the simulation took "
-                "%.1f ms per 86.08 ms group\n",
-                generation_mean_ms);
+    std::printf(
+        "[ note     ] the box is too loaded to judge the schedule: the simulation took "
+        "%.1f ms per 86.08 ms group\n",
+        generation_mean_ms);
   }
   EXPECT_EQ(allocations, 0u) << test_support::allocation_counting_method();
   EXPECT_EQ(faults, 0u);

@@ -85,6 +85,10 @@ class SimulatedDigitizer final : public hal::Digitizer {
   }
   // Worker threads synthesising ahead (0: inline).
   std::uint32_t workers() const noexcept { return simulation_.workers; }
+  // Of those, how many run SCHED_FIFO at simulation.worker_priority (after prepare()).
+  std::uint32_t realtime_workers() const noexcept {
+    return pipeline_ ? pipeline_->realtime_workers() : 0;
+  }
   // Optical path per px of the processed depth axis (um, in air).
   double axial_pixel_um() const noexcept { return simulation_.source.axial_pixel_um(); }
 

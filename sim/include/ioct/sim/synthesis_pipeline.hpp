@@ -28,15 +28,18 @@ class SynthesisPipeline {
   using BscanTask =
       std::function<void(std::uint32_t worker, std::uint32_t slot, std::uint32_t bscan)>;
 
-  // Starts `workers` (>= 1) threads. Allocates; not for the real-time thread.
+  // Starts `workers` (>= 1) threads, SCHED_FIFO at `fifo_priority` where > 0 and allowed.
+  // Allocates; not for the real-time thread.
   SynthesisPipeline(std::uint32_t workers, std::uint32_t slots, std::uint32_t bscans_per_slot,
-                    BscanTask task);
+                    BscanTask task, int fifo_priority = 0);
   ~SynthesisPipeline();  // cancels and joins
   SynthesisPipeline(const SynthesisPipeline&) = delete;
   SynthesisPipeline& operator=(const SynthesisPipeline&) = delete;
 
   std::uint32_t workers() const noexcept { return static_cast<std::uint32_t>(threads_.size()); }
   std::uint32_t slots() const noexcept { return static_cast<std::uint32_t>(slots_.size()); }
+  // Workers that run SCHED_FIFO (0 when no priority was asked or the host refused).
+  std::uint32_t realtime_workers() const noexcept { return realtime_workers_; }
 
   // The slot's inputs are written: hand its B-scans to the workers. The slot must not be in
   // flight (ready, cancelled, or never dispatched). Lock-free, no allocation.
@@ -68,6 +71,7 @@ class SynthesisPipeline {
   std::atomic<std::uint64_t> epoch_{0};  // bumped on every dispatch: wakes the workers
   std::atomic<std::uint32_t> busy_{0};   // workers inside a task
   std::atomic<bool> quit_{false};
+  std::uint32_t realtime_workers_ = 0;
   std::vector<std::thread> threads_;
 };
 
