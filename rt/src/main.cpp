@@ -95,7 +95,7 @@ std::string describe_startup(const shm::RingWriter& ring, const rt::RtSetup& set
              d.flyback_sweeps, d.bscans_per_group, d.ascan_rate_hz, group_ms, 1e3 / group_ms,
              static_cast<unsigned long long>(setup.config.simulation_seed)) +
          (setup.config.digitizer_backend == "simulated"
-              ? printf_string(", %u synthesis workers", setup.simulation.workers)
+              ? printf_string(", simulation workers %u", setup.simulation.workers)
               : std::string()) +
          "; scan " + pattern.describe() +
          printf_string(" (galvo peak %.3g units/s, %.3g units/s^2)", pattern.usage.peak_velocity,
