@@ -152,6 +152,29 @@ TEST(SynthesisWorkers, ASimulatorSlowerThanItsSweepRateFlagsItsGroupsLate) {
   EXPECT_EQ(inline_digitizer.simulator_late_groups(), 0u) << "inline, nothing is ever late";
 }
 
+TEST(SynthesisWorkers, TheBenchStateIsTakenOneGroupAheadOfDelivery) {
+  // Like a DMA engine one buffer ahead: a fault shows in the group after the one being taken.
+  const hal::DigitizerConfig geometry = test_geometry();
+  SimulatedDigitizer digitizer(scene(geometry, 2));
+  digitizer.prepare(geometry);
+  digitizer.start();  // group 0's state
+  hal::GroupInfo info;
+  std::vector<std::uint16_t> group(geometry.samples_per_group());
+  digitizer.acquire_group(group, info);  // delivers group 0, takes group 1's state
+  EXPECT_EQ(info.status & hal::kGroupClockFault, 0u);
+  digitizer.bench().faults().set(Fault::k_clock_dropout, true);
+  digitizer.acquire_group(group, info);  // group 1: taken before the dropout
+  EXPECT_EQ(info.status & hal::kGroupClockFault, 0u);
+  digitizer.acquire_group(group, info);  // group 2: taken during it
+  EXPECT_NE(info.status & hal::kGroupClockFault, 0u);
+  EXPECT_EQ(info.first_sweep_counter, 2 * geometry.sweeps_per_group());
+  digitizer.bench().faults().set(Fault::k_clock_dropout, false);
+  digitizer.acquire_group(group, info);  // group 3: taken while it still lasted
+  EXPECT_NE(info.status & hal::kGroupClockFault, 0u);
+  digitizer.acquire_group(group, info);
+  EXPECT_EQ(info.status & hal::kGroupClockFault, 0u);
+}
+
 TEST(SynthesisWorkers, TheWorkerCountIsValidated) {
   SimulationConfig simulation;
   simulation.workers = SimulationConfig::kMaxWorkers + 1;
