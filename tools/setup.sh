@@ -13,6 +13,8 @@ ioct_packages=(
   libusb-1.0-0-dev libgpiod-dev
   libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev
   chromium  # the live view's browser tests drive it headless (tests/view)
+  systemd   # systemd-analyze, -sysusers, -tmpfiles: the units' tests (tests/rt, tests/unpriv)
+  python3   # tools/ioct-soak
 )
 
 ioct_install_packages() {

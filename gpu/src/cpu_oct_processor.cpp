@@ -23,6 +23,12 @@ std::uint32_t round_up(std::uint32_t value, std::uint32_t multiple) {
 CpuOctProcessor::CpuOctProcessor(const OctProcessorConfig& config)
     : config_((config.validate(), config)), pool_(config.threads) {}
 
+void CpuOctProcessor::set_db_range(const DbScaleConfig& scale) {
+  scale.validate();
+  if (tables_) tables_->set_db_range(scale);
+  config_.scale = scale;
+}
+
 void CpuOctProcessor::prepare(const shm::RingGeometry& geometry) {
   geometry_.reset();  // unprepared until every buffer and plan below exists
   require_processable(geometry);

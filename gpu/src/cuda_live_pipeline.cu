@@ -347,6 +347,10 @@ const shm::RingReader& CudaLivePipeline::reader() const noexcept {
   return impl_->reader;
 }
 
+void CudaLivePipeline::set_db_range(const DbScaleConfig& scale) {
+  impl_->processor.set_db_range(scale);
+}
+
 const std::string& CudaLivePipeline::ingest_note() const noexcept {
   return impl_->registration.note();
 }

@@ -87,6 +87,13 @@ std::uint32_t CudaOctProcessor::depth() const noexcept {
   return impl_->tables ? impl_->tables->depth : 0;
 }
 
+void CudaOctProcessor::set_db_range(const DbScaleConfig& scale) {
+  Impl& m = *impl_;
+  scale.validate();
+  if (m.tables) m.tables->set_db_range(scale);  // the gain and offset are launch arguments
+  m.config.scale = scale;
+}
+
 void CudaOctProcessor::prepare(const shm::RingGeometry& geometry) {
   Impl& m = *impl_;
   IOCT_CUDA_CHECK(cudaStreamSynchronize(m.stream.get()));

@@ -100,6 +100,11 @@ class LiveProcessor::Session final : public LiveEvents {
       const std::uint64_t now = shm::monotonic_ns();
       if (limit_ns > 0 && now - started_ns_ >= limit_ns) return StopReason::time_limit;
       if (status_ns > 0 && now - last_status_ns_ >= status_ns) print_status(now);
+      if (owner_.db_range_changed_.exchange(false, std::memory_order_acquire)) {
+        const DbScaleConfig scale = owner_.db_range();
+        pipeline_->set_db_range(scale);
+        owner_.config_.processing.scale = scale;  // for the next attachment's pipeline too
+      }
 
       switch (pipeline_->poll(*this)) {
         case shm::PollStatus::ready:
@@ -318,8 +323,23 @@ class LiveProcessor::Session final : public LiveEvents {
   std::uint64_t last_processed_ = 0;
 };
 
+void LiveProcessor::set_db_range(const DbScaleConfig& scale) {
+  scale.validate();
+  {
+    std::lock_guard lock(db_mutex_);
+    db_range_ = scale;
+  }
+  db_range_changed_.store(true, std::memory_order_release);
+}
+
+DbScaleConfig LiveProcessor::db_range() const {
+  std::lock_guard lock(db_mutex_);
+  return db_range_;
+}
+
 LiveProcessor::LiveProcessor(LiveConfig config) : config_(std::move(config)) {
   config_.validate();
+  db_range_ = config_.processing.scale;
 }
 
 RunSummary LiveProcessor::run() {

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/gpu/live/processing_view_control.hpp"
 #include "ioct/gpu/live/view_socket.hpp"
 #include "ioct/gpu/live/volume_stages.hpp"
 #include "ioct/gpu/live_processor.hpp"
@@ -92,6 +93,12 @@ int main(int argc, char** argv) {
                "only process: no filters, segmentation or rendering of the live volume");
   app.add_option("--stage-threads", stages.cpu_threads,
                  "threads of each CPU stage (filters, segmentation, rendering)");
+  std::string filter = "median-gauss";
+  app.add_option(
+      "--filter", filter,
+      "the live volume's filter (segmentation and every view use it): median-gauss "
+      "(3x3x3 median + 5x5 Gaussian, Viehland 2016) or median-bscan (3x3 median per "
+      "B-scan, Weiss 2019: keeps small superficial structure, for the layer-aware modes)");
   app.add_option("--render-mode", render_mode,
                  "live view: basic, enhanced, layer-aware, axial-colorization, la-mip, bscan or "
                  "en-face");
@@ -142,6 +149,9 @@ int main(int argc, char** argv) {
     if (!no_stages) {
       stages.backend = config.backend;
       stages.render.mode = render::parse_render_mode(render_mode);
+      const double sigma = stages.filter.gaussian_sigma;
+      stages.filter = filters::filter_by_name("filter", filter);
+      stages.filter.gaussian_sigma = sigma;
       stages.render.spacing = {stages.sampling.ascan_spacing_um, stages.sampling.bscan_spacing_um,
                                stages.sampling.axial_um_per_px};
       stages.live_image = config.out_dir / "render.png";
@@ -151,6 +161,7 @@ int main(int argc, char** argv) {
       volume_stages = std::make_unique<live::VolumeStages>(stages);
       processor.set_stage(volume_stages.get());
     }
+    std::unique_ptr<live::ProcessingViewControl> controls;
     std::unique_ptr<live::ViewSocket> socket;
     if (!view_socket.empty()) {
       if (!volume_stages) {
@@ -163,7 +174,11 @@ int main(int argc, char** argv) {
       socket_config.snapshot_dir = snapshot_dir == "<out>/snapshots"
                                        ? config.out_dir / "snapshots"
                                        : std::filesystem::path(snapshot_dir);
-      socket = std::make_unique<live::ViewSocket>(socket_config, *volume_stages);
+      // The views' parameters and the processing's dB range, as the viewers change them.
+      controls = std::make_unique<live::ProcessingViewControl>(
+          *volume_stages, config.processing.scale,
+          [&processor](const DbScaleConfig& scale) { processor.set_db_range(scale); });
+      socket = std::make_unique<live::ViewSocket>(socket_config, *controls);
     }
     processor.set_status_stream(&std::cerr);
     g_processor = &processor;

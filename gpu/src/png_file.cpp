@@ -119,8 +119,12 @@ void write_png8(const std::filesystem::path& path, std::uint32_t width, std::uin
   }
   AtomicFile file(path);
   PngError error;
+  errno = 0;
   if (!encode(file.stream(), width, height, channels, pixels.data(), error)) {
-    throw std::runtime_error("cannot write PNG '" + path.string() + "': " + error.message);
+    // libpng says only "Write Error"; the failed fwrite's errno says why (a full disk: ENOSPC).
+    const int reason = errno;
+    throw std::runtime_error("cannot write PNG '" + path.string() + "': " + error.message +
+                             (reason != 0 ? std::string(" (") + std::strerror(reason) + ")" : ""));
   }
   file.commit();
 }

@@ -22,6 +22,10 @@ SpectralTables make_spectral_tables(const OctProcessorConfig& config, std::uint3
                         DbToU8(config.scale, sum)};
 }
 
+void SpectralTables::set_db_range(const DbScaleConfig& config) {
+  scale = DbToU8(config, window_sum(window));
+}
+
 void SpectralTables::windowed_background(std::span<const float> background,
                                          std::span<float> out) const {
   for (std::uint32_t j = 0; j < samples; ++j) out[j] = resampled(background.data(), j) * window[j];

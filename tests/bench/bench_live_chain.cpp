@@ -502,7 +502,7 @@ int run(const Options& o) {
       k.segment, k.render, k.sum(), qr.p50 / k.sum());
   std::printf(
       "  the renderer's update of a group alone (texture, bricks, sums, the layer reference "
-      "with its round trip to the host): %.3f ms\n",
+      "made on the device): %.3f ms\n",
       k.render_update);
   const double anchor_rate = static_cast<double>(g.ascans_per_group()) / (k.sum() * 1e-3);
   const double pinned_rate = static_cast<double>(g.ascans_per_group()) / (pinned * 1e-3);

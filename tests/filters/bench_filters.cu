@@ -185,7 +185,8 @@ int main(int argc, char** argv) {
     bool variants_agree = true;
     for (const Variant& v : variants) {
       const Timing t = time_on_device(v.name, stream, warmup, reps, [&] {
-        enqueue_median(in.data(), median.data(), dims, all, v.tuning, stream);
+        enqueue_median(in.data(), median.data(), dims, all, MedianWindow::volume_3x3x3, v.tuning,
+                       stream);
       });
       add(t);
       check_cuda(cudaMemcpy(result.data(), median.data(), bytes, cudaMemcpyDeviceToHost),
@@ -236,6 +237,11 @@ int main(int argc, char** argv) {
                                                config, taps, best_tuning, stream);
                        });
     add(incremental);
+    // Weiss et al. 2019: the 3x3 median per B-scan alone (their filter of the layer-aware DVR).
+    add(time_on_device("median 3x3 per B-scan (Weiss), whole volume", stream, warmup, reps, [&] {
+      enqueue_median(in.data(), out.data(), dims, all, MedianWindow::bscan_3x3, best_tuning,
+                     stream);
+    }));
 
     // The full filter once more, then checked against the CPU.
     enqueue_volume_filter(in.data(), median.data(), out.data(), dims, all, config, taps,

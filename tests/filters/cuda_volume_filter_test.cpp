@@ -74,6 +74,26 @@ TEST_P(CudaVersusCpu, MedianGaussianAndBothAreBitExact) {
   }
 }
 
+// The second paper's 3x3 median per B-scan, alone and followed by the Gaussian.
+TEST_P(CudaVersusCpu, BscanMedianIsBitExact) {
+  std::uint32_t seed = 3000;
+  for (const bool gaussian : {false, true}) {
+    VolumeFilterConfig config = filter_by_name("filter", "median-bscan");
+    config.gaussian = gaussian;
+    IOCT_REQUIRE_CUDA_FILTER(cuda, config, (CudaFilterTuning{GetParam(), 3, 16}));
+    CpuVolumeFilter cpu(config);
+    for (const Shape& s : kShapes) {
+      const std::uint32_t levels = seed % 3 == 0 ? 4 : 256;
+      const Volume in = random_volume(s.bscans, s.ascans, s.depth, seed++, levels);
+      Volume expected, got;
+      cpu.filter_volume(in, expected);
+      cuda->filter_volume(in, got);
+      ASSERT_EQ(first_difference(got, expected), "")
+          << "gaussian " << gaussian << ", " << s.bscans << " x " << s.ascans << " x " << s.depth;
+    }
+  }
+}
+
 TEST_P(CudaVersusCpu, IncrementalEqualsWholeVolume) {
   IOCT_REQUIRE_CUDA_FILTER(cuda, VolumeFilterConfig{}, (CudaFilterTuning{GetParam(), 4, 5}));
   CpuVolumeFilter cpu(VolumeFilterConfig{});

@@ -214,6 +214,45 @@ TEST(CpuOctProcessor, TwoThreadsGiveTheSamePixelsAsOne) {
   EXPECT_EQ(a.pixels, b.pixels);
 }
 
+// The assistant's dB range: a processor told a new range between groups gives the pixels of one
+// made with that range, and a bad range is refused (naming the key) with the old one kept.
+TEST(CpuOctProcessor, ANewDbRangeEqualsAProcessorMadeWithIt) {
+  Fixture f;
+  testing::fill_group(
+      f.geometry, f.synthesizer,
+      [](std::uint32_t, std::uint32_t r) {
+        return std::vector<Reflector>{{40.0 + r, 30.0}, {150.0, 5.0}};
+      },
+      f.payload);
+  const shm::SlotHeader header = header_for(f.geometry, 0, 40);
+  OctProcessorConfig narrow_config = quick_config();
+  narrow_config.scale = {5.0, 25.0};
+  CpuOctProcessor narrow(narrow_config);
+  CpuOctProcessor changed(quick_config());
+  narrow.prepare(f.geometry);
+  changed.prepare(f.geometry);
+  // Both see the same groups (the rolling background remembers them); `changed` gets the new
+  // range after the first.
+  ProcessedGroup expected, before, after;
+  narrow.process(RawGroup{header, f.payload}, expected);
+  changed.process(RawGroup{header, f.payload}, before);
+  EXPECT_NE(before.pixels, expected.pixels);
+  changed.set_db_range({5.0, 25.0});
+  narrow.process(RawGroup{header, f.payload}, expected);
+  changed.process(RawGroup{header, f.payload}, after);
+  EXPECT_EQ(after.pixels, expected.pixels);
+  try {
+    changed.set_db_range({30.0, 30.5});
+    FAIL() << "accepted a range under 1 dB";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("db_max"), std::string::npos) << e.what();
+  }
+  ProcessedGroup again;
+  narrow.process(RawGroup{header, f.payload}, expected);
+  changed.process(RawGroup{header, f.payload}, again);
+  EXPECT_EQ(again.pixels, expected.pixels);
+}
+
 TEST(CpuOctProcessor, RejectsAHeaderThatDoesNotFitTheGeometry) {
   Fixture f;
   CpuOctProcessor processor(quick_config());

@@ -219,5 +219,35 @@ const auto kCases = ::testing::Values(
 INSTANTIATE_TEST_SUITE_P(Stages, CudaVsCpu, kCases,
                          [](const ::testing::TestParamInfo<Case>& p) { return p.param.name; });
 
+// The assistant's dB range on the CUDA chain: told between groups, it gives the pixels of a
+// processor made with that range.
+TEST(CudaDbRange, ANewRangeEqualsAProcessorMadeWithIt) {
+  if (const std::optional<std::string> reason = cuda_unavailable_reason()) {
+    GTEST_SKIP() << "cuda backend not tested: " << *reason;
+  }
+  const shm::RingGeometry g = geometry(1376, 48, 4);
+  OctProcessorConfig narrow_config = testing::quick_config(2);
+  narrow_config.scale = {5.0, 25.0};
+  const std::unique_ptr<OctProcessor> narrow = make_oct_processor(Backend::cuda, narrow_config);
+  const std::unique_ptr<OctProcessor> changed =
+      make_oct_processor(Backend::cuda, testing::quick_config(2));
+  narrow->prepare(g);
+  changed->prepare(g);
+  const unsigned seed = std::random_device{}();
+  SCOPED_TRACE("seed " + std::to_string(seed));
+  std::mt19937 rng(seed);
+  std::vector<std::uint16_t> payload(g.group_payload_bytes() / 2);
+  const shm::SlotHeader header = random_group(g, 1, rng, 0, payload);
+  // Both see the same groups (the rolling background remembers them).
+  ProcessedGroup expected, before, after;
+  narrow->process(RawGroup{header, payload}, expected);
+  changed->process(RawGroup{header, payload}, before);
+  EXPECT_NE(before.pixels, expected.pixels);
+  changed->set_db_range({5.0, 25.0});
+  narrow->process(RawGroup{header, payload}, expected);
+  changed->process(RawGroup{header, payload}, after);
+  EXPECT_EQ(after.pixels, expected.pixels);
+}
+
 }  // namespace
 }  // namespace ioct::gpu

@@ -109,18 +109,24 @@ VolumeWithSurfaces make_synthetic_retina(std::uint32_t bscans, std::uint32_t asc
         const double z = d - ilm;
         if (z >= 0.0) {
           const double rel = z / (rpe - ilm);
-          if (rel < 0.12) value = 170.0;        // nerve fibre layer
-          else if (rel < 0.55) value = 105.0;   // inner layers
-          else if (rel < 0.85) value = 55.0;    // outer nuclear layer
-          else value = 120.0;                   // photoreceptors
+          if (rel < 0.12)
+            value = 170.0;  // nerve fibre layer
+          else if (rel < 0.55)
+            value = 105.0;  // inner layers
+          else if (rel < 0.85)
+            value = 55.0;  // outer nuclear layer
+          else
+            value = 120.0;  // photoreceptors
           const double to_rpe = d - rpe;
           value += 140.0 * std::exp(-0.5 * to_rpe * to_rpe / 4.0);
           if (to_rpe > 3.0) value = 130.0 * std::exp(-(to_rpe - 3.0) / (0.12 * depth));
         }
         if (needle_column) {
           const double dz = d - needle_top;
-          if (dz >= 0.0 && dz < 0.03 * depth) value = 245.0;
-          else if (dz >= 0.03 * depth) value *= 0.25;  // the needle's shadow
+          if (dz >= 0.0 && dz < 0.03 * depth)
+            value = 245.0;
+          else if (dz >= 0.03 * depth)
+            value *= 0.25;  // the needle's shadow
         }
         value *= 0.55 + 0.9 * hash01(a, b, d, seed);
         out.volume.bscan(b)[std::size_t{a} * depth + d] =

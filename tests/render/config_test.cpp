@@ -48,8 +48,11 @@ TEST(RenderConfig, RejectsBadSizesAndViews) {
   expect_rejected([](RenderConfig& c) { c.view.azimuth_deg = kNaN; }, "render.view.azimuth_deg");
   expect_rejected([](RenderConfig& c) { c.view.stereo_angle_deg = -1.0; },
                   "render.view.stereo_angle_deg");
-  expect_rejected([](RenderConfig& c) { c.view.light_direction = {0.0, 0.0, 0.0}; },
-                  "render.view.light_direction");
+  expect_rejected(
+      [](RenderConfig& c) {
+        c.view.light_direction = {0.0, 0.0, 0.0};
+      },
+      "render.view.light_direction");
   expect_rejected([](RenderConfig& c) { c.spacing.depth = -5.0; }, "render.spacing.depth");
   expect_rejected([](RenderConfig& c) { c.step_voxels = 0.0; }, "render.step_voxels");
 }
@@ -60,8 +63,11 @@ TEST(RenderConfig, RejectsNanAndNegativeCoefficients) {
   expect_rejected([](RenderConfig& c) { c.enhanced.kf1 = -1.0; }, "render.enhanced.kf1");
   expect_rejected([](RenderConfig& c) { c.enhanced.kd1 = 1.5; }, "render.enhanced.kd1");
   expect_rejected([](RenderConfig& c) { c.enhanced.kp4 = INFINITY; }, "render.enhanced.kp4");
-  expect_rejected([](RenderConfig& c) { c.enhanced.c_b = {0.0, 2.0, 0.0}; },
-                  "render.enhanced.c_b[1]");
+  expect_rejected(
+      [](RenderConfig& c) {
+        c.enhanced.c_b = {0.0, 2.0, 0.0};
+      },
+      "render.enhanced.c_b[1]");
   expect_rejected([](RenderConfig& c) { c.enhanced.threshold = kNaN; },
                   "render.enhanced.threshold");
 }
@@ -70,10 +76,17 @@ TEST(RenderConfig, RejectsBadTransferFunctions) {
   expect_rejected([](RenderConfig& c) { c.enhanced.transfer.opacity.clear(); },
                   "render.enhanced.transfer.opacity");
   expect_rejected(
-      [](RenderConfig& c) { c.enhanced.transfer.opacity = {{0.5, 0.0}, {0.2, 1.0}}; },
+      [](RenderConfig& c) {
+        c.enhanced.transfer.opacity = {{0.5, 0.0}, {0.2, 1.0}};
+      },
       "render.enhanced.transfer.opacity[1].intensity");
   expect_rejected([](RenderConfig& c) { c.enhanced.transfer.color[0].rgb[2] = kNaN; },
                   "render.enhanced.transfer.color[0].rgb[2]");
+}
+
+TEST(RenderConfig, RejectsTooManyAxialShadowSteps) {
+  expect_rejected([](RenderConfig& c) { c.axial.shadow_steps = kMaxShadowSteps + 1; },
+                  "render.axial.shadow_steps");
 }
 
 TEST(RenderConfig, RejectsBadLayerAwareSettings) {
@@ -101,10 +114,9 @@ TEST(Presets, AnteriorDividesKg1AndKf1ByTen) {
 }
 
 TEST(Modes, ParseTheirNamesAndRefuseOthers) {
-  for (const RenderMode m :
-       {RenderMode::basic, RenderMode::enhanced, RenderMode::layer_aware,
-        RenderMode::axial_colorization, RenderMode::la_mip_composite, RenderMode::bscan_slice,
-        RenderMode::en_face_slice}) {
+  for (const RenderMode m : {RenderMode::basic, RenderMode::enhanced, RenderMode::layer_aware,
+                             RenderMode::axial_colorization, RenderMode::la_mip_composite,
+                             RenderMode::bscan_slice, RenderMode::en_face_slice}) {
     EXPECT_EQ(parse_render_mode(to_string(m)), m);
   }
   try {

@@ -11,7 +11,13 @@
 
 #include "analytic_volumes.hpp"
 #include "ioct/gpu/render/cpu_renderer.hpp"
+#include "ioct/gpu/render/layer_reference.hpp"
 #include "ioct/gpu/render/renderer.hpp"
+#if IOCT_RENDER_HAVE_CUDA
+#include <random>
+
+#include "ioct/gpu/render/cuda_renderer.hpp"
+#endif
 
 namespace {
 
@@ -67,6 +73,7 @@ TEST(CudaVsCpu, EveryModeWithinTolerance) {
       {RenderMode::layer_aware, false, kShadowStepsLimited, 210},
       {RenderMode::layer_aware, true, kShadowStepsFull, 300},
       {RenderMode::axial_colorization, false, 0, 30},
+      {RenderMode::axial_colorization, false, kShadowStepsLimited, 75},  // Weiss Fig. 4 B4
       {RenderMode::la_mip_composite, false, 0, 0},
       {RenderMode::bscan_slice, false, 0, 0},
       {RenderMode::en_face_slice, false, 0, 0},
@@ -77,6 +84,7 @@ TEST(CudaVsCpu, EveryModeWithinTolerance) {
     config.view.stereo = c.stereo;
     config.view.azimuth_deg = c.azimuth;
     config.layer_aware.shadow_steps = c.shadow_steps;
+    if (c.mode == RenderMode::axial_colorization) config.axial.shadow_steps = c.shadow_steps;
     RgbaImage from_cuda, from_cpu;
     cuda->render(config, from_cuda);
     cpu.render(config, from_cpu);
@@ -111,5 +119,73 @@ TEST(CudaVsCpu, GroupUpdatesMatchAFreshVolume) {
     EXPECT_EQ(a.rgba, b.rgba) << to_string(mode);
   }
 }
+
+#if IOCT_RENDER_HAVE_CUDA
+// The CUDA renderer makes its layer reference on the device (no round trip to the host): the same
+// rows, bit for bit, as make_layer_reference() on the host, on fresh random volumes and surfaces
+// with holes of every kind (single A-scans, runs at either end, whole B-scans, none at all).
+TEST(CudaVsCpu, LayerReferenceOnTheDeviceIsTheHosts) {
+  if (auto reason = cuda_unavailable_reason()) GTEST_SKIP() << "no CUDA renderer: " << *reason;
+  const unsigned seed = std::random_device{}();
+  SCOPED_TRACE("seed " + std::to_string(seed));
+  std::mt19937 random(seed);
+  const std::uint32_t bscans = 24, ascans = 200, depth = 96;
+  Volume volume(bscans, ascans, depth);
+  std::uniform_int_distribution<int> byte(0, 255);
+  for (std::uint8_t& v : volume.pixels()) v = static_cast<std::uint8_t>(byte(random));
+  const CentreOfMassSums sums = centre_of_mass_sums(volume, 0, bscans);
+  std::uniform_real_distribution<float> ilm_depth(5.0f, 40.0f), thickness(10.0f, 50.0f);
+  std::bernoulli_distribution hole(0.2);
+
+  enum class Holes { scattered, with_empty_bscans, rpe_only_in_one_bscan, no_rpe };
+  for (const Holes holes :
+       {Holes::scattered, Holes::with_empty_bscans, Holes::rpe_only_in_one_bscan, Holes::no_rpe}) {
+    SCOPED_TRACE("holes case " + std::to_string(static_cast<int>(holes)));
+    segmentation::Surfaces surfaces;
+    surfaces.reset(bscans, ascans, depth);
+    for (std::uint32_t b = 0; b < bscans; ++b) {
+      for (std::uint32_t a = 0; a < ascans; ++a) {
+        const std::size_t i = std::size_t{b} * ascans + a;
+        surfaces.ilm[i] = hole(random) ? segmentation::Surfaces::kNone : ilm_depth(random);
+        surfaces.rpe[i] = hole(random) || a < 7 || a > ascans - 4
+                              ? segmentation::Surfaces::kNone
+                              : surfaces.ilm[i] + thickness(random);
+        const bool empty = (holes == Holes::with_empty_bscans && (b == 0 || b % 5 == 2)) ||
+                           (holes == Holes::rpe_only_in_one_bscan && b != 17) ||
+                           holes == Holes::no_rpe;
+        if (empty) surfaces.rpe[i] = segmentation::Surfaces::kNone;
+      }
+    }
+    CudaRenderer cuda;
+    cuda.set_volume(volume, &surfaces);
+    const LayerReference on_device = cuda.layer_reference();
+    const LayerReference on_host = make_layer_reference(bscans, ascans, depth, &surfaces, sums);
+    ASSERT_EQ(on_device.rpe_px.size(), on_host.rpe_px.size());
+    for (std::size_t i = 0; i < on_host.rpe_px.size(); ++i) {
+      ASSERT_EQ(on_device.rpe_px[i], on_host.rpe_px[i])
+          << "RPE, B-scan " << i / ascans << ", A-scan " << i % ascans;
+      ASSERT_EQ(on_device.axial_plane_px[i], on_host.axial_plane_px[i]) << "axial plane " << i;
+    }
+    // Sums of doubles in another order: equal to the last bits in practice, held to 1e-6.
+    EXPECT_NEAR(on_device.mean_thickness_px, on_host.mean_thickness_px,
+                1e-6 * std::max(1.0f, on_host.mean_thickness_px));
+    if (holes == Holes::no_rpe) EXPECT_EQ(on_device.mean_thickness_px, 0.0f);
+  }
+
+  // Without surfaces, or with surfaces of other dimensions: the axial plane stands in.
+  segmentation::Surfaces other;
+  other.reset(bscans + 1, ascans, depth);
+  for (const segmentation::Surfaces* surfaces :
+       {static_cast<segmentation::Surfaces*>(nullptr), &other}) {
+    CudaRenderer cuda;
+    cuda.set_volume(volume, surfaces);
+    const LayerReference on_device = cuda.layer_reference();
+    const LayerReference on_host = make_layer_reference(bscans, ascans, depth, surfaces, sums);
+    EXPECT_EQ(on_device.rpe_px, on_host.rpe_px);
+    EXPECT_EQ(on_device.axial_plane_px, on_host.axial_plane_px);
+    EXPECT_EQ(on_device.mean_thickness_px, 0.0f);
+  }
+}
+#endif
 
 }  // namespace

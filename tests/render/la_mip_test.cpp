@@ -33,7 +33,7 @@ Composite render_composite(const ioct::render_test::VolumeWithSurfaces& v) {
   Composite c;
   renderer.render(config, c.image);
   c.layout = bake_params(config, {v.volume.bscans(), v.volume.ascans(), v.volume.depth()},
-                         renderer.reference())
+                         renderer.reference().mean_thickness_px)
                  .layout;
   return c;
 }
@@ -65,8 +65,8 @@ TEST(LaMip, FlattensACurvedLayerOntoOneRow) {
     ASSERT_GT(bright_rows, 0) << "A-scan " << a;
     const double centre_row = row_sum / bright_rows;
     // The layer sits at the RPE depth of the middle B-scan of this A-scan's column.
-    const double expected_depth = 0.5 * (curved_layer_depth(15, a, 32, 48, 64) +
-                                         curved_layer_depth(16, a, 32, 48, 64));
+    const double expected_depth =
+        0.5 * (curved_layer_depth(15, a, 32, 48, 64) + curved_layer_depth(16, a, 32, 48, 64));
     EXPECT_NEAR((centre_row + 0.5) / 2.0 - 0.5, expected_depth, 0.75) << "A-scan " << a;
     EXPECT_LE(bright_rows, 8) << "A-scan " << a;  // the 2 px plateau, 2 output px per px
     ++columns;
@@ -85,8 +85,8 @@ TEST(LaMip, FlattensACurvedLayerOntoOneRow) {
     }
     ASSERT_GT(bright, 0) << "B-scan " << b;
     const double best_col = col_sum / bright;
-    const double expected_depth = 0.5 * (curved_layer_depth(b, 23, 32, 48, 64) +
-                                         curved_layer_depth(b, 24, 32, 48, 64));
+    const double expected_depth =
+        0.5 * (curved_layer_depth(b, 23, 32, 48, 64) + curved_layer_depth(b, 24, 32, 48, 64));
     EXPECT_NEAR((best_col + 0.5) / 2.0 - 0.5, expected_depth, 0.75) << "B-scan " << b;
   }
 }
@@ -102,7 +102,8 @@ TEST(LaMip, ColoursTheLayerByItsDepthBelowTheRpe) {
   for (int ch = 0; ch < 3; ++ch) EXPECT_NEAR(centre[ch], corner[ch], 3) << "channel " << ch;
   // Rows above the layer in the LA-MIP panel are bluer than rows below it.
   const int x = l.x0 + l.en_face_w / 2;
-  const int layer_row = l.y0 + l.en_face_h + static_cast<int>(2 * curved_layer_depth(16, 24, 32, 48, 64));
+  const int layer_row =
+      l.y0 + l.en_face_h + static_cast<int>(2 * curved_layer_depth(16, 24, 32, 48, 64));
   const auto* above = c.image.pixel(x, layer_row - 30);
   const auto* below = c.image.pixel(x, layer_row + 30);
   EXPECT_GT(above[2] - above[0], below[2] - below[0]);

@@ -65,6 +65,8 @@ const std::map<std::string, json>& other_values() {
       {"/layer_aware/i_max", 0.8},
       {"/layer_aware/alpha_max", 0.7},
       {"/layer_aware/colorize", false},
+      {"/axial/phong", true},
+      {"/axial/shadow_steps", 20},
       {"/slice/bscan", 7},
   };
   return values;
@@ -161,6 +163,7 @@ TEST(RenderParamsJson, EveryRangeErrorNamesItsKey) {
       {"/layer_aware/i_min", -0.1, "render.layer_aware.i_min"},
       {"/layer_aware/i_max", 0.1, "render.layer_aware.i_max"},  // below i_min
       {"/layer_aware/alpha_max", 2, "render.layer_aware.alpha_max"},
+      {"/axial/shadow_steps", 1001, "render.axial.shadow_steps"},
       {"/slice/bscan", -2, "render.slice.bscan"},
       {"/mode", "volume", "render.mode"},
       {"/preset", "cornea", "render.preset"},

@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "analytic_volumes.hpp"
-#include "ioct/gpu/render/cpu_renderer.hpp"
 #include "ioct/common/config_error.hpp"
+#include "ioct/gpu/render/cpu_renderer.hpp"
 #include "ioct/gpu/render/frame_setup.hpp"
 
 namespace {
@@ -195,8 +195,8 @@ TEST(EarlyTermination, StopsOnceTheOpacityExceedsTheLimit) {
   const Slab slabs[] = {{10, 20, 80}, {40, 60, 255}};
   const Volume volume = make_slabs(8, 128, slabs, 2);
   RenderConfig config = top_view_config();
-  config.enhanced.transfer.color = {{0.0, {0.0, 0.0, 0.0}}, {0.6, {0.0, 0.0, 0.0}},
-                                    {1.0, {1.0, 1.0, 1.0}}};
+  config.enhanced.transfer.color = {
+      {0.0, {0.0, 0.0, 0.0}}, {0.6, {0.0, 0.0, 0.0}}, {1.0, {1.0, 1.0, 1.0}}};
   config.enhanced.transfer.opacity = {{0.0, 0.0}, {1.0, 1.0}};
   const double a_dark = 80.0 / 255.0;
 
@@ -239,14 +239,51 @@ TEST(EnhancedSteps, EachStepChangesTheImage) {
   e.transfer.opacity = {{0.0, 0.0}, {1.0, 0.2}};
   e.edge_enhancement = e.feature_enhancement = e.depth_cues = e.phong = false;
   RgbaImage previous = render_volume(sphere, nullptr, config);
-  for (bool EnhancedConfig::*step : {&EnhancedConfig::edge_enhancement,
-                                     &EnhancedConfig::feature_enhancement,
-                                     &EnhancedConfig::depth_cues, &EnhancedConfig::phong}) {
+  for (bool EnhancedConfig::*step :
+       {&EnhancedConfig::edge_enhancement, &EnhancedConfig::feature_enhancement,
+        &EnhancedConfig::depth_cues, &EnhancedConfig::phong}) {
     e.*step = true;
     const RgbaImage next = render_volume(sphere, nullptr, config);
     EXPECT_NE(next.rgba, previous.rgba);
     previous = next;
   }
+}
+
+// Weiss Fig. 4 B4: shadow rays only darken the axial colorization's samples (their opacity is
+// unchanged), so no pixel of B4 is brighter than B2's (no Phong, no shadows) and the image as a
+// whole is darker; with N_s = 0 it is B2.
+TEST(AxialShadowRays, DarkenTheAxialColorizationAndNothingElse) {
+  const auto retina = ioct::render_test::make_synthetic_retina(24, 96, 128);
+  CpuRenderer renderer(2);
+  renderer.set_volume(retina.volume, &retina.surfaces);
+  RenderConfig config = isotropic(160, 120);
+  config.mode = RenderMode::axial_colorization;
+  config.view.elevation_deg = 25.0;
+  config.view.azimuth_deg = 30.0;
+  RgbaImage b2, b4, none;
+  renderer.render(config, b2);
+  config.axial.shadow_steps = kShadowStepsFull;
+  renderer.render(config, b4);
+  config.axial.phong = true;  // replaced by the shadow rays
+  RgbaImage b4_phong_asked;
+  renderer.render(config, b4_phong_asked);
+  EXPECT_EQ(b4_phong_asked.rgba, b4.rgba);
+  config.axial.phong = false;
+  config.axial.shadow_steps = 0;
+  renderer.render(config, none);
+  EXPECT_EQ(none.rgba, b2.rgba);
+  double sum_b2 = 0.0, sum_b4 = 0.0;
+  for (std::size_t i = 0; i < b2.rgba.size(); ++i) {
+    if (i % 4 == 3) {
+      ASSERT_EQ(b4.rgba[i], b2.rgba[i]) << "opacity of pixel " << i / 4;
+      continue;
+    }
+    ASSERT_LE(b4.rgba[i], b2.rgba[i]) << "pixel " << i / 4 << " channel " << i % 4;
+    sum_b2 += b2.rgba[i];
+    sum_b4 += b4.rgba[i];
+  }
+  ASSERT_GT(sum_b2, 0.0);
+  EXPECT_LT(sum_b4, 0.95 * sum_b2) << "the shadow rays darken the image by less than 5 %";
 }
 
 TEST(DepthCues, DimAndTintTheFarSide) {
@@ -296,7 +333,8 @@ TEST(Stereo, IsTwoViewsTheStereoAngleApartSideBySide) {
 TEST(Slices, ShowTheVoxelsOfTheChosenBscan) {
   Volume volume(4, 16, 16);
   for (std::uint32_t b = 0; b < 4; ++b) {
-    std::fill(volume.bscan(b).begin(), volume.bscan(b).end(), static_cast<std::uint8_t>(50 * b + 20));
+    std::fill(volume.bscan(b).begin(), volume.bscan(b).end(),
+              static_cast<std::uint8_t>(50 * b + 20));
   }
   RenderConfig config = isotropic(32, 32);
   config.mode = RenderMode::bscan_slice;

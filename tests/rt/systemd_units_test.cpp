@@ -2,7 +2,8 @@
 // accepts both services without a warning (and rejects a broken copy, so the check is real);
 // the sysusers and tmpfiles entries create the users, groups and the control socket directory
 // in a scratch root; the units keep what ioct-rt needs (notify + watchdog, restart, real-time
-// limits, IPC kept). Tools this container lacks make the test skip, saying which and why.
+// limits, IPC kept); `systemd-analyze security` scores every unit's exposure at most 2.0. Tools
+// this container lacks make the test skip, saying which and why.
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -12,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -132,6 +134,35 @@ TEST(SystemdUnits, VerifyAcceptsBothServicesWithoutWarnings) {
   std::ofstream(bad) << broken;
   const Result b = run(analyze + " verify " + bad.string());
   EXPECT_NE(b.output.find("notfy"), std::string::npos) << b.output;
+}
+
+// `systemd-analyze security --offline=yes` scores each unit's sandbox from 0 (locked down) to 10;
+// every unit stays at 2.0 or below ("OK"). Works without systemd as PID 1.
+TEST(SystemdUnits, EveryUnitsExposureIsAtMostTwo) {
+  const std::string analyze = tool("systemd-analyze");
+  if (analyze.empty()) {
+    GTEST_SKIP() << "systemd-analyze is not installed here (apt-get install systemd)";
+  }
+  const Scratch dir("security");
+  const auto exposure_of = [&](const fs::path& unit) {
+    const Result r = run(analyze + " security --offline=yes --no-pager " + unit.string());
+    std::smatch level;
+    if (!std::regex_search(r.output, level,
+                           std::regex("Overall exposure level for [^:]+: ([0-9]+\\.[0-9]+)"))) {
+      ADD_FAILURE() << unit << ": no \"Overall exposure level\" line in:\n" << r.output;
+      return std::pair{10.0, r.output};
+    }
+    return std::pair{std::stod(level[1]), r.output};
+  };
+  // The measure is real: the same service without its sandbox scores far above.
+  const fs::path bare = dir.path() / "ioct-bare.service";
+  std::ofstream(bare) << "[Service]\nExecStart=/bin/true\n";
+  EXPECT_GT(exposure_of(bare).first, 5.0);
+  for (const char* unit : {"ioct-rt.service", "ioct-gpu.service", "ioct-view.service"}) {
+    const auto [exposure, report] = exposure_of(installable_copy(dir, unit));
+    EXPECT_LE(exposure, 2.0) << unit << " exposure " << exposure << ":\n" << report;
+    std::cout << unit << ": exposure " << exposure << "\n";
+  }
 }
 
 TEST(SystemdUnits, TheRtServiceKeepsWhatTheAcquisitionNeeds) {

@@ -80,6 +80,40 @@ void median3x3x3_bscan(const Volume& in, std::uint32_t bscan, std::span<std::uin
   }
 }
 
+void median3x3_bscan(const Volume& in, std::uint32_t bscan, std::span<std::uint8_t> out) {
+  const std::uint32_t depth = in.depth();
+  if (bscan >= in.bscans() || out.size() != in.bscan_pixels()) {
+    throw std::invalid_argument("median3x3_bscan: B-scan or output size out of range");
+  }
+  constexpr std::uint32_t kRun = DepthRun::kLength;
+  const std::uint8_t* plane = in.bscan(bscan).data();
+  for (std::uint32_t a = 0; a < in.ascans(); ++a) {
+    const std::uint8_t* rows[3];
+    for (int da = -1; da <= 1; ++da) {
+      rows[da + 1] = plane + std::size_t{clamped(std::int64_t{a} + da, in.ascans())} * depth;
+    }
+    std::uint8_t* out_row = out.data() + std::size_t{a} * depth;
+    for (std::uint32_t d0 = 0; d0 < depth; d0 += kRun) {
+      DepthRun v[9];
+      const bool interior = d0 >= 1 && d0 + kRun + 1 <= depth;
+      for (int k = 0; k < 3; ++k) {
+        for (int dd = -1; dd <= 1; ++dd) {
+          DepthRun& run = v[3 * k + dd + 1];
+          if (interior) {
+            std::memcpy(run.v, rows[k] + d0 + dd, kRun);
+          } else {
+            for (std::uint32_t i = 0; i < kRun; ++i) {
+              run.v[i] = rows[k][clamped(std::int64_t{d0} + i + dd, depth)];
+            }
+          }
+        }
+      }
+      sort9(v);
+      std::memcpy(out_row + d0, v[4].v, std::min(kRun, depth - d0));
+    }
+  }
+}
+
 void gaussian5x5_bscan(std::span<const std::uint8_t> in, std::uint32_t ascans, std::uint32_t depth,
                        const GaussianTaps& taps, std::span<std::uint8_t> out,
                        std::vector<std::uint32_t>& rows) {
@@ -160,12 +194,19 @@ void CpuVolumeFilter::filter_bscans(const Volume& in, Volume& out, BscanRange ou
 void CpuVolumeFilter::filter_bscan(const Volume& in, Volume& out, std::uint32_t bscan,
                                    Workspace& workspace) const {
   std::span<std::uint8_t> target = out.bscan(bscan);
+  const auto median = [&](std::span<std::uint8_t> to) {
+    if (config_.median_window == MedianWindow::bscan_3x3) {
+      median3x3_bscan(in, bscan, to);
+    } else {
+      median3x3x3_bscan(in, bscan, to);
+    }
+  };
   if (config_.median && config_.gaussian) {
     workspace.median.resize(in.bscan_pixels());
-    median3x3x3_bscan(in, bscan, workspace.median);
+    median(workspace.median);
     gaussian5x5_bscan(workspace.median, in.ascans(), in.depth(), taps_, target, workspace.rows);
   } else if (config_.median) {
-    median3x3x3_bscan(in, bscan, target);
+    median(target);
   } else if (config_.gaussian) {
     gaussian5x5_bscan(in.bscan(bscan), in.ascans(), in.depth(), taps_, target, workspace.rows);
   } else {

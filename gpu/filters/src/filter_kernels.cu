@@ -187,6 +187,25 @@ __global__ void median_sorted_runs_kernel(const std::uint8_t* __restrict__ in,
   }
 }
 
+// The second paper's median: 3x3 within each B-scan. Thread: 4 voxels (one word) of A-scan `a` of
+// one output B-scan; the plane's nine shifted words sorted per lane, the middle one kept.
+template <class Lane>
+__global__ void median_bscan_kernel(const std::uint8_t* __restrict__ in,
+                                    std::uint8_t* __restrict__ out, Dims dims,
+                                    std::uint32_t first_output) {
+  const std::uint64_t thread = std::uint64_t{blockIdx.x} * blockDim.x + threadIdx.x;
+  if (thread >= std::uint64_t{dims.ascans} * dims.words) return;
+  const std::uint32_t word = static_cast<std::uint32_t>(thread % dims.words);
+  const std::uint32_t a = static_cast<std::uint32_t>(thread / dims.words);
+  const std::uint32_t d0 = 4 * word;
+  const std::uint32_t z = first_output + blockIdx.y;
+  const bool aligned_interior = dims.depth % 4 == 0 && d0 >= 4 && d0 + 8 <= dims.depth;
+  Lane plane[9];
+  load_sorted_plane(in, z, a, d0, dims, aligned_interior, plane);
+  std::uint8_t* row = out + (std::size_t{z} * dims.ascans + a) * dims.depth;
+  store_word(row, d0, dims, aligned_interior, to_bytes(plane[4]));
+}
+
 // The first paper's algorithm: one voxel per thread, walking along B-scans, each output's 27
 // values gathered and reduced by forgetful selection (median_networks.hpp, algorithm 1).
 __global__ void median_forgetful_kernel(const std::uint8_t* __restrict__ in,
@@ -330,9 +349,21 @@ std::string_view to_string(MedianKernel kernel) noexcept {
 }
 
 void enqueue_median(const std::uint8_t* in, std::uint8_t* out, VolumeDims volume,
-                    BscanRange outputs, const CudaFilterTuning& tuning, cudaStream_t stream) {
+                    BscanRange outputs, MedianWindow window, const CudaFilterTuning& tuning,
+                    cudaStream_t stream) {
   if (outputs.count == 0 || volume.ascans == 0 || volume.depth == 0) return;
   const Dims dims = dims_of(volume);
+  if (window == MedianWindow::bscan_3x3) {
+    constexpr std::uint32_t kThreads = 256;
+    constexpr std::uint32_t kMaxGridY = 65535;
+    for (std::uint32_t first = outputs.first; first < outputs.end(); first += kMaxGridY) {
+      const dim3 grid(blocks_for(std::uint64_t{dims.ascans} * dims.words, kThreads),
+                      std::min(kMaxGridY, outputs.end() - first));
+      median_bscan_kernel<U8x4><<<grid, kThreads, 0, stream>>>(in, out, dims, first);
+      check_cuda(cudaGetLastError(), "median (3x3 per B-scan) kernel launch");
+    }
+    return;
+  }
   // Walks per launch fit the grid's y dimension (65535).
   const std::uint32_t walk =
       std::max({tuning.bscans_per_thread, 1u, (outputs.count + 65534) / 65535});
@@ -387,10 +418,10 @@ void enqueue_volume_filter(const std::uint8_t* in, std::uint8_t* median, std::ui
                            cudaStream_t stream) {
   const std::size_t bscan_bytes = std::size_t{dims.ascans} * dims.depth;
   if (config.median && config.gaussian) {
-    enqueue_median(in, median, dims, outputs, tuning, stream);
+    enqueue_median(in, median, dims, outputs, config.median_window, tuning, stream);
     enqueue_gaussian(median, out, dims, outputs, taps, tuning, stream);
   } else if (config.median) {
-    enqueue_median(in, out, dims, outputs, tuning, stream);
+    enqueue_median(in, out, dims, outputs, config.median_window, tuning, stream);
   } else if (config.gaussian) {
     enqueue_gaussian(in, out, dims, outputs, taps, tuning, stream);
   } else {

@@ -9,9 +9,9 @@
 //
 // Pass (the stages' thread): the pending B-scans are copied into the input volume, then the
 // filter, the segmentation and the renderer's update and frame are enqueued on one stream, each
-// on the previous one's device output, with no copy of the volume to the host. The renderer's
-// update makes the pass's one round trip to the host (the centre-of-mass sums and the ILM and
-// RPE, for the layer reference); the pass ends by waiting for its frame. Only what is asked for
+// on the previous one's device output, with no copy of the volume to the host and no wait for the
+// host in between (the renderer makes its layer reference on the device too); the pass ends by
+// waiting for its frame. Only what is asked for
 // (a frame to write, the files at the end) comes back.
 #pragma once
 
@@ -42,6 +42,8 @@ class DeviceStageChain {
   struct PassTimes {
     double filter_ms = 0.0, segment_ms = 0.0, render_ms = 0.0;
     std::uint64_t filtered_ns = 0, segmented_ns = 0, rendered_ns = 0;
+    // The B-scans whose filtered pixels or surfaces the pass changed.
+    std::uint32_t changed_first = 0, changed_count = 0;
   };
 
   // Null when the stages are not all CUDA ones (or the build has no CUDA): they then work on

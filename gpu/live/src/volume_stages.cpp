@@ -274,7 +274,8 @@ bool VolumeStages::make_backends() {
     std::lock_guard lock(mutex_);
     device_ = std::move(device);
     views_.set_timing(view_timing(config_, cpu_renderer));
-    backends_ = "filter " + std::string(filter_->backend_name()) + ", segmentation " +
+    backends_ = "filter " + std::string(filters::filter_name(config_.filter)) + " " +
+                std::string(filter_->backend_name()) + ", segmentation " +
                 std::string(segmenter_->backend_name()) + ", render " +
                 std::string(renderer_->backend_name());
     return true;
@@ -393,6 +394,10 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
       segmenter_->segment_group(filtered_, {outputs.first, outputs.count}, surfaces_);
   const std::uint64_t t2 = shm::monotonic_ns();
   renderer_->update_bscans(filtered_, affected.first, affected.count, &surfaces_);
+  const std::uint32_t changed_first = std::min(outputs.first, affected.first);
+  note_bscans_changed(
+      changed_first,
+      std::max(outputs.first + outputs.count, affected.first + affected.count) - changed_first);
   const bool render_now =
       renderer_->backend_name() != "cpu" || last_render_ns_ == 0 ||
       static_cast<double>(t2 - last_render_ns_) * 1e-9 >= config_.cpu_render_interval_s;
@@ -405,11 +410,16 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
     t3 = shm::monotonic_ns();
     last_render_ns_ = t3;
   }
-  bscan_stale_ = true;
 
   record_pass(StagesPass{groups, first, count, false, render_now, t0, t1, t2, t3}, t1 - t0, t2 - t1,
               t3 - t2);
   if (render_now) deliver(shared, t3, waiters);
+}
+
+void VolumeStages::note_bscans_changed(std::uint32_t first, std::uint32_t count) {
+  // The B-scan beside the render is downloaded, drawn and encoded again only when a pass changed
+  // it: a group touches 16 (+ halo) of 128 B-scans, so most passes leave it as it is.
+  if (bscan_shown_ >= first && bscan_shown_ - first < count) bscan_stale_ = true;
 }
 
 void VolumeStages::record_pass(const StagesPass& pass, std::uint64_t filter_ns,
@@ -452,7 +462,7 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
   const DeviceStageChain::PassTimes t =
       device_->run_pass(first, count, shared.config, frame_wanted ? &image_ : nullptr);
   last_render_ns_ = t.rendered_ns;
-  bscan_stale_ = true;
+  note_bscans_changed(t.changed_first, t.changed_count);
   const auto ns = [](double ms) { return static_cast<std::uint64_t>(ms * 1e6); };
   record_pass(StagesPass{groups, first, count, true, true, taken_ns, t.filtered_ns, t.segmented_ns,
                          t.rendered_ns},

@@ -122,7 +122,9 @@ int main(int argc, char** argv) {
   app.add_option("--calibration-file", calibration_file,
                  "the calibration coefficients from a file (commas, spaces or newlines)");
   app.add_option("--fft-rigor", rigor, "FFTW planning: estimate, measure or patient");
-  app.add_option("--filter", filter, "after processing: none or median-gauss (the volume filters)");
+  app.add_option("--filter", filter,
+                 "after processing: none, median-gauss (3x3x3 median + 5x5 Gaussian) or "
+                 "median-bscan (3x3 median per B-scan, Weiss 2019)");
   app.add_option("--sigma", sigma, "Gaussian sigma (px) of --filter median-gauss");
   app.add_option("--spacing-mm", spacing,
                  "voxel spacing depth,ascan,bscan in mm for the NRRD header (default: 1 px)");
@@ -193,13 +195,12 @@ int main(int argc, char** argv) {
       throw ioct::ConfigError("resample", "'" + resample + "'",
                               "needs a calibration (--resample-poly or --calibration-file)");
     }
-    if (filter == "median-gauss") {
-      ioct::gpu::filters::VolumeFilterConfig config;
+    if (filter != "none") {
+      ioct::gpu::filters::VolumeFilterConfig config =
+          ioct::gpu::filters::filter_by_name("filter", filter);
       config.gaussian_sigma = sigma;
       config.validate();
       settings.filter = config;
-    } else if (filter != "none") {
-      throw ioct::ConfigError("filter", "'" + filter + "'", "must be none or median-gauss");
     }
     NrrdMetadata metadata;
     if (!spacing.empty()) {
@@ -222,7 +223,9 @@ int main(int argc, char** argv) {
         {"ioct_backend", result.processor_backend},
         {"ioct_db_range", std::to_string(settings.processing.scale.db_min) + " " +
                               std::to_string(settings.processing.scale.db_max)},
-        {"ioct_filter", result.filter_backend.empty() ? "none" : "median3x3x3+gauss5x5"}};
+        {"ioct_filter", settings.filter
+                            ? std::string(ioct::gpu::filters::filter_name(*settings.filter))
+                            : std::string("none")}};
 
     // Everything is written before anything is committed: on any failure no output is left.
     ioct::AtomicFile volume_file(output);

@@ -73,7 +73,7 @@ void CpuRenderer::update_bscans(const Volume& volume, std::uint32_t first, std::
 void CpuRenderer::render(const RenderConfig& config, RgbaImage& image) {
   if (!has_volume_) throw std::logic_error("render() before set_volume()");
   const VolumeDims dims{volume_.bscans(), volume_.ascans(), volume_.depth()};
-  RenderParams params = bake_params(config, dims, reference_);
+  RenderParams params = bake_params(config, dims, reference_.mean_thickness_px);
   const RenderTables tables = bake_tables(config);
   params.transfer_lut = tables.transfer_lut.data();
   params.lab_lut = tables.lab_lut.data();

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "cuda_layer_reference.cuh"
 #include "ioct/gpu/cuda_support.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
 #include "ioct/gpu/render/frame_setup.hpp"
@@ -173,9 +174,11 @@ __global__ void la_mip_composite_kernel(RenderParams p, const float* buffer, uch
 // an apron of kBrickApron on every side.
 __global__ void brick_kernel(const std::uint8_t* volume, int ascans, int bscans, int depth, int nx,
                              int ny, int nz, int by0, int by1, std::uint8_t* bricks) {
-  const int bx = blockIdx.x * blockDim.x + threadIdx.x;
+  // Neighbouring threads take neighbouring bricks along depth: their reads of a column are a few
+  // bytes apart (coalesced), where bricks side by side laterally are whole columns apart.
+  const int bz = blockIdx.x * blockDim.x + threadIdx.x;
   const int by = by0 + blockIdx.y;
-  const int bz = blockIdx.z * blockDim.z + threadIdx.z;
+  const int bx = blockIdx.z * blockDim.z + threadIdx.z;
   if (bx >= nx || by >= by1 || bz >= nz) return;
   const int a0 = max(bx * kBrick - kBrickApron, 0),
             a1 = min(bx * kBrick + kBrick + kBrickApron, ascans);
@@ -196,20 +199,28 @@ __global__ void brick_kernel(const std::uint8_t* volume, int ascans, int bscans,
   bricks[(bz * ny + by) * nx + bx] = static_cast<std::uint8_t>(hi);
 }
 
-// Integer centre-of-mass sums per B-scan (exactly those of centre_of_mass_sums()).
+// Integer centre-of-mass sums per B-scan (exactly those of centre_of_mass_sums()). One warp per
+// A-scan, its lanes reading the column's consecutive bytes (coalesced), reduced by shuffles.
+constexpr int kCentreOfMassWarps = 8;
 __global__ void centre_of_mass_kernel(const std::uint8_t* volume, int ascans, int depth, int first,
                                       unsigned long long* sums) {
-  const int a = blockIdx.x * blockDim.x + threadIdx.x;
+  const int lane = threadIdx.x % 32;
+  const int a = blockIdx.x * kCentreOfMassWarps + threadIdx.x / 32;
   const int b = first + blockIdx.y;
-  if (a >= ascans) return;
+  if (a >= ascans) return;  // a whole warp: the shuffles below see only full warps
   const std::uint8_t* column = volume + (static_cast<std::size_t>(b) * ascans + a) * depth;
   unsigned long long weighted = 0, weight = 0;
-  for (int d = 0; d < depth; ++d) {
+  for (int d = lane; d < depth; d += 32) {
     const unsigned v = column[d];
     if (v < kCentreOfMassLevel) continue;
     weighted += static_cast<unsigned long long>(v) * d;
     weight += v;
   }
+  for (int offset = 16; offset > 0; offset /= 2) {
+    weighted += __shfl_down_sync(0xffffffffu, weighted, offset);
+    weight += __shfl_down_sync(0xffffffffu, weight, offset);
+  }
+  if (lane != 0) return;
   atomicAdd(&sums[2 * b], weighted);
   atomicAdd(&sums[2 * b + 1], weight);
 }
@@ -224,10 +235,10 @@ struct CudaRenderer::State {
   cuda::DeviceArray<std::uint8_t> linear;  // the volume once more, for bricks and sums
   cuda::DeviceArray<std::uint8_t> bricks;  // the largest voxel of each brick
   int nx = 0, ny = 0, nz = 0;
-  cuda::DeviceArray<unsigned long long> sums;
-  std::vector<unsigned long long> host_sums;
-  cuda::DeviceArray<float> rpe, axial;
-  LayerReference reference;
+  cuda::DeviceArray<unsigned long long>
+      sums;  // centre of mass: (weighted depth, weight) per B-scan
+  DeviceLayerReference layers;
+  cuda::DeviceArray<float> uploaded_ilm, uploaded_rpe;  // host surfaces, on their way to `layers`
   bool has_volume = false;
   // Tables, re-made when their part of the config changes.
   cuda::DeviceArray<float> transfer_lut, lab_lut;
@@ -242,8 +253,7 @@ struct CudaRenderer::State {
   cuda::DeviceArray<float> la_mip;
   bool la_mip_valid = false;
   bool owns_stream = true;
-  cuda::Event volume_ready;           // a device volume's stream, when it is not ours
-  segmentation::Surfaces downloaded;  // the ILM and RPE of device surfaces
+  cuda::Event volume_ready;  // a device volume's stream, when it is not ours
 
   void free_volume() {
     if (texture != 0) cudaDestroyTextureObject(texture);
@@ -278,17 +288,15 @@ struct CudaRenderer::State {
     sums.resize(std::size_t{d.bscans} * 2);
     IOCT_CUDA_CHECK(
         cudaMemsetAsync(sums.data(), 0, sums.size() * sizeof(unsigned long long), stream));
-    host_sums.assign(sums.size(), 0);
-    rpe.resize(std::size_t{d.bscans} * d.ascans);
-    axial.resize(std::size_t{d.bscans} * d.ascans);
+    layers.resize(d.bscans, d.ascans);
     has_volume = true;
   }
 
   // Copies B-scans [first, first + count) of `pixels` (host memory, or device memory ordered on
   // this stream) and refreshes what depends on them. From the host they cross the bus once, into
-  // the linear copy; the texture's array is filled from there. The layer reference is made on
-  // the host from `surfaces`, or from the ILM and RPE of `device_surfaces`, which come over with
-  // the centre-of-mass sums in the one round trip an update makes.
+  // the linear copy; the texture's array is filled from there. The layer reference is made on the
+  // device, from `device_surfaces` where they are, or from `surfaces` uploaded: with a device
+  // volume and device surfaces an update is enqueued only, with no round trip to the host.
   void upload(const std::uint8_t* pixels, bool on_device, std::uint32_t first, std::uint32_t count,
               const segmentation::Surfaces* surfaces,
               const segmentation::DeviceSurfaceView* device_surfaces) {
@@ -315,50 +323,43 @@ struct CudaRenderer::State {
     const int by1 =
         std::min(ny, (static_cast<int>(first + count) + kBrickApron + kBrick - 1) / kBrick);
     const dim3 block(32, 1, 4);
-    const dim3 grid((nx + 31) / 32, by1 - by0, (nz + 3) / 4);
+    const dim3 grid((nz + 31) / 32, by1 - by0, (nx + 3) / 4);
     brick_kernel<<<grid, block, 0, stream>>>(linear.data(), dims.ascans, dims.bscans, dims.depth,
                                              nx, ny, nz, by0, by1, bricks.data());
     IOCT_CUDA_CHECK(cudaGetLastError());
     IOCT_CUDA_CHECK(cudaMemsetAsync(sums.data() + 2 * first, 0,
                                     2 * count * sizeof(unsigned long long), stream));
-    centre_of_mass_kernel<<<dim3((dims.ascans + 127) / 128, count), 128, 0, stream>>>(
-        linear.data(), dims.ascans, dims.depth, first, sums.data());
+    centre_of_mass_kernel<<<dim3((dims.ascans + kCentreOfMassWarps - 1) / kCentreOfMassWarps,
+                                 count),
+                            32 * kCentreOfMassWarps, 0, stream>>>(linear.data(), dims.ascans,
+                                                                  dims.depth, first, sums.data());
     IOCT_CUDA_CHECK(cudaGetLastError());
-    cuda::copy_async(host_sums.data(), sums.data(), sums.size() * sizeof(unsigned long long),
-                     cudaMemcpyDeviceToHost, stream, cuda::Payload::other,
-                     "copy of the centre-of-mass sums to the host");
+    const std::size_t n = std::size_t{dims.bscans} * dims.ascans;
+    const float* ilm = nullptr;
+    const float* rpe = nullptr;
     if (device_surfaces != nullptr) {
-      const std::size_t n = std::size_t{dims.bscans} * dims.ascans;
-      const bool usable =
-          device_surfaces->bscans == dims.bscans && device_surfaces->ascans == dims.ascans;
-      if (usable) {
-        if (downloaded.bscans != dims.bscans || downloaded.ascans != dims.ascans ||
-            downloaded.depth != dims.depth) {
-          downloaded.reset(dims.bscans, dims.ascans, dims.depth);
-        }
-        cuda::copy_async(downloaded.ilm.data(), device_surfaces->ilm, n * sizeof(float),
-                         cudaMemcpyDeviceToHost, stream, cuda::Payload::other,
-                         "copy of the ILM to the host");
-        cuda::copy_async(downloaded.rpe.data(), device_surfaces->rpe, n * sizeof(float),
-                         cudaMemcpyDeviceToHost, stream, cuda::Payload::other,
-                         "copy of the RPE to the host");
+      if (device_surfaces->bscans == dims.bscans && device_surfaces->ascans == dims.ascans) {
+        ilm = device_surfaces->ilm;
+        rpe = device_surfaces->rpe;
       }
-      surfaces = usable ? &downloaded : nullptr;
+    } else if (surfaces != nullptr && surfaces->bscans == dims.bscans &&
+               surfaces->ascans == dims.ascans && surfaces->rpe.size() == n &&
+               surfaces->ilm.size() == n) {
+      uploaded_ilm.resize(n);
+      uploaded_rpe.resize(n);
+      cuda::copy_async(uploaded_ilm.data(), surfaces->ilm.data(), n * sizeof(float),
+                       cudaMemcpyHostToDevice, stream, cuda::Payload::other,
+                       "copy of the ILM to the renderer");
+      cuda::copy_async(uploaded_rpe.data(), surfaces->rpe.data(), n * sizeof(float),
+                       cudaMemcpyHostToDevice, stream, cuda::Payload::other,
+                       "copy of the RPE to the renderer");
+      ilm = uploaded_ilm.data();
+      rpe = uploaded_rpe.data();
     }
-    IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
-    CentreOfMassSums total;
-    for (std::uint32_t b = 0; b < dims.bscans; ++b) {
-      total.weighted_depth += host_sums[2 * b];
-      total.weight += host_sums[2 * b + 1];
-    }
-    reference = make_layer_reference(dims.bscans, dims.ascans, dims.depth, surfaces, total);
-    // Pageable host-to-device copies are staged before the call returns: no wait needed here.
-    cuda::copy_async(rpe.data(), reference.rpe_px.data(), rpe.size() * sizeof(float),
-                     cudaMemcpyHostToDevice, stream, cuda::Payload::other,
-                     "copy of the RPE reference to the device");
-    cuda::copy_async(axial.data(), reference.axial_plane_px.data(), axial.size() * sizeof(float),
-                     cudaMemcpyHostToDevice, stream, cuda::Payload::other,
-                     "copy of the axial plane to the device");
+    layers.make(sums.data(), dims.depth, ilm, rpe, stream);
+    // A host volume may be pinned (then its copy is truly asynchronous): the caller may change it
+    // once this returns.
+    if (!on_device) IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
   }
 
   void prepare_tables(const RenderConfig& config) {
@@ -477,11 +478,13 @@ void CudaRenderer::update_bscans(const Volume& volume, std::uint32_t first, std:
 void CudaRenderer::render_on_device(const RenderConfig& config) {
   State& s = *state_;
   if (!s.has_volume) throw std::logic_error("render() before set_volume()");
-  RenderParams p = bake_params(config, s.dims, s.reference);
+  RenderParams p = bake_params(config, s.dims, 0.0f);
   s.prepare_tables(config);
   p.transfer_lut = s.transfer_lut.data();
   p.lab_lut = s.lab_lut.data();
-  p.reference_px = config.mode == RenderMode::axial_colorization ? s.axial.data() : s.rpe.data();
+  p.reference_px =
+      config.mode == RenderMode::axial_colorization ? s.layers.axial_plane_px() : s.layers.rpe_px();
+  if (config.layer_aware.colors.d_rpe_px <= 0.0) p.measured_d_rpe_px = s.layers.mean_thickness_px();
   s.width = output_width(p);
   s.height = static_cast<std::uint32_t>(p.height);
   s.image.resize(std::size_t{s.width} * s.height);
@@ -529,6 +532,10 @@ void CudaRenderer::render(const RenderConfig& config, RgbaImage& image) {
                    cudaMemcpyDeviceToHost, state_->stream, cuda::Payload::other,
                    "copy of the frame to the host");
   IOCT_CUDA_CHECK(cudaStreamSynchronize(state_->stream));
+}
+
+LayerReference CudaRenderer::layer_reference() const {
+  return state_->layers.download(state_->stream);
 }
 
 void CudaRenderer::synchronize() {

@@ -40,11 +40,11 @@ PixelKind kind_of(RenderMode mode) {
 }
 
 // d_rpe in px: the configured one, else the reference's mean thickness, else 250 um of depth.
-float d_rpe_px(const RenderConfig& config, const LayerReference& reference) {
+float d_rpe_px(const RenderConfig& config, float mean_thickness_px) {
   if (config.layer_aware.colors.d_rpe_px > 0.0) {
     return static_cast<float>(config.layer_aware.colors.d_rpe_px);
   }
-  if (reference.mean_thickness_px > 1.0f) return reference.mean_thickness_px;
+  if (mean_thickness_px > 1.0f) return mean_thickness_px;
   return static_cast<float>(kDefaultRetinaThicknessUm / config.spacing.depth);
 }
 
@@ -62,8 +62,7 @@ RenderTables bake_tables(const RenderConfig& config) {
   return tables;
 }
 
-RenderParams bake_params(const RenderConfig& config, VolumeDims dims,
-                         const LayerReference& reference) {
+RenderParams bake_params(const RenderConfig& config, VolumeDims dims, float mean_thickness_px) {
   config.validate();
   if (dims.bscans == 0 || dims.ascans == 0 || dims.depth == 0) {
     throw std::invalid_argument("cannot render an empty volume (" + std::to_string(dims.bscans) +
@@ -144,7 +143,10 @@ RenderParams bake_params(const RenderConfig& config, VolumeDims dims,
   p.edge = en.edge_enhancement;
   p.feature = en.feature_enhancement;
   p.depth_cues = en.depth_cues;
-  p.phong = config.mode == RenderMode::axial_colorization ? config.axial.phong : en.phong;
+  // Axial colorization: shadow rays, when asked for, take Phong's place (Weiss Fig. 4 B4).
+  p.phong = config.mode == RenderMode::axial_colorization
+                ? config.axial.phong && config.axial.shadow_steps == 0
+                : en.phong;
   p.kg1 = static_cast<float>(en.kg1);
   p.kg2 = static_cast<float>(en.kg2);
   p.kf1 = static_cast<float>(en.kf1);
@@ -162,8 +164,9 @@ RenderParams bake_params(const RenderConfig& config, VolumeDims dims,
   p.i_min = static_cast<float>(la.i_min);
   p.i_max = static_cast<float>(la.i_max);
   p.alpha_max = static_cast<float>(la.alpha_max);
-  p.shadow_steps = static_cast<std::int32_t>(la.shadow_steps);
-  p.d_rpe_px = d_rpe_px(config, reference);
+  p.shadow_steps = static_cast<std::int32_t>(
+      config.mode == RenderMode::axial_colorization ? config.axial.shadow_steps : la.shadow_steps);
+  p.d_rpe_px = d_rpe_px(config, mean_thickness_px);
 
   // Planar modes: the volume's physical aspect, letterboxed into the output.
   const double w = view.output_width;

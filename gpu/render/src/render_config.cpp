@@ -200,6 +200,11 @@ void LayerAwareConfig::validate() const {
   colors.validate(key_of(p, "colors"));
 }
 
+void AxialColorizationConfig::validate() const {
+  const std::string p = "render.axial";
+  require_integer_in_range(key_of(p, "shadow_steps"), shadow_steps, 0, kMaxShadowSteps);
+}
+
 void SliceConfig::validate() const {
   if (bscan < -1) {
     throw ConfigError("render.slice.bscan", format_value(std::int64_t{bscan}),

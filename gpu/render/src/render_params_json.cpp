@@ -206,6 +206,19 @@ void apply_layer_aware(const std::string& p, const json& changes, LayerAwareConf
   }
 }
 
+void apply_axial(const std::string& p, const json& changes, AxialColorizationConfig& a) {
+  for (const auto& [name, value] : object(p, changes).items()) {
+    const std::string key = p + "." + name;
+    if (name == "phong") {
+      a.phong = boolean(key, value);
+    } else if (name == "shadow_steps") {
+      a.shadow_steps = count(key, value);
+    } else {
+      unknown(key, value);
+    }
+  }
+}
+
 void apply_slice(const std::string& p, const json& changes, SliceConfig& s) {
   for (const auto& [name, value] : object(p, changes).items()) {
     const std::string key = p + "." + name;
@@ -269,6 +282,7 @@ nlohmann::json to_json(const RenderConfig& c) {
         {"i_max", l.i_max},
         {"alpha_max", l.alpha_max},
         {"colorize", l.colorize}}},
+      {"axial", {{"phong", c.axial.phong}, {"shadow_steps", c.axial.shadow_steps}}},
       {"slice", {{"bscan", c.slice.bscan}}},
   };
 }
@@ -293,6 +307,8 @@ RenderConfig apply_render_changes(const RenderConfig& base, const nlohmann::json
       apply_enhanced(key, value, c.enhanced);
     } else if (name == "layer_aware") {
       apply_layer_aware(key, value, c.layer_aware);
+    } else if (name == "axial") {
+      apply_axial(key, value, c.axial);
     } else if (name == "slice") {
       apply_slice(key, value, c.slice);
     } else {

@@ -127,6 +127,8 @@ int main(int argc, char** argv) {
   app.add_flag("--no-phong", no_phong, "enhanced: no Phong shading");
   app.add_flag("--no-colorize", no_colorize, "layer-aware: lightness only (Weiss Fig. 4 A1)");
   app.add_flag("--axial-phong", config.axial.phong, "axial colorization with Phong");
+  app.add_option("--axial-shadow-steps", config.axial.shadow_steps,
+                 "axial colorization with N_s shadow steps instead of Phong (Weiss Fig. 4 B4)");
   app.add_option("--bscan", config.slice.bscan, "bscan mode: the B-scan shown (-1: the centre)");
   app.add_option("--en-face-depth", config.slice.en_face_depth_px,
                  "en-face mode: depth px (-1: the centre), or below the RPE with --below-rpe");

@@ -14,6 +14,8 @@ export const kMainControls = [
   { path: 'view.light_direction', label: 'Light direction', kind: 'light' },
   { path: 'layer_aware.shadow_steps', label: 'Shadow steps (Nₛ)', kind: 'range', min: 0, max: 200,
     step: 1 },
+  { path: 'processing.db_min', label: 'dB shown black', kind: 'range', min: -20, max: 80, step: 1 },
+  { path: 'processing.db_max', label: 'dB shown white', kind: 'range', min: 0, max: 120, step: 1 },
   { path: 'slice.bscan', label: 'B-scan (−1: centre)', kind: 'range', min: -1, max: 127, step: 1 },
 ];
 
@@ -50,4 +52,7 @@ export const kAdvancedControls = [
   coefficient('layer_aware.i_min', 'Layer-aware I min', 1, 0.01),
   coefficient('layer_aware.i_max', 'Layer-aware I max', 1, 0.01),
   coefficient('layer_aware.alpha_max', 'Layer-aware α max', 1, 0.01),
+  { path: 'axial.phong', label: 'Axial colorization: Phong', kind: 'toggle' },
+  { path: 'axial.shadow_steps', label: 'Axial colorization: shadow steps (Nₛ, replace Phong)', kind: 'range',
+    min: 0, max: 200, step: 1 },
 ];

@@ -31,6 +31,7 @@ class CpuOctProcessor final : public OctProcessor {
 
   void prepare(const shm::RingGeometry& geometry) override;
   void process(const RawGroup& group, ProcessedGroup& out) override;
+  void set_db_range(const DbScaleConfig& scale) override;
   std::string_view backend_name() const noexcept override { return "cpu"; }
 
   // The spectrum subtracted from the last group (after process()).

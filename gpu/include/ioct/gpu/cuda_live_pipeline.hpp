@@ -53,6 +53,7 @@ class CudaLivePipeline final : public LivePipeline {
   // Through read_volume() on a stream of its own, synchronously.
   void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) override;
   const shm::RingReader& reader() const noexcept override;
+  void set_db_range(const DbScaleConfig& scale) override;
   std::string_view backend_name() const noexcept override { return "cuda"; }
 
   // Enqueues a reader's work on `stream`: `enqueue_reads` is called at once with the view and

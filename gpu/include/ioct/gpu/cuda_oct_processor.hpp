@@ -52,6 +52,8 @@ class CudaOctProcessor final : public OctProcessor {
   // Copies the spectra to the device, processes them and copies the pixels back; returns when
   // done. Throws std::runtime_error naming a failed CUDA call.
   void process(const RawGroup& group, ProcessedGroup& out) override;
+  // Kernels already enqueued keep the range they were launched with.
+  void set_db_range(const DbScaleConfig& scale) override;
   std::string_view backend_name() const noexcept override { return "cuda"; }
 
   // --- On device memory: everything is enqueued on stream(), in call order. ---

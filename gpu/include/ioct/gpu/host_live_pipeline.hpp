@@ -24,6 +24,7 @@ class HostLivePipeline final : public LivePipeline {
   LiveVolumeShape shape() const override;
   void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) override;
   const shm::RingReader& reader() const noexcept override { return reader_; }
+  void set_db_range(const DbScaleConfig& scale) override { processor_->set_db_range(scale); }
   std::string_view backend_name() const noexcept override { return processor_->backend_name(); }
 
  private:

@@ -55,6 +55,8 @@ class LivePipeline : public LiveVolumeSource {
   virtual std::optional<VolumeInfo> seal_partial(const Volume*& volume) = 0;
 
   virtual const shm::RingReader& reader() const noexcept = 0;
+  // The dB range of the groups processed from now on (OctProcessor::set_db_range).
+  virtual void set_db_range(const DbScaleConfig& scale) = 0;
   virtual std::string_view backend_name() const noexcept = 0;
 };
 

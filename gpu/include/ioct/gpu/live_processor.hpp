@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <functional>
 #include <iosfwd>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -124,6 +125,11 @@ class LiveProcessor {
   // Makes run() finish soon. Safe from any thread and from a signal handler.
   void request_stop() noexcept { stop_.store(true, std::memory_order_relaxed); }
 
+  // The dB range of the groups processed from now on (the assistant's control): validated here
+  // (ConfigError, nothing changed), applied by the loop before its next group. Any thread.
+  void set_db_range(const DbScaleConfig& scale);
+  DbScaleConfig db_range() const;
+
   // Progress, readable from other threads while run() goes on.
   bool attached() const noexcept { return attached_.load(std::memory_order_acquire); }
   std::uint64_t groups_consumed() const noexcept {
@@ -144,6 +150,9 @@ class LiveProcessor {
   std::ostream* status_out_ = nullptr;
   VolumeObserver observer_;
   LiveStage* stage_ = nullptr;
+  mutable std::mutex db_mutex_;
+  DbScaleConfig db_range_;  // under db_mutex_: the newest asked for
+  std::atomic<bool> db_range_changed_{false};
   std::atomic<bool> stop_{false};
   std::atomic<bool> attached_{false};
   std::atomic<std::uint64_t> groups_consumed_{0};

@@ -73,6 +73,9 @@ class OctProcessor {
   // remembers the last ones. Throws std::invalid_argument for a group find_group_problem
   // rejects and std::logic_error before prepare().
   virtual void process(const RawGroup& group, ProcessedGroup& out) = 0;
+  // The dB range of the groups processed from now on (the assistant's control): only the u8
+  // mapping changes, nothing is re-planned. Throws ConfigError naming db_min or db_max.
+  virtual void set_db_range(const DbScaleConfig& scale) = 0;
 
   virtual std::string_view backend_name() const noexcept = 0;
 };

@@ -29,6 +29,8 @@ struct SpectralTables {
   DbToU8 scale;                                 // from the window's sum
 
   bool complex_fft() const noexcept { return !correction.empty(); }
+  // The u8 mapping for another dB range (validated; ConfigError).
+  void set_db_range(const DbScaleConfig& config);
 
   // resampled(values)[j], in the order both implementations sum it.
   float resampled(const float* values, std::uint32_t j) const noexcept {

@@ -48,6 +48,8 @@ class CpuVolumeFilter final : public VolumeFilter {
 // The single steps on one B-scan, for tests and for other CPU stages.
 // Median of output B-scan `bscan` of `in` (clamped borders) into `out` (ascans x depth).
 void median3x3x3_bscan(const Volume& in, std::uint32_t bscan, std::span<std::uint8_t> out);
+// The same with the 3x3 window inside the B-scan (A-scans x depth; the second paper's).
+void median3x3_bscan(const Volume& in, std::uint32_t bscan, std::span<std::uint8_t> out);
 // Gaussian of one B-scan (ascans x depth, depth contiguous) into `out`; `rows` is scratch of
 // ascans x depth.
 void gaussian5x5_bscan(std::span<const std::uint8_t> in, std::uint32_t ascans, std::uint32_t depth,

@@ -56,7 +56,7 @@ void enqueue_volume_filter(const std::uint8_t* in, std::uint8_t* median, std::ui
 
 // The two steps alone (benchmarks).
 void enqueue_median(const std::uint8_t* in, std::uint8_t* out, VolumeDims dims, BscanRange outputs,
-                    const CudaFilterTuning& tuning, cudaStream_t stream);
+                    MedianWindow window, const CudaFilterTuning& tuning, cudaStream_t stream);
 void enqueue_gaussian(const std::uint8_t* in, std::uint8_t* out, VolumeDims dims, BscanRange bscans,
                       const GaussianTaps& taps, const CudaFilterTuning& tuning,
                       cudaStream_t stream);

@@ -1,11 +1,21 @@
 // What the volume filters do: the first paper's 3x3x3 median (edge-preserving de-noising) followed
-// by a 5x5 Gaussian in the plane of each B-scan (smoothing), either of which can be switched off.
+// by a 5x5 Gaussian in the plane of each B-scan (smoothing), either of which can be switched off;
+// or the second paper's 3x3 median within each B-scan and no Gaussian.
 #pragma once
+
+#include <cstdint>
+#include <string_view>
 
 namespace ioct::gpu::filters {
 
+// The median's neighbourhood: 3x3x3 (A-scans, depth and the neighbouring B-scans; Viehland et al.
+// 2016), or 3x3 within each B-scan (Weiss et al. 2019, Sec. 4: "a 3x3 median filter on every
+// B-Scan but [no] volumetric Gaussian smoothing", to keep small superficial structure).
+enum class MedianWindow : std::uint8_t { volume_3x3x3, bscan_3x3 };
+
 struct VolumeFilterConfig {
   bool median = true;
+  MedianWindow median_window = MedianWindow::volume_3x3x3;
   bool gaussian = true;
   // Standard deviation of the Gaussian in pixels, the same along A-scans and along depth. The
   // 5x5 window spans +-2 sigma at the default 1.0 (the weights are renormalised over the window:
@@ -17,5 +27,11 @@ struct VolumeFilterConfig {
   // filter is the identity; above 10 it is a 5x5 box).
   void validate() const;
 };
+
+// The filters by the names the commands take (`--filter`): "median-gauss" (the first paper's, the
+// default), "median-bscan" (the second paper's) and "none". ConfigError naming `key` otherwise.
+VolumeFilterConfig filter_by_name(std::string_view key, std::string_view name);
+// The name of a config's filter: one of the above, or a description of another combination.
+std::string_view filter_name(const VolumeFilterConfig& config) noexcept;
 
 }  // namespace ioct::gpu::filters

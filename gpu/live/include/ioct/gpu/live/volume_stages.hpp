@@ -166,6 +166,8 @@ class VolumeStages final : public LiveStage, public ViewControl {
   void run_device_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups,
                        std::uint64_t taken_ns);
   bool live_image_due(std::uint64_t now_ns) const;
+  // A pass changed B-scans [first, first + count) of the filtered volume or their surfaces.
+  void note_bscans_changed(std::uint32_t first, std::uint32_t count);
   // A pass's figures (the render's only when it rendered), then on_pass and the frame ring's count.
   void record_pass(const StagesPass& pass, std::uint64_t filter_ns, std::uint64_t segment_ns,
                    std::uint64_t render_ns);
@@ -217,7 +219,7 @@ class VolumeStages final : public LiveStage, public ViewControl {
   segmentation::Surfaces surfaces_;
   render::RgbaImage image_;
   GroupStamp shown_stamp_;   // the newest group in the volume the renderer has
-  bool bscan_stale_ = true;  // the publisher's B-scan is older than the last pass
+  bool bscan_stale_ = true;  // a pass changed the B-scan shown since the publisher encoded it
   std::uint32_t bscan_shown_ = 0;
   std::uint64_t last_render_ns_ = 0;
   std::uint64_t last_image_ns_ = 0;

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 
+#include "ioct/gpu/render/layer_reference.hpp"
 #include "ioct/gpu/render/renderer.hpp"
 
 namespace ioct::gpu::segmentation {
@@ -30,9 +31,8 @@ class CudaRenderer final : public Renderer {
   // Device refs are waited for (their stream) and copied device to device.
   void update_bscans(VolumeRef volume, std::uint32_t first, std::uint32_t count,
                      const segmentation::Surfaces* surfaces) override;
-  // The live chain: a device volume with the segmenter's device surfaces; only their ILM and RPE
-  // come to the host (for the layer reference), with the centre-of-mass sums, in the update's one
-  // round trip to the host.
+  // The live chain: a device volume with the segmenter's device surfaces. Enqueued only: the
+  // layer reference is made on the device too, so nothing comes to the host.
   void update_bscans(VolumeRef volume, std::uint32_t first, std::uint32_t count,
                      const segmentation::DeviceSurfaceView& surfaces);
   void render(const RenderConfig& config, RgbaImage& image) override;
@@ -41,6 +41,9 @@ class CudaRenderer final : public Renderer {
   // Renders into device memory only and returns at once (stream-ordered): for timing.
   void render_on_device(const RenderConfig& config);
   void synchronize();
+  // The layer reference of the last update, brought to the host (tests: the CPU reference's
+  // make_layer_reference() on the same surfaces gives the same).
+  LayerReference layer_reference() const;
   // The stream the renderer works on (a cudaStream_t).
   void* stream() const noexcept;
   // Works on the caller's `stream` (a cudaStream_t that outlives the renderer) from now on, so

@@ -6,16 +6,16 @@
 #include <cstdint>
 #include <vector>
 
-#include "ioct/gpu/render/layer_reference.hpp"
 #include "ioct/gpu/render/render_config.hpp"
 #include "ioct/gpu/render/render_params.hpp"
 #include "ioct/gpu/volume_ref.hpp"  // VolumeDims
 
 namespace ioct::gpu::render {
 
+// `mean_thickness_px`: the layer reference's (LayerReference::mean_thickness_px), 0 when unknown
+// here (the CUDA renderer measures it on the device and sets measured_d_rpe_px instead).
 // Throws ConfigError for a bad config; std::invalid_argument for an empty volume.
-RenderParams bake_params(const RenderConfig& config, VolumeDims dims,
-                         const LayerReference& reference);
+RenderParams bake_params(const RenderConfig& config, VolumeDims dims, float mean_thickness_px);
 
 // Output image size: one eye's width times the eyes, by the height.
 std::uint32_t output_width(const RenderParams& params);

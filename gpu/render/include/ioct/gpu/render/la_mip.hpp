@@ -112,21 +112,21 @@ IOCT_RENDER_HD Rgba la_mip_composite_pixel(const RenderParams& p, const float* b
     const float b = (py + 0.5f) * b_scale - 0.5f;
     best = bilinear(buffer + layout.en_face_max(), p.dim_a, p.dim_b, a, b);
     const float depth = bilinear(buffer + layout.en_face_depth(), p.dim_a, p.dim_b, a, b);
-    ds = delta_star(depth, reference_at(p, a, b), p.d_rpe_px);
+    ds = delta_star(depth, reference_at(p, a, b), d_rpe(p));
   } else if (px >= 0 && px < l.en_face_w && py >= l.en_face_h &&
              py < l.en_face_h + l.depth_extent) {
     const float a = (px + 0.5f) * a_scale - 0.5f;
     const float z = (py - l.en_face_h + 0.5f) * d_scale - 0.5f;
     best = bilinear(buffer + layout.across_bscans(), p.dim_a, p.dim_d, a, z);
     const float offset = z - reference_at(p, a, 0.5f * (p.dim_b - 1));
-    ds = clamp01((offset / p.d_rpe_px + 1.0f) / 3.0f);
+    ds = clamp01((offset / d_rpe(p) + 1.0f) / 3.0f);
   } else if (py >= 0 && py < l.en_face_h && px >= l.en_face_w &&
              px < l.en_face_w + l.depth_extent) {
     const float b = (py + 0.5f) * b_scale - 0.5f;
     const float z = (px - l.en_face_w + 0.5f) * d_scale - 0.5f;
     best = bilinear(buffer + layout.along_ascans(), p.dim_b, p.dim_d, b, z);
     const float offset = z - reference_at(p, 0.5f * (p.dim_a - 1), b);
-    ds = clamp01((offset / p.d_rpe_px + 1.0f) / 3.0f);
+    ds = clamp01((offset / d_rpe(p) + 1.0f) / 3.0f);
   } else {
     return {p.background[0], p.background[1], p.background[2], 0.0f};
   }

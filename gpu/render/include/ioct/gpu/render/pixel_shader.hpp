@@ -137,17 +137,31 @@ IOCT_RENDER_HD Rgba over_background(const RenderParams& p, Rgba acc) {
           acc.a};
 }
 
+// The opacity a shadow ray accumulates: the layer-aware DVR's linear ramp, or (axial colorization
+// with shadow rays, Weiss Fig. 4 B4) the enhanced transfer function's, below the threshold 0.
+struct LayerOpacity {
+  const RenderParams& p;
+  IOCT_RENDER_HD float operator()(float intensity) const { return layer_opacity(p, intensity); }
+};
+struct TransferOpacity {
+  const RenderParams& p;
+  IOCT_RENDER_HD float operator()(float intensity) const {
+    if (p.use_threshold && intensity < p.threshold) return 0.0f;
+    return transfer_lookup(p.transfer_lut, intensity).a;
+  }
+};
+
 // Shadow factor s(p) (Weiss Eq. 3): transmittance over N_s steps towards the light, from the
 // first step beyond the sample; stops at the volume's edge or once it is below 1/1000. (Skipping
 // empty bricks here was measured slower: shadow rays start in tissue and rarely meet one.)
-template <class Sampler>
+template <class Sampler, class Opacity>
 IOCT_RENDER_HD float shadow_factor(const RenderParams& p, const EyeParams& e, const Sampler& s,
-                                   Vec3 v) {
+                                   Vec3 v, const Opacity& opacity) {
   float transmittance = 1.0f;
   for (int i = 1; i <= p.shadow_steps; ++i) {
     const Vec3 q = v + (static_cast<float>(i) * e.step) * e.light_voxel;
     if (!inside_box(p, q)) break;
-    transmittance *= 1.0f - layer_opacity(p, s(q.x, q.y, q.z));
+    transmittance *= 1.0f - opacity(s(q.x, q.y, q.z));
     if (transmittance < 1e-3f) break;
   }
   return transmittance;
@@ -181,9 +195,9 @@ IOCT_RENDER_HD Rgba render_ray(const RenderParams& p, const Sampler& s, const Sk
     if (layer) {
       const float alpha = layer_opacity(p, intensity);
       if (alpha <= 0.0f) continue;
-      const float ds = delta_star(v.z, reference_at(p, v.x, v.y), p.d_rpe_px);
+      const float ds = delta_star(v.z, reference_at(p, v.x, v.y), d_rpe(p));
       Vec3 c = lab_lookup(p.lab_lut, intensity, ds);
-      if (p.shadow_steps > 0) c = shadow_factor(p, e, s, v) * c;
+      if (p.shadow_steps > 0) c = shadow_factor(p, e, s, v, LayerOpacity{p}) * c;
       composite(acc, c, alpha);
     } else {
       if (p.use_threshold && intensity < p.threshold) continue;
@@ -191,8 +205,7 @@ IOCT_RENDER_HD Rgba render_ray(const RenderParams& p, const Sampler& s, const Sk
       float alpha = tf.a;
       Vec3 c{tf.r, tf.g, tf.b};
       if (p.kind == PixelKind::axial_colorization) {
-        c = lab_lookup(p.lab_lut, intensity,
-                       delta_star(v.z, reference_at(p, v.x, v.y), p.d_rpe_px));
+        c = lab_lookup(p.lab_lut, intensity, delta_star(v.z, reference_at(p, v.x, v.y), d_rpe(p)));
       }
       if (p.kind != PixelKind::basic) {
         Vec3 g{0, 0, 0};
@@ -226,6 +239,10 @@ IOCT_RENDER_HD Rgba render_ray(const RenderParams& p, const Sampler& s, const Sk
                      p.kp3 * powf(fmaxf(dot(n, e.half_world), 0.0f), p.kp4);
           }
           c = light * c;
+        }
+        // Weiss Fig. 4 B4: axial colorization shaded by shadow rays instead of Phong.
+        if (p.kind == PixelKind::axial_colorization && p.shadow_steps > 0) {
+          c = shadow_factor(p, e, s, v, TransferOpacity{p}) * c;
         }
       }
       composite(acc, c, alpha);

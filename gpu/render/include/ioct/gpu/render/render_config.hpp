@@ -165,8 +165,12 @@ struct LayerAwareConfig {
 // below a plane at the volume's intensity centre of mass (one plane for the whole volume).
 struct AxialColorizationConfig {
   bool phong = false;  // their Fig. 4 B2 (no Phong) and B3 (with)
+  // N_s of shadow rays instead of Phong (their Fig. 4 B4), through the enhanced transfer
+  // function's opacity (threshold included); 0: none. Above 0 they replace Phong, whatever
+  // `phong` says.
+  std::uint32_t shadow_steps = 0;
 
-  void validate() const {}
+  void validate() const;  // "render.axial.<key>"
 };
 
 struct SliceConfig {

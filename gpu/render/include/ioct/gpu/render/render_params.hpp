@@ -25,10 +25,10 @@ enum class PixelKind : std::int32_t {
 // One eye's orthographic camera, in voxel coordinates (x: A-scan, y: B-scan, z: depth px) where
 // the ray is marched, and in world coordinates where the shading's vectors live.
 struct EyeParams {
-  Vec3 origin;  // voxel position of image-plane point (0, 0), one bounding radius in front
-  Vec3 right;   // voxel displacement per world unit along the image's x
-  Vec3 up;      // ... along the image's y
-  Vec3 dir;     // ... along the view direction
+  Vec3 origin;       // voxel position of image-plane point (0, 0), one bounding radius in front
+  Vec3 right;        // voxel displacement per world unit along the image's x
+  Vec3 up;           // ... along the image's y
+  Vec3 dir;          // ... along the view direction
   Vec3 view_world;   // view direction (from the eye into the scene), world, unit
   Vec3 light_world;  // towards the light, world, unit
   Vec3 half_world;   // Phong's H: normalize(light + towards the eye)
@@ -39,9 +39,9 @@ struct EyeParams {
 };
 
 struct CompositeLayout {
-  std::int32_t x0, y0;          // top-left of the en face panel
+  std::int32_t x0, y0;  // top-left of the en face panel
   std::int32_t en_face_w, en_face_h;
-  std::int32_t depth_extent;    // height of the panel below, width of the one to the right
+  std::int32_t depth_extent;  // height of the panel below, width of the one to the right
 };
 
 struct RenderParams {
@@ -81,6 +81,16 @@ struct RenderParams {
   const float* transfer_lut = nullptr;  // kTransferLutSize x RGBA
   const float* lab_lut = nullptr;       // [delta*][I] x RGBA
   const float* reference_px = nullptr;  // [bscan][ascan]: the RPE (or the axial plane), px
+  // The mean retinal thickness measured where the pixels are computed (the CUDA renderer keeps
+  // its layer reference on the device), px; null: d_rpe_px is the whole answer.
+  const float* measured_d_rpe_px = nullptr;
 };
+
+// d_rpe as the pixels use it: the measured thickness when there is one above 1 px, else the
+// baked d_rpe_px (the configured value, the host reference's thickness, or the default).
+IOCT_RENDER_HD float d_rpe(const RenderParams& p) {
+  if (p.measured_d_rpe_px != nullptr && *p.measured_d_rpe_px > 1.0f) return *p.measured_d_rpe_px;
+  return p.d_rpe_px;
+}
 
 }  // namespace ioct::gpu::render

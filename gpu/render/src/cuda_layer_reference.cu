@@ -1,0 +1,147 @@
+#include "cuda_layer_reference.cuh"
+
+#include <cub/block/block_reduce.cuh>
+
+namespace ioct::gpu::render {
+
+namespace {
+
+constexpr int kScalarThreads = 512;
+constexpr int kRowThreads = 128;
+
+// One block: the centre of mass from the per-B-scan sums, the mean thickness over the A-scans
+// having both surfaces, and which B-scans have an RPE value at all. Integer and (in practice
+// exact) double sums, so the order of the additions does not show.
+__global__ void reference_scalars_kernel(const unsigned long long* sums, int bscans, int ascans,
+                                         int depth, const float* ilm, const float* rpe,
+                                         float* scalars, std::uint32_t* has_row) {
+  unsigned long long weighted = 0, weight = 0, both = 0, any = 0;
+  double thickness = 0.0;
+  for (int b = threadIdx.x; b < bscans; b += blockDim.x) {
+    weighted += sums[2 * b];
+    weight += sums[2 * b + 1];
+  }
+  if (rpe != nullptr) {
+    const int n = bscans * ascans;
+    for (int i = threadIdx.x; i < n; i += blockDim.x) {
+      if (isnan(rpe[i])) continue;
+      has_row[i / ascans] = 1;  // every writer writes 1
+      ++any;
+      if (isnan(ilm[i])) continue;
+      thickness += static_cast<double>(rpe[i] - ilm[i]);
+      ++both;
+    }
+  }
+  using Sum64 = cub::BlockReduce<unsigned long long, kScalarThreads>;
+  using SumDouble = cub::BlockReduce<double, kScalarThreads>;
+  __shared__ typename Sum64::TempStorage storage64;
+  __shared__ typename SumDouble::TempStorage storage_double;
+  weighted = Sum64(storage64).Sum(weighted);
+  __syncthreads();
+  weight = Sum64(storage64).Sum(weight);
+  __syncthreads();
+  both = Sum64(storage64).Sum(both);
+  __syncthreads();
+  any = Sum64(storage64).Sum(any);
+  thickness = SumDouble(storage_double).Sum(thickness);
+  if (threadIdx.x != 0) return;
+  const float centre =
+      weight > 0 ? static_cast<float>(static_cast<double>(weighted) / static_cast<double>(weight))
+                 : 0.5f * static_cast<float>(depth);
+  float mean = 0.0f;
+  if (any > 0 && both > 0 && thickness > 0.0) {
+    mean = static_cast<float>(thickness / static_cast<double>(both));
+  }
+  scalars[0] = mean;
+  scalars[1] = centre;
+  scalars[2] = any > 0 ? 1.0f : 0.0f;
+}
+
+// Entry `i` of a row with its holes filled: the linear interpolation of the nearest values on
+// either side, the nearest value past the ends (layer_reference.cpp's fill_row, element-wise).
+__device__ float filled(const float* row, int n, int i) {
+  if (!isnan(row[i])) return row[i];
+  int previous = i - 1;
+  while (previous >= 0 && isnan(row[previous])) --previous;
+  int next = i + 1;
+  while (next < n && isnan(row[next])) ++next;
+  if (previous < 0) return row[next];  // the row has a value (has_row)
+  if (next >= n) return row[previous];
+  const float a = row[previous];
+  const float span = static_cast<float>(next - previous);
+  return a + (row[next] - a) * static_cast<float>(i - previous) / span;
+}
+
+// One block per B-scan: its row of the axial plane, and of the RPE, filled, or the nearest
+// B-scan's (the lower one first at equal distance), or the axial plane without any RPE.
+__global__ void reference_rows_kernel(int bscans, int ascans, const float* rpe,
+                                      const float* scalars, const std::uint32_t* has_row,
+                                      float* rpe_out, float* axial_out) {
+  const int b = blockIdx.x;
+  const float centre = scalars[1];
+  float* rpe_row = rpe_out + static_cast<std::size_t>(b) * ascans;
+  float* axial_row = axial_out + static_cast<std::size_t>(b) * ascans;
+  const bool any = rpe != nullptr && scalars[2] > 0.0f;
+  int source = b;
+  if (any && has_row[b] == 0) {
+    source = -1;
+    for (int k = 1; source < 0; ++k) {
+      if (b >= k && has_row[b - k] != 0) {
+        source = b - k;
+      } else if (b + k < bscans && has_row[b + k] != 0) {
+        source = b + k;
+      }
+    }
+  }
+  const float* row = any ? rpe + static_cast<std::size_t>(source) * ascans : nullptr;
+  for (int i = threadIdx.x; i < ascans; i += blockDim.x) {
+    axial_row[i] = centre;
+    rpe_row[i] = any ? filled(row, ascans, i) : centre;
+  }
+}
+
+}  // namespace
+
+void DeviceLayerReference::resize(std::uint32_t bscans, std::uint32_t ascans) {
+  bscans_ = bscans;
+  ascans_ = ascans;
+  rpe_.resize(std::size_t{bscans} * ascans);
+  axial_.resize(std::size_t{bscans} * ascans);
+  scalars_.resize(3);
+  has_row_.resize(bscans);
+}
+
+void DeviceLayerReference::make(const unsigned long long* sums, std::uint32_t depth,
+                                const float* ilm, const float* rpe, cudaStream_t stream) {
+  if (bscans_ == 0 || ascans_ == 0) return;
+  if (rpe == nullptr || ilm == nullptr) rpe = ilm = nullptr;
+  IOCT_CUDA_CHECK(cudaMemsetAsync(has_row_.data(), 0, has_row_.bytes(), stream));
+  reference_scalars_kernel<<<1, kScalarThreads, 0, stream>>>(
+      sums, static_cast<int>(bscans_), static_cast<int>(ascans_), static_cast<int>(depth), ilm, rpe,
+      scalars_.data(), has_row_.data());
+  IOCT_CUDA_CHECK(cudaGetLastError());
+  reference_rows_kernel<<<bscans_, kRowThreads, 0, stream>>>(
+      static_cast<int>(bscans_), static_cast<int>(ascans_), rpe, scalars_.data(), has_row_.data(),
+      rpe_.data(), axial_.data());
+  IOCT_CUDA_CHECK(cudaGetLastError());
+}
+
+LayerReference DeviceLayerReference::download(cudaStream_t stream) const {
+  LayerReference ref;
+  ref.bscans = bscans_;
+  ref.ascans = ascans_;
+  ref.rpe_px.resize(rpe_.size());
+  ref.axial_plane_px.resize(axial_.size());
+  float scalars[3] = {};
+  IOCT_CUDA_CHECK(cudaMemcpyAsync(ref.rpe_px.data(), rpe_.data(), rpe_.bytes(),
+                                  cudaMemcpyDeviceToHost, stream));
+  IOCT_CUDA_CHECK(cudaMemcpyAsync(ref.axial_plane_px.data(), axial_.data(), axial_.bytes(),
+                                  cudaMemcpyDeviceToHost, stream));
+  IOCT_CUDA_CHECK(
+      cudaMemcpyAsync(scalars, scalars_.data(), sizeof scalars, cudaMemcpyDeviceToHost, stream));
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
+  ref.mean_thickness_px = scalars[0];
+  return ref;
+}
+
+}  // namespace ioct::gpu::render
