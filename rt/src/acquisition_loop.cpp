@@ -145,6 +145,8 @@ LoopCounters AcquisitionLoop::counters() const noexcept {
   out.generation_ns_total = get(c.generation_ns_total);
   out.generation_ns_max = get(c.generation_ns_max);
   out.missed_sweeps = get(c.missed_sweeps);
+  out.simulator_late_groups = get(c.simulator_late_groups);
+  out.simulator_worst_lateness_ns = get(c.simulator_worst_lateness_ns);
   out.arms = get(c.arms);
   out.parks = get(c.parks);
   out.scan_changes = get(c.scan_changes);
@@ -263,6 +265,7 @@ void AcquisitionLoop::arm() noexcept {
                   settings_.galvo_lead_samples);
   feed_pending_begin_ = feed_pending_end_ = 0;
   consecutive_misses_ = 0;
+  simulator_behind_ = false;
   groups_this_cycle_ = 0;
   last_group_sweep_ = 0;
   counters_.scan_generation.store(generation_, std::memory_order_relaxed);
@@ -399,8 +402,24 @@ void AcquisitionLoop::acquire_one_group() noexcept {
   store_max(counters_.generation_ns_max, generated_ns - begin_ns);
   add(counters_.missed_sweeps, std::uint64_t{info.missed_sweeps});
 
+  // The source was behind, not this thread: counted apart, and no reason to fault.
+  const bool source_late = (info.status & hal::kGroupLate) != 0;
+  if (source_late) {
+    const std::uint64_t lateness =
+        generated_ns > times.complete_ns ? generated_ns - times.complete_ns : 0;
+    add(counters_.simulator_late_groups, std::uint64_t{1});
+    store_max(counters_.simulator_worst_lateness_ns, lateness);
+    if (!simulator_behind_) {
+      event(LoopEventKind::simulator_behind,
+            static_cast<std::uint32_t>(std::min<std::uint64_t>(lateness / 1000, 0xFFFFFFFFu)));
+    }
+  }
+  simulator_behind_ = source_late;
+
   const std::uint64_t deadline_ns = times.complete_ns + settings_.publish_slack_ns;
-  if (generated_ns > deadline_ns) {
+  if (source_late) {
+    consecutive_misses_ = 0;
+  } else if (generated_ns > deadline_ns) {
     add(counters_.deadline_misses, std::uint64_t{1});
     store_max(counters_.worst_lateness_ns, generated_ns - deadline_ns);
     if (++consecutive_misses_ > settings_.max_consecutive_misses && deadline_faults_) {

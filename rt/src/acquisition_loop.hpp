@@ -65,11 +65,15 @@ struct LoopCounters {
   std::uint64_t groups_generated = 0;
   std::uint64_t groups_published = 0;
   std::uint64_t groups_dropped = 0;       // claimed but not published (incomplete, parked)
-  std::uint64_t deadline_misses = 0;      // published later than their deadline
+  std::uint64_t deadline_misses = 0;      // published later than their deadline, by the loop
   std::uint64_t worst_lateness_ns = 0;    // the furthest past its deadline a group was ready
   std::uint64_t generation_ns_total = 0;  // time acquire_group() took, summed over the groups
   std::uint64_t generation_ns_max = 0;
   std::uint64_t missed_sweeps = 0;  // reported by the digitizer
+  // Groups the digitizer delivered late (hal::kGroupLate: the simulator's workers behind); not
+  // deadline misses of the loop, and never a fault.
+  std::uint64_t simulator_late_groups = 0;
+  std::uint64_t simulator_worst_lateness_ns = 0;  // the furthest past its last sweep such a group
   std::uint64_t arms = 0;
   std::uint64_t parks = 0;
   std::uint64_t scan_changes = 0;
@@ -91,7 +95,8 @@ struct LoopReport {
   std::uint64_t heartbeat_ns = 0;
 };
 
-enum class LoopEventKind : std::uint8_t { armed, parked, fault, scan_changed };
+// simulator_behind: a late group after on-time ones (value: lateness in us, capped).
+enum class LoopEventKind : std::uint8_t { armed, parked, fault, scan_changed, simulator_behind };
 struct LoopEvent {
   std::uint64_t time_ns = 0;
   LoopEventKind kind = LoopEventKind::armed;
@@ -191,7 +196,8 @@ class AcquisitionLoop {
   std::size_t feed_pending_end_ = 0;
   std::uint64_t underruns_at_arm_ = 0;
   std::uint32_t consecutive_misses_ = 0;
-  bool deadline_faults_ = true;  // decided when the thread starts (see LoopSettings)
+  bool simulator_behind_ = false;  // the last group came late from the digitizer
+  bool deadline_faults_ = true;    // decided when the thread starts (see LoopSettings)
   std::uint64_t groups_this_cycle_ = 0;
   std::uint64_t last_group_sweep_ = 0;
   std::array<const ScanPattern*, 16> retire_backlog_{};
@@ -206,6 +212,8 @@ class AcquisitionLoop {
     std::atomic<std::uint64_t> generation_ns_total{0};
     std::atomic<std::uint64_t> generation_ns_max{0};
     std::atomic<std::uint64_t> missed_sweeps{0};
+    std::atomic<std::uint64_t> simulator_late_groups{0};
+    std::atomic<std::uint64_t> simulator_worst_lateness_ns{0};
     std::atomic<std::uint64_t> arms{0};
     std::atomic<std::uint64_t> parks{0};
     std::atomic<std::uint64_t> scan_changes{0};

@@ -138,6 +138,11 @@ std::string effective_config_toml(const RtConfig& c) {
       .real("mirror_natural_hz", c.mirror_natural_hz)
       .real("mirror_damping", c.mirror_damping)
       .integer("laser_watchdog_timeout_ms", c.laser_watchdog_timeout_ms);
+  if (c.simulation_workers < 0) {
+    out << "workers = \"auto\"  # " << c.resolved_simulation_workers() << " on this host\n";
+  } else {
+    out << "workers = " << c.simulation_workers << "\n";
+  }
   return out.str();
 }
 

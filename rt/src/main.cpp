@@ -26,6 +26,7 @@
 #include "ioct/shm/ring_layout.hpp"
 #include "ioct/shm/ring_writer.hpp"
 #include "ioct/shm/shm_object.hpp"
+#include "ioct/sim/simulated_digitizer.hpp"
 #include "rt_options.hpp"
 #include "run_summary.hpp"
 #include "safety_supervisor.hpp"
@@ -93,6 +94,9 @@ std::string describe_startup(const shm::RingWriter& ring, const rt::RtSetup& set
              backends.description.c_str(), d.samples_per_ascan, d.ascans_per_bscan,
              d.flyback_sweeps, d.bscans_per_group, d.ascan_rate_hz, group_ms, 1e3 / group_ms,
              static_cast<unsigned long long>(setup.config.simulation_seed)) +
+         (setup.config.digitizer_backend == "simulated"
+              ? printf_string(", simulation workers %u", setup.simulation.workers)
+              : std::string()) +
          "; scan " + pattern.describe() +
          printf_string(" (galvo peak %.3g units/s, %.3g units/s^2)", pattern.usage.peak_velocity,
                        pattern.usage.peak_acceleration);
@@ -161,6 +165,11 @@ std::string describe_loop_event(const rt::LoopEvent& e) {
     case rt::LoopEventKind::scan_changed:
       return printf_string("acquisition: scan generation %u scheduled at a volume boundary",
                            e.value);
+    case rt::LoopEventKind::simulator_behind:
+      return printf_string(
+          "acquisition: the simulator is behind: group %llu came %.1f ms after its last sweep "
+          "(its synthesis workers, not this loop, are too slow; see simulation.workers)",
+          static_cast<unsigned long long>(e.group), static_cast<double>(e.value) * 1e-3);
   }
   return "acquisition: event";
 }
@@ -331,6 +340,16 @@ int Process::run() {
   backends.lines->prepare(config.lines);
   ring_.emplace(shm::RingWriter::create(setup_.ring));
   say(describe_startup(*ring_, setup_, backends, *initial));
+  if (const auto* simulator =
+          dynamic_cast<const sim::SimulatedDigitizer*>(backends.digitizer.get());
+      simulator != nullptr && setup_.simulation.worker_priority > 0 &&
+      simulator->realtime_workers() < simulator->workers()) {
+    say(
+        printf_string("simulator: %u of %u synthesis workers could not get SCHED_FIFO %d; they "
+                      "run with normal scheduling and may fall behind on a loaded host",
+                      simulator->workers() - simulator->realtime_workers(), simulator->workers(),
+                      setup_.simulation.worker_priority));
+  }
 
   loop_ = std::make_unique<rt::AcquisitionLoop>(*ring_, *backends.digitizer, *backends.galvo,
                                                 initial, loop_settings(setup_));

@@ -78,6 +78,24 @@ class Section {
     out = static_cast<T>(v);
   }
 
+  // An integer in [lo, hi], or the text "auto" (stored as -1).
+  void integer_or_auto(std::string_view key, std::int64_t& out, std::int64_t lo, std::int64_t hi) {
+    const toml::node* node = find(key);
+    if (node == nullptr) return;
+    if (const auto* text = node->as_string()) {
+      if (text->get() != "auto") {
+        fail(key, *node,
+             ConfigError(full(key), quoted(text->get()),
+                         "must be \"auto\" or an integer in [" + format_value(lo) + ", " +
+                             format_value(hi) + "]")
+                 .what());
+      }
+      out = -1;
+      return;
+    }
+    integer(key, out, lo, hi);
+  }
+
   void real(std::string_view key, double& out) {
     const toml::node* node = find(key);
     if (node == nullptr) return;
@@ -319,6 +337,7 @@ void read_tables(const toml::table& root, const std::string& origin, RtConfig& c
   simulation.real("mirror_natural_hz", c.mirror_natural_hz);
   simulation.real("mirror_damping", c.mirror_damping);
   simulation.integer("laser_watchdog_timeout_ms", c.laser_watchdog_timeout_ms, 0, 60'000);
+  simulation.integer_or_auto("workers", c.simulation_workers, 0, RtConfig::kMaxSimulationWorkers);
   simulation.done();
 
   top.done();

@@ -93,6 +93,12 @@ struct RtConfig {
   double mirror_natural_hz = 2000.0;  // the simulated galvo servo's bandwidth
   double mirror_damping = 0.7;
   std::uint32_t laser_watchdog_timeout_ms = 100;  // the simulated external laser watchdog
+  // Threads synthesising the simulated digitizer's groups ahead; -1: "auto"
+  // (sim::SimulationConfig::default_workers of this host), 0: on the acquisition thread.
+  std::int64_t simulation_workers = -1;
+  static constexpr std::int64_t kMaxSimulationWorkers = 64;  // sim::SimulationConfig::kMaxWorkers
+  // The worker count this host runs with (defined with the simulator's setup, rt_options.cpp).
+  std::uint32_t resolved_simulation_workers() const noexcept;
 
   // Cross-checks and each part's own validate(); throws ConfigError naming the key.
   void validate() const;

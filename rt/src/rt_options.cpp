@@ -1,6 +1,7 @@
 #include "rt_options.hpp"
 
 #include <array>
+#include <thread>
 #include <utility>
 
 #include "ioct/common/config_error.hpp"
@@ -8,6 +9,14 @@
 #include "scan/scan_infeasible.hpp"
 
 namespace ioct::rt {
+
+static_assert(RtConfig::kMaxSimulationWorkers == sim::SimulationConfig::kMaxWorkers);
+
+std::uint32_t RtConfig::resolved_simulation_workers() const noexcept {
+  if (simulation_workers >= 0) return static_cast<std::uint32_t>(simulation_workers);
+  return sim::SimulationConfig::default_workers(std::thread::hardware_concurrency());
+}
+
 namespace {
 
 // A flag that overrides a configuration key.
@@ -188,6 +197,9 @@ RtSetup make_setup(const RtOptions& options) {
     simulation.bench.mirrors.natural_hz = config.mirror_natural_hz;
     simulation.bench.mirrors.damping = config.mirror_damping;
     simulation.bench.watchdog_timeout_ms = config.laser_watchdog_timeout_ms;
+    simulation.workers = config.resolved_simulation_workers();
+    // Under a real-time acquisition thread the simulator's workers run real-time too, below it.
+    simulation.worker_priority = config.rt_priority > 0 ? 1 : 0;
     simulation.validate();
 
     shm::RingConfig& ring = setup.ring;

@@ -35,6 +35,8 @@ void write_run_summary(const std::string& path, const RunSummary& s,
       {"generation_ms_max", static_cast<double>(c.generation_ns_max) * ms},
       {"group_budget_ms", static_cast<double>(s.group_budget_ns) * ms},
       {"missed_sweeps", c.missed_sweeps},
+      {"simulator_late_groups", c.simulator_late_groups},
+      {"simulator_worst_lateness_ms", static_cast<double>(c.simulator_worst_lateness_ns) * ms},
       {"readers_at_close", readers_json},
       {"status", status_json(s.end, s.start.wall_ns, s.group_budget_ns, s.safety, readers)}};
 

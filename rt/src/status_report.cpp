@@ -61,6 +61,11 @@ std::string timing(const StatusSample& now, const StatusSample& previous,
                       us(now.wake_latency.quantile_upper_ns(0.99)), us(now.wake_latency.max_ns));
   }
   text += printf_string(" | cpu %.1f%%", 100.0 * ratio(now.cpu_ns - previous.cpu_ns, wall));
+  if (now.counters.simulator_late_groups != 0) {
+    text += printf_string(" | simulator late %llu (worst %.1f ms)",
+                          static_cast<unsigned long long>(now.counters.simulator_late_groups),
+                          ms(now.counters.simulator_worst_lateness_ns));
+  }
   if (now.counters.missed_sweeps != 0) {
     text += printf_string(" | missed sweeps %llu",
                           static_cast<unsigned long long>(now.counters.missed_sweeps));
@@ -179,6 +184,8 @@ nlohmann::json status_json(const StatusSample& now, std::uint64_t started_ns,
         {"generation_ms_max", ms(c.generation_ns_max)},
         {"group_budget_ms", ms(group_budget_ns)},
         {"missed_sweeps", c.missed_sweeps},
+        {"simulator_late_groups", c.simulator_late_groups},
+        {"simulator_worst_lateness_ms", ms(c.simulator_worst_lateness_ns)},
         {"arms", c.arms},
         {"parks", c.parks},
         {"rt_page_faults", c.page_faults},

@@ -2,6 +2,7 @@
 
 #include <time.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -23,6 +24,17 @@ constexpr std::uint64_t kNoiseOffsetStream = 0x6E6F6973'656F6666;  // "noiseoff"
 constexpr std::uint64_t kSpeckleStream = 0x73706563'6B6C6521;      // "speckle!"
 constexpr std::uint64_t kToolSalt = 0x746F6F6C'73757266;           // "toolsurf"
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+// How often the acquisition thread looks whether the workers have finished a late group.
+constexpr std::uint64_t kLatePollNs = 100'000;
+
+// MurmurHash3's finaliser: a bijection that spreads neighbouring sweep numbers over all bits
+// and keeps 0 at 0, so the first B-scan after start() has the stream the seed always gave it.
+constexpr std::uint64_t bscan_stream_key(std::uint64_t first_sweep) noexcept {
+  std::uint64_t x = first_sweep;
+  x = (x ^ (x >> 33)) * 0xFF51AFD7ED558CCDull;
+  x = (x ^ (x >> 33)) * 0xC4CEB93FE53E03B5ull;
+  return x ^ (x >> 33);
+}
 
 std::uint64_t monotonic_ns() noexcept {
   timespec ts{};
@@ -68,6 +80,8 @@ void SimulatedDigitizer::do_prepare(const hal::DigitizerConfig& config) {
                             "must equal digitizer.ascans_per_bscan = " +
                                 ioct::format_value(std::uint64_t{config.ascans_per_bscan}));
   }
+  // The old workers go first: they use what is about to be replaced.
+  pipeline_.reset();
   // Everything is built before anything is replaced: a failed prepare leaves no half state.
   SynthesisSetup setup;
   setup.source = simulation_.source;
@@ -77,27 +91,63 @@ void SimulatedDigitizer::do_prepare(const hal::DigitizerConfig& config) {
   setup.samples = config.samples_per_ascan;
   setup.sample_bits = config.sample_bits;
   setup.seed = simulation_.seed;
-  auto synthesizer = std::make_unique<SpectrumSynthesizer>(setup);
   const std::uint32_t depth_bins = config.samples_per_ascan / 2;
   auto model = make_model(simulation_, depth_bins);
-  std::vector<InstrumentModel> instruments;
-  instruments.reserve(simulation_.instruments.size());
-  for (const InstrumentConfig& tool : simulation_.instruments) {
-    instruments.emplace_back(tool, model->field_half_width_mm(),
-                             simulation_.source.axial_pixel_um(), depth_bins);
+  const auto make_context = [&] {
+    SynthesisContext context;
+    context.synthesizer = std::make_unique<SpectrumSynthesizer>(setup);
+    context.instruments.reserve(simulation_.instruments.size());
+    for (const InstrumentConfig& tool : simulation_.instruments) {
+      context.instruments.emplace_back(tool, model->field_half_width_mm(),
+                                       simulation_.source.axial_pixel_um(), depth_bins);
+    }
+    return context;
+  };
+  const auto tools = static_cast<std::uint32_t>(simulation_.instruments.size());
+  const auto make_job = [&](bool with_samples) {
+    GroupJob job;
+    job.positions.resize(config.sweeps_per_group());
+    job.poses.resize(std::size_t{config.bscans_per_group} * tools);
+    job.truth.resize(config.ascans_per_bscan, config.bscans_per_group, tools);
+    // Written here, so that the pages are resident before the acquisition thread copies them.
+    if (with_samples) job.samples.assign(config.samples_per_group(), 0);
+    return job;
+  };
+  SynthesisContext inline_context = make_context();
+  std::vector<SynthesisContext> contexts;
+  std::vector<GroupJob> ahead;
+  if (simulation_.workers > 0) {
+    for (std::uint32_t w = 0; w < simulation_.workers; ++w) contexts.push_back(make_context());
+    for (int j = 0; j < 2; ++j) ahead.push_back(make_job(true));
   }
-  std::vector<hal::BeamPosition> positions(config.sweeps_per_group());
+  GroupJob current = make_job(false);
   GroupTruth truth;
-  truth.resize(config.ascans_per_bscan, config.bscans_per_group,
-               static_cast<std::uint32_t>(instruments.size()));
+  truth.resize(config.ascans_per_bscan, config.bscans_per_group, tools);
 
-  synthesizer_ = std::move(synthesizer);
   model_ = std::move(model);
-  instruments_ = std::move(instruments);
-  positions_ = std::move(positions);
+  inline_ = std::move(inline_context);
+  contexts_ = std::move(contexts);
+  ahead_ = std::move(ahead);
+  current_ = std::move(current);
   truth_ = std::move(truth);
+  late_groups_.store(0, std::memory_order_relaxed);
   speckle_key_ = splitmix64(simulation_.seed ^ kSpeckleStream);
   bench_->scanner().set_dynamics(bench_->config().mirrors, config.ascan_rate_hz);
+  if (simulation_.workers > 0) start_pipeline(config);
+}
+
+void SimulatedDigitizer::start_pipeline(const hal::DigitizerConfig& config) {
+  pipeline_ = std::make_unique<SynthesisPipeline>(
+      simulation_.workers, static_cast<std::uint32_t>(ahead_.size()), config.bscans_per_group,
+      [this](std::uint32_t worker, std::uint32_t slot, std::uint32_t bscan) {
+        GroupJob& job = ahead_[slot];
+        const hal::DigitizerConfig& geometry = this->config();
+        const std::size_t per_bscan =
+            std::size_t{geometry.ascans_per_bscan} * geometry.samples_per_ascan;
+        synthesize_bscan(contexts_[worker], job, bscan, job.samples.data() + bscan * per_bscan,
+                         job.truth);
+      },
+      simulation_.worker_priority);
 }
 
 void SimulatedDigitizer::do_start() {
@@ -105,17 +155,29 @@ void SimulatedDigitizer::do_start() {
     throw std::runtime_error(
         "simulated digitizer: start(): the USB device is not connected (usb_disconnect)");
   }
-  noise_stream_.reseed(simulation_.seed ^ kNoiseOffsetStream);
   sweep_counter_ = 0;
   groups_ = 0;
   pending_missed_ = 0;
   pending_status_ = 0;
   backlog_sweeps_ = 0;
   device_lost_ = false;
+  start_ns_ = monotonic_ns();
+  if (pipeline_) {
+    // Work of the previous run still running finishes before its slots are rewritten.
+    pipeline_->cancel();
+    while (!pipeline_->idle()) std::this_thread::sleep_for(std::chrono::microseconds(100));
+    delivered_ = 0;
+    take_bench_state(ahead_[0]);
+    if (ahead_[0].has_records) pipeline_->dispatch(0);
+  }
+}
+
+void SimulatedDigitizer::do_stop() noexcept {
+  if (pipeline_) pipeline_->cancel();
 }
 
 void SimulatedDigitizer::require_prepared() const {
-  if (!synthesizer_) throw std::logic_error("simulated digitizer: prepare() first");
+  if (!inline_.synthesizer) throw std::logic_error("simulated digitizer: prepare() first");
 }
 
 hal::BeamPosition SimulatedDigitizer::raster_position(std::uint64_t sweep) const noexcept {
@@ -127,12 +189,12 @@ hal::BeamPosition SimulatedDigitizer::raster_position(std::uint64_t sweep) const
   return simulation_.scan.position(line, std::min(within, config().ascans_per_bscan - 1));
 }
 
-void SimulatedDigitizer::place_beam(std::uint64_t sweeps) noexcept {
+void SimulatedDigitizer::place_beam(std::uint64_t sweeps, hal::BeamPosition* positions) noexcept {
   if (bench_->galvo_attached()) {
-    bench_->scanner().advance(sweeps, true, positions_.data());
+    bench_->scanner().advance(sweeps, true, positions);
     return;
   }
-  for (std::uint64_t s = 0; s < sweeps; ++s) positions_[s] = raster_position(sweep_counter_ + s);
+  for (std::uint64_t s = 0; s < sweeps; ++s) positions[s] = raster_position(sweep_counter_ + s);
 }
 
 void SimulatedDigitizer::lose_sweeps(std::uint64_t sweeps, bool triggers,
@@ -164,16 +226,16 @@ bool SimulatedDigitizer::wait_out(std::uint32_t fault_bits) noexcept {
   }
 }
 
-void SimulatedDigitizer::draw_instruments(hal::BeamPosition beam, std::uint64_t key,
-                                          float& tool_px) noexcept {
+void SimulatedDigitizer::draw_instruments(SynthesisContext& context, hal::BeamPosition beam,
+                                          std::uint64_t key, float& tool_px) const noexcept {
   tool_px = kNaN;
   ToolHit first;
-  for (const InstrumentModel& tool : instruments_) {
+  for (const InstrumentModel& tool : context.instruments) {
     const ToolHit hit = tool.hit(beam);
     if (hit.hit && (!first.hit || hit.entry_px < first.entry_px)) first = hit;
   }
   if (!first.hit) return;
-  DepthProfile& profile = synthesizer_->profile();
+  DepthProfile& profile = context.synthesizer->profile();
   if (!profile.drawable(first.entry_px)) {
     // Above the axis the tool still shadows what lies below it.
     if (first.entry_px < 0.0f) profile.set_occlusion(0.0f, first.transmission);
@@ -188,16 +250,17 @@ void SimulatedDigitizer::draw_instruments(hal::BeamPosition beam, std::uint64_t 
   tool_px = profile.drawn_depth(first.entry_px);
 }
 
-void SimulatedDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::GroupInfo& info) {
+void SimulatedDigitizer::take_bench_state(GroupJob& job) {
   const hal::DigitizerConfig& geometry = config();
   FaultInjector& faults = bench_->faults();
   const std::uint32_t mask = faults.active_mask();
   const auto on = [mask](Fault fault) { return (mask & FaultInjector::bit(fault)) != 0; };
+  job.has_records = false;
 
   // Unplugged: nothing more until the device is back and the digitizer restarted.
   if (device_lost_ || on(Fault::usb_disconnect)) {
     device_lost_ = true;
-    info = {sweep_counter_, 0, hal::kGroupDeviceLost};
+    job.info = {sweep_counter_, 0, hal::kGroupDeviceLost};
     return;
   }
   // No records at all: the stall timeout fires.
@@ -206,7 +269,7 @@ void SimulatedDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::G
     blocking |= FaultInjector::bit(Fault::trigger_loss);
   }
   if ((mask & blocking) != 0 && wait_out(mask & blocking)) {
-    info = {sweep_counter_, 0, hal::kGroupTimeout};
+    job.info = {sweep_counter_, 0, hal::kGroupTimeout};
     return;
   }
   // The host is slow: records pile up on the board and overflow its memory.
@@ -230,57 +293,146 @@ void SimulatedDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::G
   const bool clock_lost =
       on(Fault::k_clock_dropout) && geometry.clock_source == hal::ClockSource::external_k_clock;
   if (clock_lost) status |= hal::kGroupClockFault;
-  synthesizer_->select(clock_lost ? SweepSampling::time_linear : SweepSampling::configured);
-  const bool light = bench_->light_on_sample();
+  job.sampling = clock_lost ? SweepSampling::time_linear : SweepSampling::configured;
+  job.light = bench_->light_on_sample();
 
-  info.first_sweep_counter = sweep_counter_;
-  info.missed_sweeps = static_cast<std::uint32_t>(
+  job.info.first_sweep_counter = sweep_counter_;
+  job.info.missed_sweeps = static_cast<std::uint32_t>(
       std::min<std::uint64_t>(pending_missed_, std::numeric_limits<std::uint32_t>::max()));
-  info.status = status;
+  job.info.status = status;
   pending_missed_ = 0;
   pending_status_ = 0;
 
+  place_beam(geometry.sweeps_per_group(), job.positions.data());
+  job.truth.group_index = groups_;
+  job.truth.first_sweep_counter = sweep_counter_;
   const std::uint64_t sweeps_per_bscan = geometry.sweeps_per_bscan();
-  place_beam(geometry.sweeps_per_group());
-  truth_.group_index = groups_;
-  truth_.first_sweep_counter = sweep_counter_;
-  DepthProfile& profile = synthesizer_->profile();
-  const double field_mm = model_->field_half_width_mm();
-  std::uint16_t* out = group.data();
+  const std::size_t tools = inline_.instruments.size();
   for (std::uint32_t b = 0; b < geometry.bscans_per_group; ++b) {
     const std::uint64_t first_sweep = sweep_counter_ + b * sweeps_per_bscan;
     const double seconds = static_cast<double>(first_sweep) / geometry.ascan_rate_hz;
-    for (std::size_t t = 0; t < instruments_.size(); ++t) {
-      const ToolPose pose = instruments_[t].pose_at(seconds);
-      instruments_[t].place(pose);
-      truth_.tool_states[b * instruments_.size() + t] = instruments_[t].state(pose);
-    }
-    for (std::uint32_t a = 0; a < geometry.ascans_per_bscan; ++a) {
-      const hal::BeamPosition beam = positions_[b * sweeps_per_bscan + a];
-      const std::size_t record = std::size_t{b} * geometry.ascans_per_bscan + a;
-      const std::uint64_t key =
-          lateral_key(speckle_key_, beam, field_mm, simulation_.speckle_grain_um);
-      profile.begin_column(key);
-      float tool_px = kNaN;
-      if (!instruments_.empty()) draw_instruments(beam, key, tool_px);
-      const ColumnTruth column = model_->draw(beam, key, profile);
-      synthesizer_->synthesize(synthesizer_->sweep_noise(noise_stream_.next()), light, out);
-      out += geometry.samples_per_ascan;
-      truth_.ilm_px[record] = column.ilm_px;
-      truth_.rpe_px[record] = column.rpe_px;
-      truth_.tool_px[record] = tool_px;
-      truth_.beam_x[record] = beam.x;
-      truth_.beam_y[record] = beam.y;
+    for (std::size_t t = 0; t < tools; ++t) {
+      const ToolPose pose = inline_.instruments[t].pose_at(seconds);
+      job.poses[b * tools + t] = pose;
+      job.truth.tool_states[b * tools + t] = inline_.instruments[t].state(pose);
     }
   }
   sweep_counter_ += geometry.sweeps_per_group();
   ++groups_;
+  job.has_records = true;
+}
+
+void SimulatedDigitizer::synthesize_bscan(SynthesisContext& context, const GroupJob& job,
+                                          std::uint32_t bscan, std::uint16_t* out,
+                                          GroupTruth& truth) const noexcept {
+  const hal::DigitizerConfig& geometry = config();
+  const std::uint64_t sweeps_per_bscan = geometry.sweeps_per_bscan();
+  SpectrumSynthesizer& synthesizer = *context.synthesizer;
+  synthesizer.select(job.sampling);
+  const std::size_t tools = context.instruments.size();
+  for (std::size_t t = 0; t < tools; ++t) {
+    context.instruments[t].place(job.poses[bscan * tools + t]);
+  }
+  // The B-scan's own noise stream, named by its first sweep: whichever thread draws it, and in
+  // whatever order, the same B-scan gets the same noise.
+  const std::uint64_t first_sweep = job.info.first_sweep_counter + bscan * sweeps_per_bscan;
+  Xoshiro256 noise((simulation_.seed ^ kNoiseOffsetStream) ^ bscan_stream_key(first_sweep));
+  DepthProfile& profile = synthesizer.profile();
+  const double field_mm = model_->field_half_width_mm();
+  for (std::uint32_t a = 0; a < geometry.ascans_per_bscan; ++a) {
+    const hal::BeamPosition beam = job.positions[bscan * sweeps_per_bscan + a];
+    const std::size_t record = std::size_t{bscan} * geometry.ascans_per_bscan + a;
+    const std::uint64_t key =
+        lateral_key(speckle_key_, beam, field_mm, simulation_.speckle_grain_um);
+    profile.begin_column(key);
+    float tool_px = kNaN;
+    if (tools != 0) draw_instruments(context, beam, key, tool_px);
+    const ColumnTruth column = model_->draw(beam, key, profile);
+    synthesizer.synthesize(synthesizer.sweep_noise(noise.next()), job.light, out);
+    out += geometry.samples_per_ascan;
+    truth.ilm_px[record] = column.ilm_px;
+    truth.rpe_px[record] = column.rpe_px;
+    truth.tool_px[record] = tool_px;
+    truth.beam_x[record] = beam.x;
+    truth.beam_y[record] = beam.y;
+  }
+}
+
+namespace {
+
+void copy_truth(const GroupTruth& from, GroupTruth& to) noexcept {
+  to.group_index = from.group_index;
+  to.first_sweep_counter = from.first_sweep_counter;
+  std::copy(from.ilm_px.begin(), from.ilm_px.end(), to.ilm_px.begin());
+  std::copy(from.rpe_px.begin(), from.rpe_px.end(), to.rpe_px.begin());
+  std::copy(from.tool_px.begin(), from.tool_px.end(), to.tool_px.begin());
+  std::copy(from.beam_x.begin(), from.beam_x.end(), to.beam_x.begin());
+  std::copy(from.beam_y.begin(), from.beam_y.end(), to.beam_y.begin());
+  std::copy(from.tool_states.begin(), from.tool_states.end(), to.tool_states.begin());
+}
+
+void sleep_ns(std::uint64_t ns) noexcept {
+  timespec ts{static_cast<time_t>(ns / 1'000'000'000ull), static_cast<long>(ns % 1'000'000'000ull)};
+  ::clock_nanosleep(CLOCK_MONOTONIC, 0, &ts, nullptr);
+}
+
+}  // namespace
+
+std::uint64_t SimulatedDigitizer::group_end_ns(const hal::GroupInfo& info) const noexcept {
+  const double period_ns = 1e9 / config().ascan_rate_hz;
+  const auto end_sweep =
+      static_cast<double>(info.first_sweep_counter + config().sweeps_per_group());
+  return start_ns_ + static_cast<std::uint64_t>(end_sweep * period_ns);
+}
+
+void SimulatedDigitizer::deliver_ahead(std::span<std::uint16_t> group, hal::GroupInfo& info) {
+  const auto count = static_cast<std::uint32_t>(ahead_.size());
+  // The group after this one first, so the workers have it while this one is copied out. Its
+  // slot held the group delivered last time.
+  const auto next_slot = static_cast<std::uint32_t>((delivered_ + 1) % count);
+  take_bench_state(ahead_[next_slot]);
+  if (ahead_[next_slot].has_records) pipeline_->dispatch(next_slot);
+
+  const auto slot = static_cast<std::uint32_t>(delivered_ % count);
+  ++delivered_;
+  GroupJob& job = ahead_[slot];
+  info = job.info;
+  if (!job.has_records) return;  // a timeout or a lost device: the payload is untouched
+  // Polls, never blocks on the workers: a DMA engine that has not filled the buffer yet. Late
+  // when the workers had not finished it by the time its last sweep ended.
+  bool late = false;
+  while (!pipeline_->ready(slot)) {
+    late = late || monotonic_ns() > group_end_ns(job.info);
+    sleep_ns(kLatePollNs);
+  }
+  std::copy(job.samples.begin(), job.samples.end(), group.begin());
+  copy_truth(job.truth, truth_);
+  if (late) {
+    info.status |= hal::kGroupLate;
+    late_groups_.fetch_add(1, std::memory_order_relaxed);
+  }
+}
+
+void SimulatedDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::GroupInfo& info) {
+  if (pipeline_) {
+    deliver_ahead(group, info);
+    return;
+  }
+  take_bench_state(current_);
+  info = current_.info;
+  if (!current_.has_records) return;
+  const hal::DigitizerConfig& geometry = config();
+  const std::size_t per_bscan = std::size_t{geometry.ascans_per_bscan} * geometry.samples_per_ascan;
+  for (std::uint32_t b = 0; b < geometry.bscans_per_group; ++b) {
+    synthesize_bscan(inline_, current_, b, group.data() + b * per_bscan, current_.truth);
+  }
+  copy_truth(current_.truth, truth_);
 }
 
 LayerTruth SimulatedDigitizer::truth_at(std::uint32_t bscan_in_volume, std::uint32_t ascan) const {
   require_prepared();
   const ColumnTruth column = model_->layers(simulation_.scan.position(bscan_in_volume, ascan));
-  const DepthProfile& profile = synthesizer_->profile();
+  const DepthProfile& profile = inline_.synthesizer->profile();
   const auto drawn = [&](float depth) {
     return std::isfinite(depth) && profile.drawable(depth) ? profile.drawn_depth(depth) : kNaN;
   };
@@ -299,12 +451,12 @@ const SampleModel& SimulatedDigitizer::sample_model() const {
 
 const SpectralSampling& SimulatedDigitizer::sampling() const {
   require_prepared();
-  return synthesizer_->sampling();
+  return inline_.synthesizer->sampling();
 }
 
 const std::vector<InstrumentModel>& SimulatedDigitizer::instruments() const {
   require_prepared();
-  return instruments_;
+  return inline_.instruments;
 }
 
 }  // namespace ioct::sim

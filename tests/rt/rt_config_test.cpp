@@ -68,6 +68,25 @@ TEST(RtConfig, ValuesOutOfRangeNameKeyValueRangeAndLine) {
             "bad.toml:2:12: realtime.priority = 100: must be in [0, 99]");
 }
 
+TEST(RtConfig, SimulationWorkersAreAutoOrACount) {
+  RtConfig config;
+  EXPECT_EQ(config.simulation_workers, -1) << "absent: auto";
+  EXPECT_GE(config.resolved_simulation_workers(), 1u);
+  load_config_text("[simulation]\nworkers = 0\n", "w.toml", config);
+  EXPECT_EQ(config.resolved_simulation_workers(), 0u) << "0: synthesis on the acquisition thread";
+  load_config_text("[simulation]\nworkers = 6\n", "w.toml", config);
+  EXPECT_EQ(config.resolved_simulation_workers(), 6u);
+  load_config_text("[simulation]\nworkers = \"auto\"\n", "w.toml", config);
+  EXPECT_EQ(config.simulation_workers, -1);
+  EXPECT_EQ(error_for("[simulation]\nworkers = 65\n"),
+            "bad.toml:2:11: simulation.workers = 65: must be in [0, 64]");
+  EXPECT_EQ(error_for("[simulation]\nworkers = \"many\"\n"),
+            "bad.toml:2:11: simulation.workers = \"many\": must be \"auto\" or an integer in [0, "
+            "64]");
+  EXPECT_EQ(error_for("[simulation]\nworkers = 1.5\n"),
+            "bad.toml:2:11: simulation.workers = 1.5: must be an integer, not a number");
+}
+
 TEST(RtConfig, WrongTypesAreRefused) {
   EXPECT_EQ(error_for("[scan]\nextent_x = \"wide\"\n"),
             "bad.toml:2:12: scan.extent_x = \"wide\": must be a number, not a string");

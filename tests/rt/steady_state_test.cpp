@@ -79,6 +79,10 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
   simulation.scan.ascans_per_bscan = geometry.ascans_per_bscan;
   simulation.scan.bscans_per_volume = bscans_per_volume;
   simulation.scan.extent_x = simulation.scan.extent_y = 0.95f;
+  // As ioct-rt runs it: synthesis on worker threads, as many as this host's default.
+  simulation.workers = sim::SimulationConfig::default_workers(std::thread::hardware_concurrency());
+  const int priority = test::test_rt_priority();
+  simulation.worker_priority = priority > 0 ? 1 : 0;
   ProbedSimulator digitizer(simulation);
   digitizer.prepare(geometry);
   test::FakeGalvo galvo(nullptr, 0);
@@ -91,7 +95,6 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
                           geometry.ascan_rate_hz},
                          GalvoLimits{});
 
-  const int priority = test::test_rt_priority();
   LoopSettings settings = test::loop_settings(geometry, priority);
   settings.publish_slack_ns = 2'000'000;  // the production default
   settings.realtime.lock_memory = priority > 0;
@@ -183,7 +186,7 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
       "86.08 ms, DAC fill min %llu samples, live reader consumed %llu dropped %llu, stalled reader "
       "dropped %llu, restarted reader consumed %llu, acquisition thread: %llu allocations and "
       "%llu page faults after the first two laps (%llu page faults in steady state counted by "
-      "the loop)\n",
+      "the loop), %u synthesis workers, simulator late groups %llu (worst %.2f ms)\n",
       realtime ? "SCHED_FIFO" : "not real-time",
       static_cast<unsigned long long>(c.groups_published),
       static_cast<unsigned long long>(c.deadline_misses),
@@ -197,7 +200,9 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
       static_cast<unsigned long long>(stalled_drops),
       static_cast<unsigned long long>(restarted_consumed),
       static_cast<unsigned long long>(allocations), static_cast<unsigned long long>(faults),
-      static_cast<unsigned long long>(c.page_faults_steady));
+      static_cast<unsigned long long>(c.page_faults_steady), simulation.workers,
+      static_cast<unsigned long long>(c.simulator_late_groups),
+      static_cast<double>(c.simulator_worst_lateness_ns) * 1e-6);
 
   EXPECT_EQ(safety.state, SafetyState::scanning) << describe_faults(safety.record.faults);
   EXPECT_EQ(safety.record.faults_total, 0u) << describe_faults(safety.record.faults);
@@ -210,9 +215,10 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
     EXPECT_NEAR(static_cast<double>(c.groups_published), 10.0 / 0.08608, 3.0);
     EXPECT_EQ(c.dac_underruns, 0u);
   } else {
-    std::printf("[ note     ] the box is too loaded to judge the schedule: the simulation took "
-                "%.1f ms per 86.08 ms group\n",
-                generation_mean_ms);
+    std::printf(
+        "[ note     ] the box is too loaded to judge the schedule: the simulation took "
+        "%.1f ms per 86.08 ms group\n",
+        generation_mean_ms);
   }
   EXPECT_EQ(allocations, 0u) << test_support::allocation_counting_method();
   EXPECT_EQ(faults, 0u);

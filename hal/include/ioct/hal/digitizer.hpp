@@ -19,6 +19,9 @@ inline constexpr std::uint32_t kGroupClockFault = 1u << 1;      // the k-clock w
 inline constexpr std::uint32_t kGroupMissedTriggers = 1u << 2;  // sweep triggers went missing
 inline constexpr std::uint32_t kGroupTimeout = 1u << 3;         // no record for timeout_ms: a stall
 inline constexpr std::uint32_t kGroupDeviceLost = 1u << 4;      // the device went away (unplugged)
+// The group is whole but came after its last sweep had ended because its source fell behind
+// (the simulator's synthesis workers); the caller did not miss its deadline by itself.
+inline constexpr std::uint32_t kGroupLate = 1u << 5;
 
 struct GroupInfo {
   std::uint64_t first_sweep_counter = 0;  // hardware sweep counter of the group's first record

@@ -35,6 +35,19 @@ struct SimulationConfig {
   BenchConfig bench;       // used when the digitizer makes its own bench
   hal::RasterScan scan;    // the galvo pattern the beam follows when no galvo output drives it
   std::uint64_t seed = 1;  // same seed, config and build: same bytes
+  // Threads that synthesise groups ahead of acquire_group(), B-scan by B-scan (same bytes for
+  // any count). 0: each group is synthesised inside acquire_group() on the caller's thread.
+  std::uint32_t workers = 0;
+  static constexpr std::uint32_t kMaxWorkers = 64;
+  // SCHED_FIFO priority of the workers (1-99; 0: normal scheduling). A simulator stands in for
+  // hardware, which nothing else on the host slows down: under a real-time acquisition thread
+  // the workers run real-time too, below it. Where the host refuses, they run normally
+  // (SimulatedDigitizer::realtime_workers() says how many got it).
+  int worker_priority = 0;
+
+  // A worker count for a host with `hardware_threads` (0: unknown) that leaves cores to the
+  // acquisition thread and the GPU process: hardware_threads - 3, at least 1, at most 8.
+  static std::uint32_t default_workers(unsigned hardware_threads) noexcept;
 
   // Throws ioct::ConfigError naming the key ("source.", "interferometer.", "detector.",
   // "retina.", "anterior.", "mirror.", "instruments[i].", "bench.", "scan.", "simulation.").
