@@ -223,6 +223,21 @@ void RingRecordingReader::fail(const std::string& what) const {
   throw RingRecordingError(path_.string() + ": " + what);
 }
 
+void RingRecordingReader::read_header(std::uint64_t index, shm::SlotHeader& header) const {
+  const std::string group = "group " + std::to_string(index);
+  if (index >= group_count_) {
+    fail(group + ": out of range (" + std::to_string(group_count_) + " groups)");
+  }
+  const hsize_t header_offset[2] = {index, 0};
+  hsize_t header_bytes = 0;
+  unsigned filter_mask = 0;
+  if (H5Dget_chunk_storage_size(headers_set_.get(), header_offset, &header_bytes) < 0 ||
+      header_bytes != sizeof header ||
+      H5Dread_chunk(headers_set_.get(), H5P_DEFAULT, header_offset, &filter_mask, &header) < 0) {
+    fail(group + ": slot header missing or of the wrong size: " + h5_error_stack());
+  }
+}
+
 void RingRecordingReader::read_group(std::uint64_t index, std::span<std::byte> payload,
                                      shm::SlotHeader& header) const {
   if (payload.size() != group_bytes_) {
@@ -254,13 +269,7 @@ void RingRecordingReader::read_group(std::uint64_t index, std::span<std::byte> p
   if (H5Dread_chunk(groups_set_.get(), H5P_DEFAULT, offset, &filter_mask, payload.data()) < 0) {
     fail(at + ": unreadable: " + h5_error_stack());
   }
-  const hsize_t header_offset[2] = {index, 0};
-  hsize_t header_bytes = 0;
-  if (H5Dget_chunk_storage_size(headers_set_.get(), header_offset, &header_bytes) < 0 ||
-      header_bytes != sizeof header ||
-      H5Dread_chunk(headers_set_.get(), H5P_DEFAULT, header_offset, &filter_mask, &header) < 0) {
-    fail(group + ": slot header missing or of the wrong size: " + h5_error_stack());
-  }
+  read_header(index, header);
   H5Handle file_space(H5Dget_space(checksums_set_.get()), H5Sclose);
   const hsize_t start[1] = {index}, count[1] = {1};
   H5Handle memory_space(H5Screate_simple(1, count, nullptr), H5Sclose);

@@ -4,9 +4,9 @@
 // and its slot header to a flat file. Both end with fsync, timed apart, so the figures show the
 // rate the page cache takes and the rate the disk sustains. Target: 262 MB/s (22.5 MB per
 // 86.1 ms group at 100 kHz).
-#include <CLI/CLI.hpp>
 #include <fcntl.h>
 #include <unistd.h>
+#include <CLI/CLI.hpp>
 
 #include <chrono>
 #include <cstdio>
@@ -114,7 +114,8 @@ int main(int argc, char** argv) {
   for (std::size_t i = 0; i < payload.size(); ++i) {
     payload[i] = static_cast<std::byte>((i * 2654435761u) >> 13);
   }
-  const fs::path plain = fs::path(dir) / ("ioct-record-bench-" + std::to_string(::getpid()) + ".raw");
+  const fs::path plain =
+      fs::path(dir) / ("ioct-record-bench-" + std::to_string(::getpid()) + ".raw");
   const fs::path h5 = fs::path(dir) / ("ioct-record-bench-" + std::to_string(::getpid()) + ".h5");
   std::printf("record_rate_bench: %llu groups of %.2f MB (%.0f MB) per run into %s\n",
               static_cast<unsigned long long>(groups), static_cast<double>(group_bytes) * 1e-6,

@@ -50,6 +50,10 @@ class RingRecordingReader {
   // size, checksum mismatch: corrupt) or std::invalid_argument for a wrong buffer size.
   void read_group(std::uint64_t index, std::span<std::byte> payload, shm::SlotHeader& header) const;
 
+  // Reads only group `index`'s slot header (for an index of the file's groups and volumes).
+  // Throws RingRecordingError.
+  void read_header(std::uint64_t index, shm::SlotHeader& header) const;
+
   // Sees groups the writer appended since (SWMR); returns the new group_count().
   std::uint64_t refresh();
 
