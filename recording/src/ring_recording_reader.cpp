@@ -172,6 +172,8 @@ RingRecordingReader::RingRecordingReader(const std::filesystem::path& path) : pa
 
 std::uint64_t RingRecordingReader::refresh() {
   const std::string where = path_.string();
+  struct stat st {};
+  if (::stat(path_.c_str(), &st) == 0) file_bytes_ = static_cast<std::uint64_t>(st.st_size);
   for (const H5Handle* set : {&groups_set_, &headers_set_, &checksums_set_, &counters_set_}) {
     H5Drefresh(set->get());  // SWMR: see the writer's latest extents
   }

@@ -1,5 +1,6 @@
 // ioct-record as a process beside a simulated ioct-rt: the groups in its file are the bytes the
-// ring published (compared with what a second reader of the same ring copied), a SIGKILL leaves
+// ring published (compared with what a second reader of the same ring copied), a viewer reads
+// the file while it grows, a SIGKILL leaves
 // a file that opens with every group written before it, a full disk (here: --max-mb) gives
 // counted drops and a message, and a restarted producer is followed into the same file.
 #include <signal.h>
@@ -182,6 +183,19 @@ TEST(IoctRecord, RecordsTheRingsGroupsByteForByteAndFinishesCleanlyOnSigterm) {
   ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
   std::string lines;
   ASSERT_TRUE(wait_for_groups_written(recorder, 40, lines)) << lines;
+  {
+    // A viewer reads the file while it grows (SWMR), and sees the groups appended since.
+    RingRecordingReader live(out.path);
+    EXPECT_FALSE(live.finished());
+    const std::uint64_t seen = live.group_count();
+    ASSERT_GE(seen, 40u);
+    std::vector<std::byte> payload(live.group_bytes());
+    shm::SlotHeader header{};
+    live.read_group(seen - 1, payload, header);
+    ASSERT_TRUE(wait_for_groups_written(recorder, seen + 10, lines)) << lines;
+    EXPECT_GE(live.refresh(), seen + 10);
+    live.read_group(live.group_count() - 1, payload, header);
+  }
   recorder.send_signal(SIGTERM);
   const std::optional<int> status = recorder.wait_for(30s);
   ASSERT_EQ(exit_code(status), 0) << (status ? test_support::describe_wait_status(*status) : "");
