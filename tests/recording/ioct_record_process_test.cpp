@@ -292,5 +292,87 @@ TEST(IoctRecord, FollowsARestartedProducerIntoTheSameFile) {
   EXPECT_NE(first.producer_epoch, last.producer_epoch) << "no group of the second producer";
 }
 
+TEST(IoctRecord, ReplayThroughIoctRtPublishesTheRecordedGroupsBitForBit) {
+  const test_support::ScopedShmName ring("record-live");
+  const test_support::ScopedShmName replay_ring("record-replay");
+  const TempPath out("replay");
+  {
+    ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
+    ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
+    std::string lines;
+    ASSERT_TRUE(wait_for_groups_written(recorder, 60, lines)) << lines;
+    recorder.send_signal(SIGTERM);
+    ASSERT_EQ(exit_code(recorder.wait_for(30s)), 0);
+  }
+  const RingRecordingReader recorded(out.path);
+  std::map<std::uint64_t, std::uint64_t> by_sweep;  // first sweep counter -> file group
+  shm::SlotHeader header{};
+  for (std::uint64_t i = 0; i < recorded.group_count(); ++i) {
+    recorded.read_header(i, header);
+    by_sweep[header.first_sweep_counter] = i;
+  }
+
+  std::vector<std::string> arguments = small_rt(replay_ring.str());
+  arguments.insert(arguments.end(), {"--replay", out.path.string(), "--replay-once"});
+  ChildProcess replay = start("ioct-rt", arguments);
+  std::optional<shm::RingReader> reader;
+  for (int tries = 0; tries < 3000 && !reader; ++tries) {
+    try {
+      reader = shm::RingReader::attach(replay_ring.str(), {.label = "replay-test"});
+    } catch (const shm::RingError&) {
+      std::this_thread::sleep_for(2ms);
+    }
+  }
+  ASSERT_TRUE(reader.has_value()) << "the replaying ioct-rt never created its ring";
+  std::vector<std::byte> live(reader->layout().group_payload_bytes);
+  std::vector<std::byte> file(recorded.group_bytes());
+  std::uint64_t compared = 0;
+  std::uint32_t flags = 0;
+  const auto end = std::chrono::steady_clock::now() + 60s;
+  while (compared < recorded.group_count() && std::chrono::steady_clock::now() < end) {
+    const shm::PollStatus poll = reader->read_next(live, header);
+    if (poll == shm::PollStatus::producer_gone) break;
+    if (poll != shm::PollStatus::ready) {
+      std::this_thread::sleep_for(1ms);
+      continue;
+    }
+    flags |= header.status_flags;
+    const auto it = by_sweep.find(header.first_sweep_counter);
+    if (it == by_sweep.end()) break;  // past the recording's end (--replay-once)
+    shm::SlotHeader recorded_header{};
+    recorded.read_group(it->second, file, recorded_header);
+    EXPECT_TRUE(live == file) << "replayed group " << header.group_index << " (file group "
+                              << it->second << ") differs from the recording";
+    EXPECT_EQ(header.missed_sweeps, recorded_header.missed_sweeps);
+    ++compared;
+  }
+  std::printf("[ compared ] %llu replayed groups of %llu recorded, bit for bit\n",
+              static_cast<unsigned long long>(compared),
+              static_cast<unsigned long long>(recorded.group_count()));
+  EXPECT_GE(compared, 20u);
+  EXPECT_NE(flags & shm::kStatusReplay, 0u) << "the ring does not say it is a replay";
+  EXPECT_EQ(flags & shm::kStatusSimulated, 0u);
+  replay.send_signal(SIGTERM);
+  EXPECT_EQ(exit_code(replay.wait_for(30s)), 0);
+}
+
+TEST(IoctRecord, ReplayOfAnotherGeometryIsRefusedNamingBothValues) {
+  const test_support::ScopedShmName ring("record-geometry");
+  const TempPath out("geometry");
+  {
+    ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
+    ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
+    std::string lines;
+    ASSERT_TRUE(wait_for_groups_written(recorder, 2, lines)) << lines;
+    recorder.send_signal(SIGTERM);
+    ASSERT_EQ(exit_code(recorder.wait_for(30s)), 0);
+  }
+  std::vector<std::string> arguments = small_rt(ring.str());
+  arguments[3] = "512";  // --samples
+  arguments.insert(arguments.end(), {"--replay", out.path.string()});
+  ChildProcess replay = start("ioct-rt", arguments);
+  EXPECT_NE(exit_code(replay.wait_for(30s)), 0);
+}
+
 }  // namespace
 }  // namespace ioct::ringrec
