@@ -46,7 +46,7 @@ Backends make_backends(const RtSetup& setup) {
     // A recording in place of the digitizer: the loop, the ring and the slot headers are the
     // live ones; the geometry must be the recording's (prepare() names both values).
     auto replay = std::make_unique<sim::ReplayDigitizer>(
-        setup.replay_file, sim::ReplayOptions{.loop = setup.replay_loop});
+        setup.replay_file, sim::ReplayOptions{.loop = setup.replay_loop, .bench = bench});
     const std::uint32_t recorded = replay->metadata().geometry.bscans_per_volume;
     if (recorded != setup.ring.geometry.bscans_per_volume) {
       throw ConfigError("scan.bscans_per_volume",

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/sim/simulated_bench.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "ioct/sim/simulation_metadata.hpp"
 
@@ -188,6 +189,9 @@ void ReplayDigitizer::do_prepare(const hal::DigitizerConfig& config) {
     reader_->read_info(0, first);
     reader_->read_info(group_count() - 1, last);
   }
+  if (options_.bench) {
+    options_.bench->scanner().set_dynamics(options_.bench->config().mirrors, config.ascan_rate_hz);
+  }
   first_counter_ = first.first_sweep_counter;
   loop_sweeps_ =
       last.first_sweep_counter + metadata().geometry.sweeps_per_group() - first.first_sweep_counter;
@@ -245,6 +249,11 @@ void ReplayDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::Grou
   info.missed_sweeps = (loops_ > 0 && next_ == 0) ? 0 : recorded.missed_sweeps;
   info.status = recorded.status;
   next_counter_ = info.first_sweep_counter + metadata().geometry.sweeps_per_group();
+  if (options_.bench && options_.bench->galvo_attached()) {
+    // The group's sweeps (and those lost before it) trigger the galvo output's samples.
+    options_.bench->scanner().advance(metadata().geometry.sweeps_per_group() + info.missed_sweeps,
+                                      true, nullptr);
+  }
   ++next_;
 }
 

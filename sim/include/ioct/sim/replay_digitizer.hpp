@@ -32,6 +32,7 @@
 
 namespace ioct::sim {
 
+class SimulatedBench;
 class SimulatedDigitizer;
 
 // Groups held in memory, with what the acquisition said about each.
@@ -55,6 +56,10 @@ struct RecordedGroups {
 struct ReplayOptions {
   bool loop = true;      // start again after the last group
   bool preload = false;  // read a raw recording into memory when constructed (not HDF5)
+  // The bench of a simulated galvo output (ioct-rt --replay): each group clocks the output's
+  // samples out, as the hardware's sweep trigger would; without it the mirrors never move and
+  // the acquisition is never verified. Null: no galvo output to clock.
+  std::shared_ptr<SimulatedBench> bench;
 };
 
 // The digitizer config a recording was made with.
