@@ -9,7 +9,7 @@ IOCT_ROOT=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 ioct_packages=(
   cmake ninja-build g++ pkg-config
   libboost-dev libfftw3-dev libpng-dev libturbojpeg0-dev libcli11-dev nlohmann-json3-dev
-  libtomlplusplus-dev
+  libtomlplusplus-dev libhdf5-dev
   libusb-1.0-0-dev libgpiod-dev
   libgtest-dev libgmock-dev libbenchmark-dev umockdev libumockdev-dev
   chromium  # the live view's browser tests drive it headless (tests/view)

@@ -14,6 +14,7 @@
 #include "ioct/gpu/png_file.hpp"
 #include "ioct/gpu/run_summary_json.hpp"
 #include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/shm/ring_attach.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_reader.hpp"
 
@@ -29,11 +30,6 @@ std::uint64_t seconds_to_ns(double seconds) {
 
 void sleep_ns(std::uint64_t ns) {
   std::this_thread::sleep_for(std::chrono::nanoseconds(ns));
-}
-
-bool worth_retrying(shm::RingErrc code) {
-  return code == shm::RingErrc::not_found || code == shm::RingErrc::not_ready ||
-         code == shm::RingErrc::producer_gone;
 }
 
 // A latency quantile in milliseconds, "-" when no group arrived.
@@ -391,32 +387,20 @@ RunSummary LiveProcessor::run() {
 
 std::optional<shm::RingReader> LiveProcessor::attach(std::uint64_t deadline,
                                                      bool waiting_for_return) {
-  const std::uint64_t status_ns = seconds_to_ns(config_.status_interval_s);
-  const std::uint64_t since = shm::monotonic_ns();
-  std::uint64_t next_status = since + status_ns;
-  for (;;) {
-    try {
-      return shm::RingReader::attach(config_.ring_name, shm::ReaderOptions{config_.label});
-    } catch (const shm::RingError& e) {
-      if (!worth_retrying(e.code())) throw;
-      if (stop_.load(std::memory_order_relaxed)) return std::nullopt;
-      const std::uint64_t now = shm::monotonic_ns();
-      if (!waiting_for_return && now >= deadline) {
-        throw shm::RingError(e.code(), "ring '" + config_.ring_name + "' not readable after " +
-                                           format_value(config_.wait_s) +
-                                           " s of waiting: " + e.what());
-      }
-      if (waiting_for_return && status_ns > 0 && now >= next_status && status_out_ != nullptr) {
-        char line[160];
-        std::snprintf(line, sizeof line, "waiting for the producer (NO SIGNAL) for %.0f s: %s",
-                      static_cast<double>(now - since) / kNsPerS,
-                      std::string(shm::to_string(e.code())).c_str());
-        *status_out_ << "ioct-gpu: " << line << std::endl;
-        next_status = now + status_ns;
-      }
-      sleep_ns(50'000'000);
-    }
-  }
+  shm::AttachWait wait;
+  wait.deadline_ns = deadline;
+  wait.unbounded = waiting_for_return;
+  wait.stop = &stop_;
+  wait.report_interval_ns = status_out_ != nullptr ? seconds_to_ns(config_.status_interval_s) : 0;
+  wait.on_waiting = [this](shm::RingErrc last, std::uint64_t waited_ns) {
+    char line[160];
+    std::snprintf(line, sizeof line, "waiting for the producer (NO SIGNAL) for %.0f s: %s",
+                  static_cast<double>(waited_ns) / kNsPerS,
+                  std::string(shm::to_string(last)).c_str());
+    *status_out_ << "ioct-gpu: " << line << std::endl;
+  };
+  return shm::attach_when_available(config_.ring_name, shm::ReaderOptions{config_.label}, wait,
+                                    config_.wait_s);
 }
 
 void LiveProcessor::write_summary(RunSummary& summary, const std::string& backend_name) const {

@@ -1,6 +1,7 @@
 #include "backends.hpp"
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/sim/replay_digitizer.hpp"
 #include "ioct/sim/simulated_bench.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "ioct/sim/simulated_galvo_output.hpp"
@@ -41,7 +42,19 @@ Backends make_backends(const RtSetup& setup) {
     b.bench = bench;
   }
 
-  if (c.digitizer_backend == "usb") {
+  if (!setup.replay_file.empty()) {
+    // A recording in place of the digitizer: the loop, the ring and the slot headers are the
+    // live ones; the geometry must be the recording's (prepare() names both values).
+    auto replay = std::make_unique<sim::ReplayDigitizer>(
+        setup.replay_file, sim::ReplayOptions{.loop = setup.replay_loop, .bench = bench});
+    const std::uint32_t recorded = replay->metadata().geometry.bscans_per_volume;
+    if (recorded != setup.ring.geometry.bscans_per_volume) {
+      throw ConfigError("scan.bscans_per_volume",
+                        std::to_string(setup.ring.geometry.bscans_per_volume),
+                        "the recording " + setup.replay_file + " has " + std::to_string(recorded));
+    }
+    b.digitizer = std::move(replay);
+  } else if (c.digitizer_backend == "usb") {
 #if IOCT_RT_HAVE_USB
     hal::usb::UsbInstrumentConfig usb;
     usb.vendor_id = static_cast<std::uint16_t>(c.usb_vendor_id);

@@ -106,7 +106,9 @@ rt::LoopSettings loop_settings(const rt::RtSetup& setup) {
   const rt::RtConfig& c = setup.config;
   rt::LoopSettings s;
   s.geometry = setup.digitizer;
-  s.extra_status = c.digitizer_backend == "simulated" ? shm::kStatusSimulated : 0u;
+  s.extra_status = !setup.replay_file.empty()           ? shm::kStatusReplay
+                   : c.digitizer_backend == "simulated" ? shm::kStatusSimulated
+                                                        : 0u;
   s.realtime = setup.realtime;
   s.stack_prefault_bytes = static_cast<std::size_t>(c.stack_prefault_kib) * 1024;
   s.publish_slack_ns = c.publish_slack_us * 1000;

@@ -92,6 +92,13 @@ void add_rt_options(CLI::App& app, RtOptions& options) {
   app.add_option("--config", options.config,
                  "TOML configuration file (see docs/operations.md); flags given override its keys")
       ->check(CLI::ExistingFile);
+  app.add_option("--replay", options.replay,
+                 "play a recording through the loop instead of acquiring: an HDF5 ring "
+                 "recording (ioct-record) or a raw one (STEM.json); its geometry must match")
+      ->check(CLI::ExistingFile);
+  app.add_flag("--replay-once", options.replay_once,
+               "stop at the recording's end (the digitizer reports the source gone) instead of "
+               "playing it again");
   app.add_option("--ring", options.ring, "ring.name: the shared-memory ring (POSIX shm, no '/')")
       ->capture_default_str();
   app.add_option("--slots", options.slots, "ring.slots: slots in the ring, each one group")
@@ -221,6 +228,8 @@ RtSetup make_setup(const RtOptions& options) {
   setup.realtime.fifo_priority = config.rt_priority;
   setup.realtime.cpu = config.rt_cpu;
   setup.realtime.lock_memory = config.lock_memory;
+  setup.replay_file = options.replay;
+  setup.replay_loop = !options.replay_once;
   return setup;
 }
 

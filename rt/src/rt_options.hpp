@@ -34,8 +34,10 @@ struct RtOptions {
   std::string pattern = "raster";
   std::string control_socket;  // empty: none
   // Run-time only (not configuration keys).
-  double seconds = 0.0;  // 0: until SIGINT or SIGTERM
-  std::string summary;   // JSON file written at exit; empty: none
+  std::string replay;        // play this recording (HDF5 ring or raw) instead of acquiring
+  bool replay_once = false;  // stop at the recording's end instead of starting it again
+  double seconds = 0.0;      // 0: until SIGINT or SIGTERM
+  std::string summary;       // JSON file written at exit; empty: none
   bool check_config = false;
   bool self_test = false;
   double self_test_seconds = 10.0;
@@ -56,6 +58,8 @@ struct RtSetup {
   hal::DigitizerConfig digitizer;
   sim::SimulationConfig simulation;
   RealtimeRequest realtime;
+  std::string replay_file;  // empty: acquire (the configured digitizer backend)
+  bool replay_loop = true;
 };
 
 // Reads the file (if any), applies the given flags, validates everything and derives each part's

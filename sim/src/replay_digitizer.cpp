@@ -2,13 +2,37 @@
 
 #include <algorithm>
 #include <cstring>
+#include <fstream>
 #include <stdexcept>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/sim/simulated_bench.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "ioct/sim/simulation_metadata.hpp"
 
 namespace ioct::sim {
+namespace {
+
+bool is_hdf5(const std::filesystem::path& path) {
+  static constexpr char kSignature[8] = {'\x89', 'H', 'D', 'F', '\r', '\n', '\x1a', '\n'};
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return false;
+  std::ifstream in(path, std::ios::binary);
+  char head[8] = {};
+  in.read(head, sizeof head);
+  return in.gcount() == sizeof head && std::memcmp(head, kSignature, sizeof head) == 0;
+}
+
+// The ring's status flags as the digitizer's (hal/digitizer.hpp) where they mean the same.
+std::uint32_t digitizer_status(std::uint32_t ring_flags) {
+  std::uint32_t status = 0;
+  if (ring_flags & shm::kStatusOverrun) status |= hal::kGroupOverrun;
+  if (ring_flags & shm::kStatusClockFault) status |= hal::kGroupClockFault;
+  if (ring_flags & shm::kStatusMissedTriggers) status |= hal::kGroupMissedTriggers;
+  return status;
+}
+
+}  // namespace
 
 std::span<const std::uint16_t> RecordedGroups::group(std::uint64_t index) const noexcept {
   const std::uint64_t words = metadata.geometry.samples_per_group();
@@ -63,6 +87,22 @@ hal::DigitizerConfig digitizer_config(const recording::RecordingGeometry& g) {
 
 ReplayDigitizer::ReplayDigitizer(const std::filesystem::path& recording, ReplayOptions options)
     : options_(options) {
+  if (is_hdf5(recording)) {
+    ring_reader_.emplace(recording);
+    source_ = recording.string();
+    const shm::RingGeometry& g = ring_reader_->geometry();
+    if (g.bytes_per_sample != 2) {
+      throw ringrec::RingRecordingError(source_ + ": samples of " +
+                                        std::to_string(g.bytes_per_sample) +
+                                        " bytes; the digitizer delivers 16-bit samples");
+    }
+    ring_metadata_.geometry.samples_per_ascan = g.samples_per_ascan;
+    ring_metadata_.geometry.ascans_per_bscan = g.ascans_per_bscan;
+    ring_metadata_.geometry.bscans_per_group = g.bscans_per_group;
+    ring_metadata_.geometry.bscans_per_volume = g.bscans_per_volume;
+    ring_metadata_.producer = "ring recording " + source_;
+    return;
+  }
   reader_.emplace(recording);
   source_ = reader_->json_path().string();
   if (options_.preload) {
@@ -80,14 +120,37 @@ ReplayDigitizer::ReplayDigitizer(std::shared_ptr<const RecordedGroups> groups,
 ReplayDigitizer::~ReplayDigitizer() = default;
 
 const recording::RecordingMetadata& ReplayDigitizer::metadata() const noexcept {
-  return memory_ ? memory_->metadata : reader_->metadata();
+  if (memory_) return memory_->metadata;
+  return ring_reader_ ? ring_metadata_ : reader_->metadata();
 }
 
 std::uint64_t ReplayDigitizer::group_count() const noexcept {
-  return memory_ ? memory_->count() : reader_->group_count();
+  if (memory_) return memory_->count();
+  return ring_reader_ ? ring_reader_->group_count() : reader_->group_count();
+}
+
+void ReplayDigitizer::read_ring_info(std::uint64_t index,
+                                     recording::RecordedGroupInfo& info) const {
+  shm::SlotHeader header{};
+  ring_reader_->read_header(index, header);
+  info = {index,
+          header.first_sweep_counter,
+          header.missed_sweeps,
+          digitizer_status(header.status_flags),
+          header.t_first_sweep_ns,
+          header.t_last_sweep_ns};
 }
 
 void ReplayDigitizer::do_prepare(const hal::DigitizerConfig& config) {
+  if (ring_reader_) {
+    // What the ring recording does not know comes from the config; the rest must agree.
+    recording::RecordingMetadata& m = ring_metadata_;
+    m.geometry.flyback_sweeps = config.flyback_sweeps;
+    m.geometry.ascan_rate_hz = config.ascan_rate_hz;
+    m.geometry.sample_bits = config.sample_bits;
+    m.geometry.clock_source =
+        config.clock_source == hal::ClockSource::internal ? "internal" : "external_k_clock";
+  }
   const hal::DigitizerConfig recorded = recorded_config();
   const auto require = [&](const char* key, auto given, auto expected) {
     if (given != expected) {
@@ -119,9 +182,15 @@ void ReplayDigitizer::do_prepare(const hal::DigitizerConfig& config) {
   if (memory_) {
     first = memory_->infos.front();
     last = memory_->infos.back();
+  } else if (ring_reader_) {
+    read_ring_info(0, first);
+    read_ring_info(group_count() - 1, last);
   } else {
     reader_->read_info(0, first);
     reader_->read_info(group_count() - 1, last);
+  }
+  if (options_.bench) {
+    options_.bench->scanner().set_dynamics(options_.bench->config().mirrors, config.ascan_rate_hz);
   }
   first_counter_ = first.first_sweep_counter;
   loop_sweeps_ =
@@ -156,7 +225,18 @@ void ReplayDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::Grou
     recorded = memory_->infos[next_];
   } else {
     try {
-      reader_->read_group(next_, group, recorded);
+      if (ring_reader_) {
+        shm::SlotHeader header{};
+        ring_reader_->read_group(next_, std::as_writable_bytes(group), header);
+        recorded = {next_,
+                    header.first_sweep_counter,
+                    header.missed_sweeps,
+                    digitizer_status(header.status_flags),
+                    header.t_first_sweep_ns,
+                    header.t_last_sweep_ns};
+      } else {
+        reader_->read_group(next_, group, recorded);
+      }
     } catch (const std::exception& e) {
       error_ = e.what();
       finished_ = true;
@@ -169,6 +249,11 @@ void ReplayDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::Grou
   info.missed_sweeps = (loops_ > 0 && next_ == 0) ? 0 : recorded.missed_sweeps;
   info.status = recorded.status;
   next_counter_ = info.first_sweep_counter + metadata().geometry.sweeps_per_group();
+  if (options_.bench && options_.bench->galvo_attached()) {
+    // The group's sweeps (and those lost before it) trigger the galvo output's samples.
+    options_.bench->scanner().advance(metadata().geometry.sweeps_per_group() + info.missed_sweeps,
+                                      true, nullptr);
+  }
   ++next_;
 }
 

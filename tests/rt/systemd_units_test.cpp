@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -17,6 +18,7 @@
 #include <regex>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "ioct/test_support/child_process.hpp"
 
@@ -103,6 +105,13 @@ fs::path installable_copy(const Scratch& dir, const char* unit) {
   replace("/usr/bin/ioct-rt", rt);
   replace("/usr/bin/ioct-gpu", gpu);
   replace("/usr/bin/ioct-view", view);
+  std::string record;
+  try {
+    record = test_support::sibling_executable("ioct-record");
+  } catch (const std::exception&) {
+    record = "/bin/true";
+  }
+  replace("/usr/bin/ioct-record", record);
   const fs::path copy = dir.path() / unit;
   std::ofstream(copy) << text;
   return copy;
@@ -117,8 +126,12 @@ TEST(SystemdUnits, VerifyAcceptsBothServicesWithoutWarnings) {
   const fs::path rt = installable_copy(dir, "ioct-rt.service");
   const fs::path gpu = installable_copy(dir, "ioct-gpu.service");
   const fs::path view = installable_copy(dir, "ioct-view.service");
-  const Result r =
-      run(analyze + " verify " + rt.string() + " " + gpu.string() + " " + view.string());
+  // The recorder is a template: verify an instance of it.
+  const fs::path record_template = installable_copy(dir, "ioct-record@.service");
+  const fs::path record = dir.path() / "ioct-record@session.service";
+  fs::rename(record_template, record);
+  const Result r = run(analyze + " verify " + rt.string() + " " + gpu.string() + " " +
+                       view.string() + " " + record.string());
   if (r.status != 0 && (r.output.find("Failed to initialize manager") != std::string::npos ||
                         r.output.find("Failed to allocate manager") != std::string::npos ||
                         r.output.find("System has not been booted") != std::string::npos)) {
@@ -195,9 +208,16 @@ TEST(SystemdUnits, SysusersAndTmpfilesCreateTheUsersAndTheSocketDirectory) {
   ASSERT_EQ(users.status, 0) << users.output;
   const std::string group = "\n" + read(root.path() / "etc/group");
   const std::string passwd = "\n" + read(root.path() / "etc/passwd");
-  EXPECT_TRUE(std::regex_search(
-      group, std::regex("\nioct-render:x:\\d+:(ioct-gpu,ioct-rt|ioct-rt,ioct-gpu)\n")))
+  // The ring's readers and its producer, in whatever order sysusers lists them.
+  std::smatch render_members;
+  ASSERT_TRUE(
+      std::regex_search(group, render_members, std::regex("\nioct-render:x:\\d+:([^\n]*)\n")))
       << group;
+  std::vector<std::string> members;
+  std::istringstream member_list(render_members[1].str());
+  for (std::string member; std::getline(member_list, member, ',');) members.push_back(member);
+  std::sort(members.begin(), members.end());
+  EXPECT_EQ(members, (std::vector<std::string>{"ioct-gpu", "ioct-record", "ioct-rt"})) << group;
   EXPECT_TRUE(std::regex_search(
       group, std::regex("\nioct-control:x:\\d+:(ioct-rt,ioct-view|ioct-view,ioct-rt)\n")))
       << group;

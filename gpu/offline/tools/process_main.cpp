@@ -1,7 +1,9 @@
 // ioct-process: raw spectra recorded to a file -> a volume (NRRD), through the same processing
 // chain (and, when asked, the same filters) as the live system. The input is either a plain u16
-// file whose dimensions the options give, or a raw recording (STEM.json + STEM.raw, see
-// docs/recording-format.md), whose metadata gives the dimensions and how to process it.
+// file whose dimensions the options give, a raw recording (STEM.json + STEM.raw, see
+// docs/recording-format.md), whose metadata gives the dimensions and how to process it, or an
+// HDF5 ring recording (ioct-record), whose geometry and slot headers give the dimensions and the
+// volumes.
 #include <CLI/CLI.hpp>
 
 #include <array>
@@ -22,6 +24,7 @@
 #include "ioct/gpu/offline/nrrd_file.hpp"
 #include "ioct/gpu/offline/raw_processing.hpp"
 #include "ioct/gpu/offline/recording_volume.hpp"
+#include "ioct/gpu/offline/ring_recording_volume.hpp"
 #include "ioct/gpu/png_file.hpp"
 #include "ioct/gpu/projections.hpp"
 #include "ioct/gpu/resampling.hpp"
@@ -95,7 +98,8 @@ int main(int argc, char** argv) {
   auto* bscans_option =
       app.add_option("--bscans", layout.bscans, "B-scans in the file, one volume (raw files only)");
   auto* volume_option = app.add_option("--volume", volume_index,
-                                       "which volume of a recording, 0 first (recordings only)");
+                                       "which volume of a recording, 0 first (recordings only; of "
+                                       "an HDF5 ring recording: its N-th complete volume)");
   app.add_option("--byte-order", byte_order, "byte order of the samples: little or big");
   app.add_option("--header-bytes", layout.header_bytes, "bytes to skip at the start of the file");
   auto* group_option = app.add_option("--bscans-per-group", settings.bscans_per_group,
@@ -149,7 +153,18 @@ int main(int argc, char** argv) {
     std::unique_ptr<SpectraSource> source;
     const RecordingVolume* recording = nullptr;
     std::vector<double> recording_calibration;
-    if (is_recording(input, dimensions_given)) {
+    const RingRecordingVolume* ring_recording = nullptr;
+    if (is_hdf5_file(input)) {
+      if (dimensions_given) {
+        throw ioct::ConfigError("samples/ascans/bscans", input,
+                                "a ring recording gives its dimensions; leave them out");
+      }
+      auto volume = std::make_unique<RingRecordingVolume>(input, volume_index);
+      if (group_option->count() == 0) settings.bscans_per_group = volume->bscans_per_group();
+      if (bidirectional_option->count() == 0) settings.bidirectional = volume->reversed_lines();
+      ring_recording = volume.get();
+      source = std::move(volume);
+    } else if (is_recording(input, dimensions_given)) {
       if (dimensions_given) {
         throw ioct::ConfigError("samples/ascans/bscans", input,
                                 "a recording's metadata gives its dimensions; leave them out");
@@ -218,6 +233,15 @@ int main(int argc, char** argv) {
                 << recording->status_seen() << std::dec
                 << ": overrun 1, clock fault 2, missed triggers 4, timeout 8, device lost 16)\n";
     }
+    constexpr std::uint32_t kRingFaults = ioct::shm::kStatusMissedTriggers |
+                                          ioct::shm::kStatusClockFault | ioct::shm::kStatusOverrun |
+                                          ioct::shm::kStatusGalvoFault;
+    if (ring_recording != nullptr && (ring_recording->status_seen() & kRingFaults) != 0) {
+      std::cerr << "ioct-process: warning: " << ring_recording->describe()
+                << " was acquired with faults (ring status bits 0x" << std::hex
+                << (ring_recording->status_seen() & kRingFaults) << std::dec
+                << ": missed triggers 1, clock fault 2, overrun 4, galvo fault 16)\n";
+    }
     metadata.content = "OCT volume from " + source->describe();
     metadata.key_values = {
         {"ioct_backend", result.processor_backend},
@@ -251,6 +275,9 @@ int main(int argc, char** argv) {
     std::cerr << "ioct-process: " << e.what() << "\n";
     return 2;
   } catch (const ioct::recording::RecordingError& e) {
+    std::cerr << "ioct-process: bad input: " << e.what() << "\n";
+    return 1;
+  } catch (const ioct::ringrec::RingRecordingError& e) {
     std::cerr << "ioct-process: bad input: " << e.what() << "\n";
     return 1;
   } catch (const InputFileError& e) {

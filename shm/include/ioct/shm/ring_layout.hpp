@@ -90,6 +90,8 @@ inline constexpr std::uint32_t kStatusOverrun = 1u << 2;
 inline constexpr std::uint32_t kStatusLaserOn = 1u << 3;
 inline constexpr std::uint32_t kStatusGalvoFault = 1u << 4;
 inline constexpr std::uint32_t kStatusSimulated = 1u << 5;
+inline constexpr std::uint32_t kStatusReplay =
+    1u << 6;  // played back from a recording (ioct-rt --replay)
 
 // Metadata of one group. Written by the producer between the odd and the even sequence, copied
 // by readers under the seqlock. The writer fills group_index, producer_epoch, payload_bytes and

@@ -1,5 +1,10 @@
-// A digitizer that plays raw groups back instead of recording them: from a recording file
-// (recording_format.hpp) or from groups held in memory.
+// A digitizer that plays raw groups back instead of recording them: from a recording file -- a
+// raw recording (recording_format.hpp) or an HDF5 ring recording (ioct-record, recording/) -- or
+// from groups held in memory.
+//
+// An HDF5 ring recording knows the ring's geometry but not the digitizer's timing (flyback, A-scan
+// rate, sample bits, clock source): prepare() checks samples, A-scans and B-scans per group
+// against it and takes the rest from the config.
 //
 // prepare() accepts only the recording's own geometry (ConfigError names the key and the
 // recorded value; recorded_config() gives the matching config). Each acquire_group() delivers
@@ -23,9 +28,11 @@
 #include "ioct/hal/digitizer.hpp"
 #include "ioct/recording/recording_format.hpp"
 #include "ioct/recording/recording_reader.hpp"
+#include "ioct/ringrec/ring_recording_reader.hpp"
 
 namespace ioct::sim {
 
+class SimulatedBench;
 class SimulatedDigitizer;
 
 // Groups held in memory, with what the acquisition said about each.
@@ -48,7 +55,11 @@ struct RecordedGroups {
 
 struct ReplayOptions {
   bool loop = true;      // start again after the last group
-  bool preload = false;  // read the whole recording into memory when constructed
+  bool preload = false;  // read a raw recording into memory when constructed (not HDF5)
+  // The bench of a simulated galvo output (ioct-rt --replay): each group clocks the output's
+  // samples out, as the hardware's sweep trigger would; without it the mirrors never move and
+  // the acquisition is never verified. Null: no galvo output to clock.
+  std::shared_ptr<SimulatedBench> bench;
 };
 
 // The digitizer config a recording was made with.
@@ -56,7 +67,8 @@ hal::DigitizerConfig digitizer_config(const recording::RecordingGeometry& geomet
 
 class ReplayDigitizer final : public hal::Digitizer {
  public:
-  // Plays a recording file. Throws recording::RecordingError for a bad recording.
+  // Plays a recording file: an HDF5 ring recording when the file is HDF5, else a raw recording.
+  // Throws recording::RecordingError or ringrec::RingRecordingError for a bad recording.
   explicit ReplayDigitizer(const std::filesystem::path& recording, ReplayOptions options = {});
   // Plays groups held in memory.
   explicit ReplayDigitizer(std::shared_ptr<const RecordedGroups> groups,
@@ -77,7 +89,11 @@ class ReplayDigitizer final : public hal::Digitizer {
   void do_acquire_group(std::span<std::uint16_t> group, hal::GroupInfo& info) override;
 
  private:
+  void read_ring_info(std::uint64_t index, recording::RecordedGroupInfo& info) const;
+
   std::optional<recording::RecordingReader> reader_;
+  std::optional<ringrec::RingRecordingReader> ring_reader_;  // an HDF5 ring recording
+  recording::RecordingMetadata ring_metadata_;               // what it says, the rest from prepare
   std::shared_ptr<const RecordedGroups> memory_;
   ReplayOptions options_;
   std::string source_;

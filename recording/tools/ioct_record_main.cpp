@@ -1,0 +1,114 @@
+// ioct-record: records the ring's raw groups, their slot headers and the run's description into
+// an HDF5 file (SWMR), next to ioct-gpu and without disturbing it or ioct-rt.
+#include <CLI/CLI.hpp>
+
+#include <csignal>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <string>
+
+#include "ioct/common/config_error.hpp"
+#include "ioct/ringrec/h5_handle.hpp"
+#include "ioct/ringrec/ring_recorder.hpp"
+#include "ioct/shm/ring_error.hpp"
+
+namespace {
+
+ioct::ringrec::RingRecorder* g_recorder = nullptr;
+
+extern "C" void on_stop_signal(int) {
+  if (g_recorder != nullptr) g_recorder->request_stop();
+}
+
+void install_stop_handlers() {
+  struct sigaction action {};
+  action.sa_handler = on_stop_signal;
+  action.sa_flags = SA_RESETHAND;  // a second Ctrl-C ends the process at once
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+}
+
+constexpr std::size_t kMaxMetadataFileBytes = 1 << 20;
+
+std::string read_metadata_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("--metadata " + path + ": cannot open");
+  std::string text(kMaxMetadataFileBytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (text.size() > kMaxMetadataFileBytes) {
+    throw std::runtime_error("--metadata " + path + ": more than " +
+                             std::to_string(kMaxMetadataFileBytes) + " bytes");
+  }
+  return text;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace ioct::ringrec;
+  RecorderConfig config;
+  config.producer = std::string("ioct-record ") + IOCT_VERSION;
+  std::string out;
+  std::string metadata_file;
+  double max_mb = 0.0;
+
+  CLI::App app{"ioct-record: records the ring's raw groups into an HDF5 file (SWMR)"};
+  app.option_defaults()->always_capture_default();
+  app.add_option("--ring", config.ring_name, "shared-memory ring to read");
+  app.add_option("--out", out, "the HDF5 file to write")->required();
+  app.add_flag("--overwrite", config.overwrite, "replace an existing file");
+  app.add_option("--seconds", config.run_s, "seconds to record; 0: until SIGINT/SIGTERM");
+  app.add_option("--wait", config.wait_s, "seconds to wait for the ring to appear");
+  app.add_flag("--exit-when-producer-gone", config.exit_when_producer_gone,
+               "finish when the producer closes the ring instead of waiting for its return");
+  app.add_option("--queue-groups", config.queue_groups,
+                 "groups that may wait for the disk before groups are dropped (1 to 4096)");
+  app.add_option("--max-mb", max_mb,
+                 "stop writing past this many MB (drops are counted); 0: no cap");
+  app.add_option("--metadata", metadata_file,
+                 "a text file stored with the recording (e.g. ioct-rt --check-config's output)");
+  app.add_option("--status-interval", config.status_interval_s,
+                 "seconds between status lines; 0: none");
+  app.add_option("--label", config.label, "the name this reader shows to ioct-rt");
+  CLI11_PARSE(app, argc, argv);
+
+  try {
+    config.out = out;
+    if (max_mb < 0 || max_mb > 1e12) {
+      throw ioct::ConfigError("max-mb", ioct::format_value(max_mb), "must be in [0, 1e12]");
+    }
+    config.max_bytes = static_cast<std::uint64_t>(max_mb * 1e6);
+    if (!metadata_file.empty()) config.run_metadata = read_metadata_file(metadata_file);
+    RingRecorder recorder(config);
+    g_recorder = &recorder;
+    install_stop_handlers();
+    const RecorderSummary summary = recorder.run(&std::cout);
+    g_recorder = nullptr;
+    const CounterValues& c = summary.counters;
+    auto at = [&](Counter k) { return c[static_cast<std::size_t>(k)]; };
+    std::cout << "ioct-record: " << summary.stop_reason << " after " << summary.seconds
+              << " s: " << at(Counter::groups_written) << " groups (" << at(Counter::bytes_written)
+              << " bytes, writing at " << summary.write_mb_per_s << " MB/s) in "
+              << config.out.string() << "; lost: lapped " << at(Counter::dropped_lapped)
+              << ", behind " << at(Counter::dropped_behind) << ", queue full "
+              << at(Counter::dropped_queue_full) << ", disk full " << at(Counter::dropped_disk_full)
+              << std::endl;
+    if (summary.failed) {
+      std::cerr << "ioct-record: " << summary.stop_reason << std::endl;
+      return 3;
+    }
+    return 0;
+  } catch (const ioct::ConfigError& e) {
+    std::cerr << "ioct-record: " << e.what() << std::endl;
+    return 2;
+  } catch (const ioct::shm::RingError& e) {
+    std::cerr << "ioct-record: " << e.what() << std::endl;
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "ioct-record: " << e.what() << std::endl;
+    return 1;
+  }
+}

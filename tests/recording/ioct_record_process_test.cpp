@@ -1,0 +1,386 @@
+// ioct-record as a process beside a simulated ioct-rt: the groups in its file are the bytes the
+// ring published (compared with what a second reader of the same ring copied), a viewer reads
+// the file while it grows, a SIGKILL leaves
+// a file that opens with every group written before it, a full disk (here: --max-mb) gives
+// counted drops and a message, and a restarted producer is followed into the same file.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include "ioct/ringrec/ring_recording_reader.hpp"
+#include "ioct/shm/ring_error.hpp"
+#include "ioct/shm/ring_reader.hpp"
+#include "ioct/test_support/child_process.hpp"
+#include "ioct/test_support/scoped_shm_name.hpp"
+
+namespace ioct::ringrec {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using test_support::ChildProcess;
+
+std::vector<std::string> small_rt(const std::string& ring) {
+  return {"--ring",
+          ring,
+          "--samples",
+          "256",
+          "--ascans",
+          "128",
+          "--bscans-per-group",
+          "4",
+          "--bscans-per-volume",
+          "8",
+          "--rt-priority",
+          "0",
+          "--status-interval",
+          "5"};
+}
+
+ChildProcess start(const std::string& program, const std::vector<std::string>& arguments) {
+  return ChildProcess::spawn(test_support::sibling_executable(program), arguments);
+}
+
+std::vector<std::string> record_args(const std::string& ring, const fs::path& out,
+                                     std::vector<std::string> extra = {}) {
+  std::vector<std::string> arguments = {
+      "--ring", ring, "--out", out.string(), "--wait", "30", "--status-interval", "0.1"};
+  arguments.insert(arguments.end(), extra.begin(), extra.end());
+  return arguments;
+}
+
+int exit_code(const std::optional<int>& status) {
+  if (!status.has_value()) return -1000;  // still running
+  return WIFEXITED(*status) ? WEXITSTATUS(*status) : -WTERMSIG(*status);
+}
+
+std::uint64_t counter(const RingRecordingReader& reader, Counter which) {
+  return reader.counters()[static_cast<std::size_t>(which)];
+}
+
+// A second reader of the ring that keeps the first `limit` groups it copies intact, by
+// (epoch, group index): what the ring published, to compare the recording with.
+class RingCapture {
+ public:
+  RingCapture(std::string ring, std::size_t limit) : ring_(std::move(ring)), limit_(limit) {
+    thread_ = std::thread([this] { run(); });
+  }
+  ~RingCapture() {
+    stop_ = true;
+    thread_.join();
+  }
+  // The captured group, or nullptr.
+  const std::vector<std::byte>* find(std::uint64_t epoch, std::uint64_t group) {
+    std::lock_guard lock(mutex_);
+    const auto it = groups_.find({epoch, group});
+    return it == groups_.end() ? nullptr : &it->second;
+  }
+  bool attached() const { return attached_; }
+
+ private:
+  void run() {
+    std::optional<shm::RingReader> reader;
+    std::vector<std::byte> payload;
+    shm::SlotHeader header{};
+    while (!stop_) {
+      if (!reader) {
+        try {
+          reader = shm::RingReader::attach(ring_, {.label = "record-test"});
+          payload.resize(reader->layout().group_payload_bytes);
+          attached_ = true;
+        } catch (const shm::RingError&) {
+          std::this_thread::sleep_for(5ms);
+          continue;
+        }
+      }
+      const shm::PollStatus poll = reader->read_next(payload, header);
+      if (poll == shm::PollStatus::ready) {
+        std::lock_guard lock(mutex_);
+        if (groups_.size() < limit_) groups_[{header.producer_epoch, header.group_index}] = payload;
+      } else if (poll == shm::PollStatus::producer_gone) {
+        reader.reset();
+      } else {
+        std::this_thread::sleep_for(1ms);
+      }
+    }
+  }
+
+  std::string ring_;
+  std::size_t limit_;
+  std::atomic<bool> stop_{false};
+  std::atomic<bool> attached_{false};
+  std::mutex mutex_;
+  std::map<std::pair<std::uint64_t, std::uint64_t>, std::vector<std::byte>> groups_;
+  std::thread thread_;
+};
+
+// Reads the recorder's stdout until a status line says at least `groups` were written; returns
+// false when it ends or stalls first. The lines seen are appended to `seen`.
+bool wait_for_groups_written(ChildProcess& recorder, std::uint64_t groups, std::string& seen) {
+  while (std::optional<std::string> line = recorder.read_line(60s)) {
+    seen += *line + "\n";
+    const std::size_t at = line->find(" groups written");
+    if (at == std::string::npos) continue;
+    const std::size_t begin = line->rfind(' ', at - 1);
+    if (std::stoull(line->substr(begin + 1, at - begin - 1)) >= groups) return true;
+  }
+  return false;
+}
+
+struct TempPath {
+  explicit TempPath(const std::string& tag)
+      : path(fs::temp_directory_path() /
+             ("ioct-record-" + tag + "-" + std::to_string(::getpid()) + ".h5")) {
+    fs::remove(path);
+  }
+  ~TempPath() { fs::remove(path); }
+  fs::path path;
+};
+
+// Every group in the file is intact (checksum), and equal to the ring's where the second reader
+// copied it too. Returns how many were compared with the ring.
+std::uint64_t compare_with_ring(const RingRecordingReader& reader, RingCapture& capture) {
+  std::vector<std::byte> payload(reader.group_bytes());
+  shm::SlotHeader header{};
+  std::uint64_t compared = 0;
+  std::uint64_t previous = 0;
+  for (std::uint64_t i = 0; i < reader.group_count(); ++i) {
+    reader.read_group(i, payload, header);
+    EXPECT_EQ(header.payload_bytes, reader.group_bytes());
+    if (i > 0 && header.group_index != 0) {
+      EXPECT_GT(header.group_index, previous) << "file group " << i << " out of order";
+    }
+    previous = header.group_index;
+    if (const std::vector<std::byte>* ring =
+            capture.find(header.producer_epoch, header.group_index)) {
+      EXPECT_TRUE(*ring == payload) << "file group " << i << " (ring group " << header.group_index
+                                    << ") differs from the ring's bytes";
+      ++compared;
+    }
+  }
+  return compared;
+}
+
+TEST(IoctRecord, RecordsTheRingsGroupsByteForByteAndFinishesCleanlyOnSigterm) {
+  const test_support::ScopedShmName ring("record");
+  const TempPath out("sigterm");
+  ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
+  RingCapture capture(ring.str(), 400);
+  ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
+  std::string lines;
+  ASSERT_TRUE(wait_for_groups_written(recorder, 40, lines)) << lines;
+  {
+    // A viewer reads the file while it grows (SWMR), and sees the groups appended since.
+    RingRecordingReader live(out.path);
+    EXPECT_FALSE(live.finished());
+    const std::uint64_t seen = live.group_count();
+    ASSERT_GE(seen, 40u);
+    std::vector<std::byte> payload(live.group_bytes());
+    shm::SlotHeader header{};
+    live.read_group(seen - 1, payload, header);
+    ASSERT_TRUE(wait_for_groups_written(recorder, seen + 10, lines)) << lines;
+    EXPECT_GE(live.refresh(), seen + 10);
+    live.read_group(live.group_count() - 1, payload, header);
+  }
+  recorder.send_signal(SIGTERM);
+  const std::optional<int> status = recorder.wait_for(30s);
+  ASSERT_EQ(exit_code(status), 0) << (status ? test_support::describe_wait_status(*status) : "");
+
+  const RingRecordingReader reader(out.path);
+  EXPECT_TRUE(reader.finished());
+  EXPECT_GE(reader.group_count(), 40u);
+  EXPECT_EQ(counter(reader, Counter::groups_written), reader.group_count());
+  EXPECT_EQ(reader.geometry().samples_per_ascan, 256u);
+  EXPECT_EQ(reader.ring_name(), ring.str());
+  const std::uint64_t compared = compare_with_ring(reader, capture);
+  std::printf("[ compared ] %llu of %llu recorded groups against the ring's bytes\n",
+              static_cast<unsigned long long>(compared),
+              static_cast<unsigned long long>(reader.group_count()));
+  EXPECT_GE(compared, 10u) << "too few groups seen by both readers to compare";
+}
+
+TEST(IoctRecord, SigkillLeavesAFileWithEveryGroupWrittenBeforeIt) {
+  const test_support::ScopedShmName ring("record-kill");
+  const TempPath out("sigkill");
+  ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
+  RingCapture capture(ring.str(), 400);
+  ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
+  std::string lines;
+  ASSERT_TRUE(wait_for_groups_written(recorder, 20, lines)) << lines;
+  recorder.kill_and_wait();
+
+  const RingRecordingReader reader(out.path);  // opens with no h5clear: SWMR read
+  EXPECT_FALSE(reader.finished());
+  // Every group the last status line counted was flushed before that line was printed.
+  EXPECT_GE(reader.group_count(), 20u);
+  EXPECT_LE(counter(reader, Counter::groups_written), reader.group_count() + 1);
+  const std::uint64_t compared = compare_with_ring(reader, capture);
+  EXPECT_GE(compared, 5u);
+}
+
+TEST(IoctRecord, AFullDiskGivesCountedDropsAndAClearMessage) {
+  const test_support::ScopedShmName ring("record-full");
+  const TempPath out("full");
+  ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
+  // Room for 5 groups of 262144 + 2136 bytes.
+  ChildProcess recorder =
+      start("ioct-record", record_args(ring.str(), out.path, {"--max-mb", "1.4"}));
+  std::string lines;
+  bool said = false;
+  while (std::optional<std::string> line = recorder.read_line(60s)) {
+    lines += *line + "\n";
+    if (line->find("--max-bytes 1400000") != std::string::npos &&
+        line->find("counted as dropped_disk_full") != std::string::npos) {
+      said = true;
+    }
+    const std::size_t at = line->find("disk full ");
+    if (said && at != std::string::npos && line->substr(at + 10, 1) != "0") break;
+  }
+  ASSERT_TRUE(said) << lines;
+  recorder.send_signal(SIGTERM);
+  ASSERT_EQ(exit_code(recorder.wait_for(30s)), 0);
+
+  const RingRecordingReader reader(out.path);
+  EXPECT_TRUE(reader.finished());
+  EXPECT_EQ(reader.group_count(), 5u);
+  EXPECT_GT(counter(reader, Counter::dropped_disk_full), 0u);
+  EXPECT_LE(counter(reader, Counter::bytes_written), 1'400'000u);
+}
+
+TEST(IoctRecord, FollowsARestartedProducerIntoTheSameFile) {
+  const test_support::ScopedShmName ring("record-restart");
+  const TempPath out("restart");
+  std::optional<ChildProcess> rt(start("ioct-rt", small_rt(ring.str())));
+  ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
+  std::string lines;
+  ASSERT_TRUE(wait_for_groups_written(recorder, 10, lines)) << lines;
+  rt->send_signal(SIGTERM);
+  ASSERT_EQ(exit_code(rt->wait_for(30s)), 0);
+  rt.reset();
+  rt.emplace(start("ioct-rt", small_rt(ring.str())));
+  bool back = false;
+  while (std::optional<std::string> line = recorder.read_line(60s)) {
+    lines += *line + "\n";
+    if (line->find("producer back") != std::string::npos) back = true;
+    if (back && line->find(" groups written") != std::string::npos) break;
+  }
+  ASSERT_TRUE(back) << lines;
+  ASSERT_TRUE(wait_for_groups_written(recorder, 30, lines)) << lines;
+  recorder.send_signal(SIGINT);
+  ASSERT_EQ(exit_code(recorder.wait_for(30s)), 0);
+
+  const RingRecordingReader reader(out.path);
+  EXPECT_GE(counter(reader, Counter::producer_restarts), 1u);
+  std::vector<std::byte> payload(reader.group_bytes());
+  shm::SlotHeader first{}, last{};
+  reader.read_group(0, payload, first);
+  reader.read_group(reader.group_count() - 1, payload, last);
+  EXPECT_NE(first.producer_epoch, last.producer_epoch) << "no group of the second producer";
+}
+
+TEST(IoctRecord, ReplayThroughIoctRtPublishesTheRecordedGroupsBitForBit) {
+  const test_support::ScopedShmName ring("record-live");
+  const test_support::ScopedShmName replay_ring("record-replay");
+  const TempPath out("replay");
+  {
+    ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
+    ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
+    std::string lines;
+    ASSERT_TRUE(wait_for_groups_written(recorder, 60, lines)) << lines;
+    recorder.send_signal(SIGTERM);
+    ASSERT_EQ(exit_code(recorder.wait_for(30s)), 0);
+  }
+  const RingRecordingReader recorded(out.path);
+  std::map<std::uint64_t, std::uint64_t> by_sweep;  // first sweep counter -> file group
+  shm::SlotHeader header{};
+  for (std::uint64_t i = 0; i < recorded.group_count(); ++i) {
+    recorded.read_header(i, header);
+    by_sweep[header.first_sweep_counter] = i;
+  }
+
+  std::vector<std::string> arguments = small_rt(replay_ring.str());
+  // Played at a fifth of the recorded rate (the ring recording leaves the timing to the
+  // config), so that this reader, slow under ThreadSanitizer, keeps up with most groups; the
+  // replay outlasts the safety's 2 s arming timeout, so the loop must reach scanning.
+  arguments.insert(arguments.end(),
+                   {"--replay", out.path.string(), "--replay-once", "--ascan-rate", "20000"});
+  ChildProcess replay = start("ioct-rt", arguments);
+  std::optional<shm::RingReader> reader;
+  for (int tries = 0; tries < 3000 && !reader; ++tries) {
+    try {
+      reader = shm::RingReader::attach(replay_ring.str(), {.label = "replay-test"});
+    } catch (const shm::RingError&) {
+      std::this_thread::sleep_for(2ms);
+    }
+  }
+  ASSERT_TRUE(reader.has_value()) << "the replaying ioct-rt never created its ring";
+  std::vector<std::byte> live(reader->layout().group_payload_bytes);
+  std::vector<std::byte> file(recorded.group_bytes());
+  std::uint64_t compared = 0;
+  std::uint32_t flags = 0;
+  const auto end = std::chrono::steady_clock::now() + 60s;
+  while (compared < recorded.group_count() && std::chrono::steady_clock::now() < end) {
+    const shm::PollStatus poll = reader->read_next(live, header);
+    if (poll == shm::PollStatus::producer_gone) break;
+    if (poll != shm::PollStatus::ready) {
+      std::this_thread::sleep_for(1ms);
+      continue;
+    }
+    flags |= header.status_flags;
+    const auto it = by_sweep.find(header.first_sweep_counter);
+    if (it == by_sweep.end()) break;  // past the recording's end (--replay-once)
+    shm::SlotHeader recorded_header{};
+    recorded.read_group(it->second, file, recorded_header);
+    EXPECT_TRUE(live == file) << "replayed group " << header.group_index << " (file group "
+                              << it->second << ") differs from the recording";
+    EXPECT_EQ(header.missed_sweeps, recorded_header.missed_sweeps);
+    ++compared;
+    // --replay-once: nothing follows the recording's last group (a slow reader may have lost
+    // some before it, counted as lapped, not compared).
+    if (it->second + 1 == recorded.group_count()) break;
+  }
+  std::printf("[ compared ] %llu replayed groups of %llu recorded, bit for bit\n",
+              static_cast<unsigned long long>(compared),
+              static_cast<unsigned long long>(recorded.group_count()));
+  EXPECT_GE(compared, 10u);
+  EXPECT_NE(flags & shm::kStatusReplay, 0u) << "the ring does not say it is a replay";
+  EXPECT_NE(flags & shm::kStatusLaserOn, 0u) << "the replay never reached scanning";
+  EXPECT_EQ(flags & shm::kStatusSimulated, 0u);
+  replay.send_signal(SIGTERM);
+  EXPECT_EQ(exit_code(replay.wait_for(30s)), 0);
+}
+
+TEST(IoctRecord, ReplayOfAnotherGeometryIsRefusedNamingBothValues) {
+  const test_support::ScopedShmName ring("record-geometry");
+  const TempPath out("geometry");
+  {
+    ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
+    ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
+    std::string lines;
+    ASSERT_TRUE(wait_for_groups_written(recorder, 2, lines)) << lines;
+    recorder.send_signal(SIGTERM);
+    ASSERT_EQ(exit_code(recorder.wait_for(30s)), 0);
+  }
+  std::vector<std::string> arguments = small_rt(ring.str());
+  arguments[3] = "512";  // --samples
+  arguments.insert(arguments.end(), {"--replay", out.path.string()});
+  ChildProcess replay = start("ioct-rt", arguments);
+  EXPECT_NE(exit_code(replay.wait_for(30s)), 0);
+}
+
+}  // namespace
+}  // namespace ioct::ringrec
