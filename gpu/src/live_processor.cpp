@@ -173,8 +173,10 @@ class LiveProcessor::Session final : public LiveEvents {
     ++counters_.groups_processed;
     counters_.bscans_rejected += placed.bscans_rejected;
     counters_.volumes_abandoned += placed.volumes_abandoned;
-    write_pending_images();
+    // The viewers first: the stages take the group before the completed volume's files are
+    // encoded and written, which would otherwise delay that group's frame by their time.
     hand_to_stage(header, placed);
+    write_pending_images();
   }
 
   void on_rejected(const shm::SlotHeader& header, const std::string& problem) override {

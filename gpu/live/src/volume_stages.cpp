@@ -22,6 +22,7 @@
 #include "ioct/shm/shm_object.hpp"
 
 #include "device_stage_chain.hpp"
+#include "live_image_writer.hpp"
 
 namespace ioct::gpu::live {
 namespace {
@@ -477,9 +478,8 @@ void VolumeStages::write_live_image(std::uint64_t now_ns) {
     return;
   }
   last_image_ns_ = now_ns;
-  render::write_png(config_.live_image, image_);
-  std::lock_guard lock(mutex_);
-  ++figures_.images_written;
+  if (!image_writer_) image_writer_ = std::make_unique<LiveImageWriter>(config_.live_image);
+  image_writer_->submit(image_);
 }
 
 ViewParams VolumeStages::params() const {
@@ -553,6 +553,11 @@ nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
   }
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();  // after the pending B-scans' pass
+  LiveImageWriter::Counts live_images;
+  if (image_writer_) {
+    image_writer_->stop();  // before finish's own render.png
+    live_images = image_writer_->counts();
+  }
   {
     std::lock_guard lock(mutex_);
     for (const auto& waiter : snapshot_waiters_) {
@@ -599,7 +604,11 @@ nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
   j["frames_published"] = f.frames_published;
   j["frame_errors"] = f.frame_errors;
   j["frame_problem"] = f.frame_problem;
-  j["live_images_written"] = f.images_written;
+  j["live_images_written"] = live_images.written;
+  if (live_images.failed > 0) {
+    j["live_images_failed"] = live_images.failed;
+    j["live_image_problem"] = live_images.problem;
+  }
   j["pass_ms"] = percentiles(f.pass);
   j["filter_ms"] = percentiles(f.filter);
   j["segment_ms"] = percentiles(f.segment);

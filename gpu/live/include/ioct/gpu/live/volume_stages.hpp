@@ -60,6 +60,7 @@ class Renderer;
 namespace ioct::gpu::live {
 
 class DeviceStageChain;
+class LiveImageWriter;
 
 // One pass, as the benchmarks see it: CLOCK_MONOTONIC ns when it took its B-scans and when each
 // stage's work was done (on the device: when the device finished it).
@@ -87,8 +88,8 @@ struct VolumeStagesConfig {
   // share of both cores for a 1024x768 frame, so it renders after a pass only when this long has
   // passed since its last render (0: after every pass too).
   double cpu_render_interval_s = 2.0;
-  // The live view as a PNG, rewritten at most every image_interval_s while running (empty path
-  // or 0 s: only at the end, by finish()).
+  // The live view as a PNG, rewritten at most every image_interval_s while running, on a thread of
+  // its own so that zlib never delays a frame (empty path or 0 s: only at the end, by finish()).
   std::filesystem::path live_image;
   double image_interval_s = 1.0;
   // The frame ring for ioct-view (shm object name; empty: no frames are published).
@@ -150,7 +151,6 @@ class VolumeStages final : public LiveStage, public ViewControl {
     std::uint64_t interactive_renders = 0;  // between passes: changes, rotation, private views
     std::uint64_t frames_published = 0;
     std::uint64_t frame_errors = 0;
-    std::uint64_t images_written = 0;
     LatencyHistogram pass;      // take -> rendered
     LatencyHistogram filter;    // per pass
     LatencyHistogram segment;   // per pass
@@ -214,6 +214,7 @@ class VolumeStages final : public LiveStage, public ViewControl {
   std::unique_ptr<filters::VolumeFilter> filter_;
   std::unique_ptr<segmentation::Segmenter> segmenter_;
   std::unique_ptr<render::Renderer> renderer_;
+  std::unique_ptr<LiveImageWriter> image_writer_;  // render.png, off the stages' thread
   Volume input_;
   Volume filtered_;
   segmentation::Surfaces surfaces_;
