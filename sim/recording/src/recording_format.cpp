@@ -5,14 +5,26 @@
 #include <bit>
 #include <cmath>
 #include <cstring>
+#include <string>
 
 namespace ioct::recording {
 namespace {
 
+using nlohmann::json;
+
+// A value of the file as a message may show it: JSON with every byte outside printable ASCII
+// escaped (JSON's own escaping leaves DEL and non-ASCII bytes as they are), shortened.
+std::string shown(const json& value) {
+  constexpr std::size_t kShown = 60;
+  std::string text = value.dump(-1, ' ', true, json::error_handler_t::replace);
+  if (text.size() > kShown) {
+    text = text.substr(0, kShown) + "... (" + std::to_string(text.size()) + " bytes)";
+  }
+  return text;
+}
+
 static_assert(std::endian::native == std::endian::little,
               "the recording format is little-endian and is read and written in place");
-
-using nlohmann::json;
 
 [[noreturn]] void fail(const std::string& source, const std::string& what) {
   throw RecordingError(source + ": " + what);
@@ -37,12 +49,12 @@ std::uint64_t unsigned_in(const json& object, const char* key, const std::string
   const json& value = member(object, key, path, source);
   if (!value.is_number_unsigned() &&
       !(value.is_number_integer() && value.get<std::int64_t>() >= 0)) {
-    fail(source, join(path, key) + " = " + value.dump() + ": must be an integer in [" +
+    fail(source, join(path, key) + " = " + shown(value) + ": must be an integer in [" +
                      std::to_string(lo) + ", " + std::to_string(hi) + "]");
   }
   const auto v = value.get<std::uint64_t>();
   if (v < lo || v > hi) {
-    fail(source, join(path, key) + " = " + value.dump() + ": must be an integer in [" +
+    fail(source, join(path, key) + " = " + shown(value) + ": must be an integer in [" +
                      std::to_string(lo) + ", " + std::to_string(hi) + "]");
   }
   return v;
@@ -53,7 +65,7 @@ double real_in(const json& object, const char* key, const std::string& path,
   const json& value = member(object, key, path, source);
   if (!value.is_number() || !std::isfinite(value.get<double>()) || value.get<double>() < lo ||
       value.get<double>() > hi) {
-    fail(source, join(path, key) + " = " + value.dump() + ": must be a number in [" +
+    fail(source, join(path, key) + " = " + shown(value) + ": must be a number in [" +
                      json(lo).dump() + ", " + json(hi).dump() + "]");
   }
   return value.get<double>();
@@ -63,7 +75,7 @@ std::string text(const json& object, const char* key, const std::string& path,
                  const std::string& source) {
   const json& value = member(object, key, path, source);
   if (!value.is_string())
-    fail(source, join(path, key) + " = " + value.dump() + ": must be a string");
+    fail(source, join(path, key) + " = " + shown(value) + ": must be a string");
   return value.get<std::string>();
 }
 
@@ -128,7 +140,7 @@ RecordingMetadata metadata_from_json(const json& in, const std::string& source) 
   if (!in.is_object()) fail(source, "the metadata must be a JSON object");
   const std::string format = text(in, "format", "", source);
   if (format != kFormatName) {
-    fail(source, "format = \"" + format + "\": not an ioct raw recording (expected \"" +
+    fail(source, "format = " + shown(format) + ": not an ioct raw recording (expected \"" +
                      kFormatName + "\")");
   }
   const std::uint64_t version = unsigned_in(in, "version", "", source, 0, 1u << 30);
@@ -161,8 +173,8 @@ RecordingMetadata metadata_from_json(const json& in, const std::string& source) 
       static_cast<std::uint32_t>(unsigned_in(g, "sample_bits", path, source, 1, 16));
   geometry.clock_source = text(g, "clock_source", path, source);
   if (geometry.clock_source != "external_k_clock" && geometry.clock_source != "internal") {
-    fail(source, "geometry.clock_source = \"" + geometry.clock_source +
-                     "\": must be \"external_k_clock\" or \"internal\"");
+    fail(source, "geometry.clock_source = " + shown(geometry.clock_source) +
+                     ": must be \"external_k_clock\" or \"internal\"");
   }
   if (geometry.samples_per_group() > (std::uint64_t{1} << 32)) {
     fail(source, "geometry: " + std::to_string(geometry.samples_per_group()) +
@@ -171,11 +183,11 @@ RecordingMetadata metadata_from_json(const json& in, const std::string& source) 
   const json& scan = member(in, "scan", "", source);
   m.scan.pattern = text(scan, "pattern", "scan", source);
   if (m.scan.pattern != "raster") {
-    fail(source, "scan.pattern = \"" + m.scan.pattern + "\": this build knows \"raster\"");
+    fail(source, "scan.pattern = " + shown(m.scan.pattern) + ": this build knows \"raster\"");
   }
   const json& bidirectional = member(scan, "bidirectional", "scan", source);
   if (!bidirectional.is_boolean()) {
-    fail(source, "scan.bidirectional = " + bidirectional.dump() + ": must be true or false");
+    fail(source, "scan.bidirectional = " + shown(bidirectional) + ": must be true or false");
   }
   m.scan.bidirectional = bidirectional.get<bool>();
   m.scan.center_x = real_in(scan, "center_x", "scan", source, -1.0, 1.0);
@@ -185,14 +197,14 @@ RecordingMetadata metadata_from_json(const json& in, const std::string& source) 
   const json& calibration = member(in, "calibration", "", source);
   const json& coefficients = member(calibration, "resampling_coefficients", "calibration", source);
   if (!coefficients.is_array() || coefficients.empty() || coefficients.size() > 8) {
-    fail(source, "calibration.resampling_coefficients = " + coefficients.dump() +
+    fail(source, "calibration.resampling_coefficients = " + shown(coefficients) +
                      ": must be an array of 1 to 8 numbers");
   }
   m.resampling_coefficients.clear();
   for (std::size_t i = 0; i < coefficients.size(); ++i) {
     if (!coefficients[i].is_number() || !std::isfinite(coefficients[i].get<double>())) {
       fail(source, "calibration.resampling_coefficients[" + std::to_string(i) +
-                       "] = " + coefficients[i].dump() + ": must be a finite number");
+                       "] = " + shown(coefficients[i]) + ": must be a finite number");
     }
     m.resampling_coefficients.push_back(coefficients[i].get<double>());
   }
