@@ -1,6 +1,6 @@
 #include "ioct/sim/fault_injector.hpp"
 
-#include <time.h>
+#include "ioct/shm/monotonic_clock.hpp"
 
 namespace ioct::sim {
 namespace {
@@ -11,13 +11,6 @@ static_assert(std::atomic<std::uint64_t>::is_always_lock_free);
 constexpr std::array<std::string_view, kFaultCount> kNames{
     "k_clock_dropout",    "digitizer_stall", "usb_disconnect", "galvo_driver_fault",
     "galvo_stream_stall", "trigger_loss",    "slow_consumer",  "laser_not_ready"};
-
-std::uint64_t monotonic_ns() noexcept {
-  timespec ts{};
-  ::clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ull +
-         static_cast<std::uint64_t>(ts.tv_nsec);
-}
 
 }  // namespace
 
@@ -37,7 +30,8 @@ void FaultInjector::set(Fault fault, bool active) noexcept {
   const std::uint32_t previous = active ? mask_.fetch_or(bit(fault), std::memory_order_acq_rel)
                                         : mask_.fetch_and(~bit(fault), std::memory_order_acq_rel);
   if (((previous & bit(fault)) != 0) != active) {
-    changed_ns_[static_cast<std::size_t>(fault)].store(monotonic_ns(), std::memory_order_release);
+    changed_ns_[static_cast<std::size_t>(fault)].store(shm::monotonic_ns(),
+                                                       std::memory_order_release);
   }
 }
 

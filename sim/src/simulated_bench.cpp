@@ -1,21 +1,9 @@
 #include "ioct/sim/simulated_bench.hpp"
 
-#include <time.h>
-
 #include "ioct/common/config_error.hpp"
+#include "ioct/shm/monotonic_clock.hpp"
 
 namespace ioct::sim {
-namespace {
-
-std::uint64_t monotonic_ns() noexcept {
-  timespec ts{};
-  ::clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ull +
-         static_cast<std::uint64_t>(ts.tv_nsec);
-}
-
-}  // namespace
-
 void BenchConfig::validate() const {
   if (mirrors.natural_hz != 0.0) {  // 0: ideal mirrors
     ioct::require_real_in_range("bench.mirrors.natural_hz", mirrors.natural_hz, 10.0, 100'000.0);
@@ -36,7 +24,7 @@ void SimulatedBench::command_emission(bool on) noexcept {
 }
 
 void SimulatedBench::heartbeat() noexcept {
-  last_heartbeat_ns_.store(monotonic_ns(), std::memory_order_release);
+  last_heartbeat_ns_.store(shm::monotonic_ns(), std::memory_order_release);
 }
 
 bool SimulatedBench::emission_on() const noexcept {
@@ -45,12 +33,12 @@ bool SimulatedBench::emission_on() const noexcept {
   if (config_.watchdog_timeout_ms == 0) return true;
   const std::uint64_t last = last_heartbeat_ns_.load(std::memory_order_acquire);
   return last != 0 &&
-         monotonic_ns() - last <= std::uint64_t{config_.watchdog_timeout_ms} * 1'000'000ull;
+         shm::monotonic_ns() - last <= std::uint64_t{config_.watchdog_timeout_ms} * 1'000'000ull;
 }
 
 void SimulatedBench::set_footswitch(bool pressed) noexcept {
   if (footswitch_.exchange(pressed, std::memory_order_acq_rel) != pressed) {
-    footswitch_changed_ns_.store(monotonic_ns(), std::memory_order_release);
+    footswitch_changed_ns_.store(shm::monotonic_ns(), std::memory_order_release);
   }
 }
 

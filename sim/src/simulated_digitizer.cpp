@@ -1,7 +1,5 @@
 #include "ioct/sim/simulated_digitizer.hpp"
 
-#include <time.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -11,6 +9,7 @@
 #include <thread>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/sim/anterior_segment_model.hpp"
 #include "ioct/sim/mirror_model.hpp"
 #include "ioct/sim/retina_model.hpp"
@@ -34,13 +33,6 @@ constexpr std::uint64_t bscan_stream_key(std::uint64_t first_sweep) noexcept {
   x = (x ^ (x >> 33)) * 0xFF51AFD7ED558CCDull;
   x = (x ^ (x >> 33)) * 0xC4CEB93FE53E03B5ull;
   return x ^ (x >> 33);
-}
-
-std::uint64_t monotonic_ns() noexcept {
-  timespec ts{};
-  ::clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ull +
-         static_cast<std::uint64_t>(ts.tv_nsec);
 }
 
 std::unique_ptr<SampleModel> make_model(const SimulationConfig& s, std::uint32_t depth_bins) {
@@ -161,7 +153,7 @@ void SimulatedDigitizer::do_start() {
   pending_status_ = 0;
   backlog_sweeps_ = 0;
   device_lost_ = false;
-  start_ns_ = monotonic_ns();
+  start_ns_ = shm::monotonic_ns();
   if (pipeline_) {
     // Work of the previous run still running finishes before its slots are rewritten.
     pipeline_->cancel();
@@ -207,10 +199,10 @@ void SimulatedDigitizer::lose_sweeps(std::uint64_t sweeps, bool triggers,
 }
 
 bool SimulatedDigitizer::wait_out(std::uint32_t fault_bits) noexcept {
-  const std::uint64_t start = monotonic_ns();
+  const std::uint64_t start = shm::monotonic_ns();
   const std::uint64_t timeout_ns = std::uint64_t{config().timeout_ms} * 1'000'000ull;
   for (;;) {
-    const std::uint64_t now = monotonic_ns();
+    const std::uint64_t now = shm::monotonic_ns();
     const bool lasting = (bench_->faults().active_mask() & fault_bits) != 0;
     if (!lasting || now - start >= timeout_ns) {
       // The source kept sweeping while nothing was recorded.
@@ -399,12 +391,9 @@ void SimulatedDigitizer::deliver_ahead(std::span<std::uint16_t> group, hal::Grou
   info = job.info;
   if (!job.has_records) return;  // a timeout or a lost device: the payload is untouched
   // Polls, never blocks on the workers: a DMA engine that has not filled the buffer yet. Late
-  // when the workers had not finished it by the time its last sweep ended.
-  bool late = false;
-  while (!pipeline_->ready(slot)) {
-    late = late || monotonic_ns() > group_end_ns(job.info);
-    sleep_ns(kLatePollNs);
-  }
+  // when the workers finished it after its last sweep ended (whenever this is called).
+  while (!pipeline_->ready(slot)) sleep_ns(kLatePollNs);
+  const bool late = pipeline_->finished_ns(slot) > group_end_ns(job.info);
   std::copy(job.samples.begin(), job.samples.end(), group.begin());
   copy_truth(job.truth, truth_);
   if (late) {

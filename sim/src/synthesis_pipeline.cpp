@@ -5,6 +5,8 @@
 
 #include <stdexcept>
 
+#include "ioct/shm/monotonic_clock.hpp"
+
 namespace ioct::sim {
 
 SynthesisPipeline::SynthesisPipeline(std::uint32_t workers, std::uint32_t slots,
@@ -51,6 +53,7 @@ SynthesisPipeline::~SynthesisPipeline() {
 void SynthesisPipeline::dispatch(std::uint32_t slot) noexcept {
   Slot& s = *slots_[slot];
   s.done.store(0, std::memory_order_relaxed);
+  s.finished_ns.store(0, std::memory_order_relaxed);
   s.order.store(++dispatched_, std::memory_order_relaxed);
   // Release: a worker whose fetch_add reads this store sees the slot's inputs and the resets.
   s.next.store(0, std::memory_order_release);
@@ -60,6 +63,10 @@ void SynthesisPipeline::dispatch(std::uint32_t slot) noexcept {
 
 bool SynthesisPipeline::ready(std::uint32_t slot) const noexcept {
   return slots_[slot]->done.load(std::memory_order_acquire) >= bscans_;
+}
+
+std::uint64_t SynthesisPipeline::finished_ns(std::uint32_t slot) const noexcept {
+  return slots_[slot]->finished_ns.load(std::memory_order_relaxed);  // ordered by ready()
 }
 
 void SynthesisPipeline::cancel() noexcept {
@@ -95,6 +102,12 @@ void SynthesisPipeline::work(std::uint32_t worker) noexcept {
       const std::uint32_t bscan = s.next.fetch_add(1, std::memory_order_acq_rel);
       if (bscan < bscans_) {
         task_(worker, slot, bscan);
+        // Its end, kept if it is the latest, before the count that may release the slot.
+        const std::uint64_t end = shm::monotonic_ns();
+        std::uint64_t latest = s.finished_ns.load(std::memory_order_relaxed);
+        while (latest < end &&
+               !s.finished_ns.compare_exchange_weak(latest, end, std::memory_order_relaxed)) {
+        }
         // The last B-scan of the dispatch releases the whole slot to the owner.
         s.done.fetch_add(1, std::memory_order_acq_rel);
         worked = true;

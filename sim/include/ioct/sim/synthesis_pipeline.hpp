@@ -46,6 +46,8 @@ class SynthesisPipeline {
   void dispatch(std::uint32_t slot) noexcept;
   // Every B-scan of the slot's latest dispatch is done (acquire: its outputs are visible).
   bool ready(std::uint32_t slot) const noexcept;
+  // When the slot's last B-scan was done (CLOCK_MONOTONIC ns); meaningful once ready().
+  std::uint64_t finished_ns(std::uint32_t slot) const noexcept;
   // Withdraws the B-scans no worker has taken yet from every slot (the slots never become
   // ready); B-scans already running finish. Lock-free.
   void cancel() noexcept;
@@ -54,9 +56,10 @@ class SynthesisPipeline {
 
  private:
   struct alignas(64) Slot {
-    std::atomic<std::uint32_t> next{0};   // the next B-scan to take; >= bscans: none left
-    std::atomic<std::uint32_t> done{0};   // B-scans finished in this dispatch
-    std::atomic<std::uint64_t> order{0};  // dispatch sequence: the oldest is served first
+    std::atomic<std::uint32_t> next{0};         // the next B-scan to take; >= bscans: none left
+    std::atomic<std::uint32_t> done{0};         // B-scans finished in this dispatch
+    std::atomic<std::uint64_t> order{0};        // dispatch sequence: the oldest is served first
+    std::atomic<std::uint64_t> finished_ns{0};  // the latest B-scan's end, CLOCK_MONOTONIC
   };
 
   void work(std::uint32_t worker) noexcept;
