@@ -46,6 +46,27 @@ void neighbour_rows(const Volume& in, std::uint32_t bscan, std::uint32_t ascan,
   }
 }
 
+// The runs of depth [d0, d0 + 32) of each row shifted by -1, 0 and +1 voxel, three per row in
+// `v`. Interior runs read straight from the rows; runs touching either end clamp each index.
+template <std::size_t Rows>
+void load_depth_runs(const std::uint8_t* const (&rows)[Rows], std::uint32_t d0, std::uint32_t depth,
+                     DepthRun (&v)[3 * Rows]) {
+  constexpr std::uint32_t kRun = DepthRun::kLength;
+  const bool interior = d0 >= 1 && d0 + kRun + 1 <= depth;
+  for (std::size_t k = 0; k < Rows; ++k) {
+    for (int dd = -1; dd <= 1; ++dd) {
+      DepthRun& run = v[3 * k + static_cast<std::size_t>(dd + 1)];
+      if (interior) {
+        std::memcpy(run.v, rows[k] + d0 + dd, kRun);
+      } else {
+        for (std::uint32_t i = 0; i < kRun; ++i) {
+          run.v[i] = rows[k][clamped(std::int64_t{d0} + i + dd, depth)];
+        }
+      }
+    }
+  }
+}
+
 }  // namespace
 
 void median3x3x3_bscan(const Volume& in, std::uint32_t bscan, std::span<std::uint8_t> out) {
@@ -60,20 +81,7 @@ void median3x3x3_bscan(const Volume& in, std::uint32_t bscan, std::span<std::uin
     std::uint8_t* out_row = out.data() + std::size_t{a} * depth;
     for (std::uint32_t d0 = 0; d0 < depth; d0 += kRun) {
       DepthRun v[27];
-      // Interior runs read straight from the rows; runs touching either end clamp each index.
-      const bool interior = d0 >= 1 && d0 + kRun + 1 <= depth;
-      for (int k = 0; k < 9; ++k) {
-        for (int dd = -1; dd <= 1; ++dd) {
-          DepthRun& run = v[3 * k + dd + 1];
-          if (interior) {
-            std::memcpy(run.v, rows[k] + d0 + dd, kRun);
-          } else {
-            for (std::uint32_t i = 0; i < kRun; ++i) {
-              run.v[i] = rows[k][clamped(std::int64_t{d0} + i + dd, depth)];
-            }
-          }
-        }
-      }
+      load_depth_runs(rows, d0, depth, v);
       const DepthRun median = median27_forgetful(v);
       std::memcpy(out_row + d0, median.v, std::min(kRun, depth - d0));
     }
@@ -95,19 +103,7 @@ void median3x3_bscan(const Volume& in, std::uint32_t bscan, std::span<std::uint8
     std::uint8_t* out_row = out.data() + std::size_t{a} * depth;
     for (std::uint32_t d0 = 0; d0 < depth; d0 += kRun) {
       DepthRun v[9];
-      const bool interior = d0 >= 1 && d0 + kRun + 1 <= depth;
-      for (int k = 0; k < 3; ++k) {
-        for (int dd = -1; dd <= 1; ++dd) {
-          DepthRun& run = v[3 * k + dd + 1];
-          if (interior) {
-            std::memcpy(run.v, rows[k] + d0 + dd, kRun);
-          } else {
-            for (std::uint32_t i = 0; i < kRun; ++i) {
-              run.v[i] = rows[k][clamped(std::int64_t{d0} + i + dd, depth)];
-            }
-          }
-        }
-      }
+      load_depth_runs(rows, d0, depth, v);
       sort9(v);
       std::memcpy(out_row + d0, v[4].v, std::min(kRun, depth - d0));
     }
