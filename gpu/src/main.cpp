@@ -3,13 +3,13 @@
 // projection, surfaces and renders as files.
 #include <CLI/CLI.hpp>
 
-#include <csignal>
 #include <cstdlib>
 #include <iostream>
 #include <memory>
 #include <string>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/common/stop_signals.hpp"
 #include "ioct/gpu/live/processing_view_control.hpp"
 #include "ioct/gpu/live/view_socket.hpp"
 #include "ioct/gpu/live/volume_stages.hpp"
@@ -22,15 +22,6 @@ ioct::gpu::LiveProcessor* g_processor = nullptr;
 
 extern "C" void on_stop_signal(int) {
   if (g_processor != nullptr) g_processor->request_stop();
-}
-
-void install_stop_handlers() {
-  struct sigaction action {};
-  action.sa_handler = on_stop_signal;
-  action.sa_flags = SA_RESETHAND;  // a second Ctrl-C ends the process at once
-  sigemptyset(&action.sa_mask);
-  sigaction(SIGINT, &action, nullptr);
-  sigaction(SIGTERM, &action, nullptr);
 }
 
 }  // namespace
@@ -182,7 +173,7 @@ int main(int argc, char** argv) {
     }
     processor.set_status_stream(&std::cerr);
     g_processor = &processor;
-    install_stop_handlers();
+    ioct::install_stop_handler(on_stop_signal);
     const RunSummary summary = processor.run();
     g_processor = nullptr;
     socket.reset();

@@ -2,13 +2,13 @@
 // an HDF5 file (SWMR), next to ioct-gpu and without disturbing it or ioct-rt.
 #include <CLI/CLI.hpp>
 
-#include <csignal>
 #include <fstream>
 #include <iostream>
 #include <sstream>
 #include <string>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/common/stop_signals.hpp"
 #include "ioct/ringrec/h5_handle.hpp"
 #include "ioct/ringrec/ring_recorder.hpp"
 #include "ioct/shm/ring_error.hpp"
@@ -19,15 +19,6 @@ ioct::ringrec::RingRecorder* g_recorder = nullptr;
 
 extern "C" void on_stop_signal(int) {
   if (g_recorder != nullptr) g_recorder->request_stop();
-}
-
-void install_stop_handlers() {
-  struct sigaction action {};
-  action.sa_handler = on_stop_signal;
-  action.sa_flags = SA_RESETHAND;  // a second Ctrl-C ends the process at once
-  sigemptyset(&action.sa_mask);
-  sigaction(SIGINT, &action, nullptr);
-  sigaction(SIGTERM, &action, nullptr);
 }
 
 constexpr std::size_t kMaxMetadataFileBytes = 1 << 20;
@@ -84,7 +75,7 @@ int main(int argc, char** argv) {
     if (!metadata_file.empty()) config.run_metadata = read_metadata_file(metadata_file);
     RingRecorder recorder(config);
     g_recorder = &recorder;
-    install_stop_handlers();
+    ioct::install_stop_handler(on_stop_signal);
     const RecorderSummary summary = recorder.run(&std::cout);
     g_recorder = nullptr;
     const CounterValues& c = summary.counters;
