@@ -12,6 +12,14 @@ constexpr std::size_t kMaxErrorChars = 240;
 
 }  // namespace
 
+std::string shown_json(const nlohmann::json& value, std::size_t max_chars) {
+  std::string text = value.dump(-1, ' ', true, nlohmann::json::error_handler_t::replace);
+  if (text.size() > max_chars) {
+    text = text.substr(0, max_chars) + "... (" + std::to_string(text.size()) + " bytes)";
+  }
+  return text;
+}
+
 StrictJson parse_json_strictly(std::string_view text) {
   StrictJson result;
   std::vector<std::set<std::string>> keys;  // one set per open object

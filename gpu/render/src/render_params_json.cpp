@@ -6,18 +6,16 @@
 #include <string_view>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/common/strict_json.hpp"
 
 namespace ioct::gpu::render {
 namespace {
 
 using nlohmann::json;
 
-// A value as an error message shows it: short, since it may come from anyone.
+// A value as an error message shows it: escaped and short, since it may come from anyone.
 std::string shown(const json& value) {
-  std::string text = value.dump();
-  constexpr std::size_t kShown = 60;
-  if (text.size() > kShown) text = text.substr(0, kShown) + "...";
-  return text;
+  return shown_json(value);
 }
 
 [[noreturn]] void wrong_type(const std::string& key, const json& value, std::string_view what) {

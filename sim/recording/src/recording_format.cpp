@@ -7,20 +7,16 @@
 #include <cstring>
 #include <string>
 
+#include "ioct/common/strict_json.hpp"
+
 namespace ioct::recording {
 namespace {
 
 using nlohmann::json;
 
-// A value of the file as a message may show it: JSON with every byte outside printable ASCII
-// escaped (JSON's own escaping leaves DEL and non-ASCII bytes as they are), shortened.
+// A value of the file as a message may show it (escaped, shortened).
 std::string shown(const json& value) {
-  constexpr std::size_t kShown = 60;
-  std::string text = value.dump(-1, ' ', true, json::error_handler_t::replace);
-  if (text.size() > kShown) {
-    text = text.substr(0, kShown) + "... (" + std::to_string(text.size()) + " bytes)";
-  }
-  return text;
+  return shown_json(value);
 }
 
 static_assert(std::endian::native == std::endian::little,

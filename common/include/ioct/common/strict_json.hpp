@@ -22,4 +22,9 @@ struct StrictJson {
 // value and the reason.
 StrictJson parse_json_strictly(std::string_view text);
 
+// A JSON value from outside as an error message may show it: every byte outside printable ASCII
+// escaped (JSON's own escaping leaves DEL and non-ASCII bytes as they are), at most `max_chars`
+// of it followed by "..." and how long it was.
+std::string shown_json(const nlohmann::json& value, std::size_t max_chars = 60);
+
 }  // namespace ioct
