@@ -3,16 +3,18 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include "ioct/common/config_error.hpp"
 
 namespace ioct::gpu {
 
-void DbScaleConfig::validate() const {
-  require_real_in_range("db_min", db_min, -200.0, 300.0);
-  require_real_in_range("db_max", db_max, -200.0, 300.0);
+void DbScaleConfig::validate(std::string_view prefix) const {
+  const std::string p = prefix.empty() ? std::string() : std::string(prefix) + ".";
+  require_real_in_range(p + "db_min", db_min, -200.0, 300.0);
+  require_real_in_range(p + "db_max", db_max, -200.0, 300.0);
   if (!(db_max - db_min >= 1.0)) {
-    throw ConfigError("db_max", format_value(db_max),
+    throw ConfigError(p + "db_max", format_value(db_max),
                       "must be at least 1 dB above db_min (" + format_value(db_min) + ")");
   }
 }

@@ -167,7 +167,7 @@ int main(int argc, char** argv) {
                                        : std::filesystem::path(snapshot_dir);
       // The views' parameters and the processing's dB range, as the viewers change them.
       controls = std::make_unique<live::ProcessingViewControl>(
-          *volume_stages, config.processing.scale,
+          *volume_stages, [&processor] { return processor.db_range(); },
           [&processor](const DbScaleConfig& scale) { processor.set_db_range(scale); });
       socket = std::make_unique<live::ViewSocket>(socket_config, *controls);
     }

@@ -38,9 +38,13 @@ class RecordingViews final : public ViewControl {
 
 struct Controls {
   RecordingViews views;
+  DbScaleConfig range{0.0, 40.0};  // where the processing keeps it
   std::vector<DbScaleConfig> applied;
-  ProcessingViewControl control{views, DbScaleConfig{0.0, 40.0},
-                                [this](const DbScaleConfig& s) { applied.push_back(s); }};
+  ProcessingViewControl control{views, [this] { return range; },
+                                [this](const DbScaleConfig& s) {
+                                  applied.push_back(s);
+                                  range = s;
+                                }};
 };
 
 TEST(ProcessingViewControl, ShowsTheDbRangeBesideTheRenderParameters) {

@@ -17,6 +17,7 @@
 
 #include <complex>
 #include <cstdint>
+#include <string_view>
 
 #include "ioct/gpu/host_device.hpp"
 
@@ -25,8 +26,9 @@ namespace ioct::gpu {
 struct DbScaleConfig {
   double db_min = 0.0;   // dB shown black: a fringe of 1 ADC count
   double db_max = 40.0;  // dB shown white: a fringe of 100 ADC counts
-  // Throws ConfigError: each in [-200, 300] dB, db_max - db_min >= 1 dB.
-  void validate() const;
+  // Throws ConfigError: each in [-200, 300] dB, db_max - db_min >= 1 dB. Keys are named
+  // "db_min", "db_max", or "<prefix>.db_min" ... with a prefix (e.g. "processing").
+  void validate(std::string_view prefix = {}) const;
 };
 
 // Maps FFT bins to u8 pixels. Cheap to copy; one per processor.

@@ -14,9 +14,9 @@ namespace ioct::gpu::live {
 
 class ProcessingViewControl final : public ViewControl {
  public:
-  // `set_db_range` hands a validated range to the processing (LiveProcessor::set_db_range);
-  // `initial` is the range it starts with.
-  ProcessingViewControl(ViewControl& views, DbScaleConfig initial,
+  // The range lives with the processing (LiveProcessor::db_range / set_db_range): `db_range`
+  // reads it, `set_db_range` hands it a validated new one.
+  ProcessingViewControl(ViewControl& views, std::function<DbScaleConfig()> db_range,
                         std::function<void(const DbScaleConfig&)> set_db_range);
 
   ViewParams params() const override;
@@ -39,9 +39,9 @@ class ProcessingViewControl final : public ViewControl {
 
  private:
   ViewControl& views_;
+  std::function<DbScaleConfig()> db_range_;
   std::function<void(const DbScaleConfig&)> set_db_range_;
-  mutable std::mutex mutex_;  // db_range_, and one change at a time
-  DbScaleConfig db_range_;
+  std::mutex mutex_;  // one change at a time (a change reads the range, then sets it)
 };
 
 }  // namespace ioct::gpu::live
