@@ -208,10 +208,8 @@ DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t first, std:
   t.rendered_ns = now;
   t.segmented_ns = ns_before(now, static_cast<float>(t.render_ms));
   t.filtered_ns = ns_before(now, static_cast<float>(t.render_ms + t.segment_ms));
-  const std::uint32_t changed_end =
-      std::max(outputs.first + outputs.count, affected.first + affected.count);
-  t.changed_first = std::min(outputs.first, affected.first);
-  t.changed_count = changed_end - t.changed_first;
+  t.changed_first = affected.first;  // the segmentation's reach covers the filter's outputs
+  t.changed_count = affected.count;
   return t;
 }
 

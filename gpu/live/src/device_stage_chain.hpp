@@ -42,7 +42,8 @@ class DeviceStageChain {
   struct PassTimes {
     double filter_ms = 0.0, segment_ms = 0.0, render_ms = 0.0;
     std::uint64_t filtered_ns = 0, segmented_ns = 0, rendered_ns = 0;
-    // The B-scans whose filtered pixels or surfaces the pass changed.
+    // The B-scans whose filtered pixels or surfaces the pass changed: the segmentation's
+    // affected B-scans, which contain the filter's outputs.
     std::uint32_t changed_first = 0, changed_count = 0;
   };
 

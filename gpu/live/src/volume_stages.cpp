@@ -395,10 +395,7 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
       segmenter_->segment_group(filtered_, {outputs.first, outputs.count}, surfaces_);
   const std::uint64_t t2 = shm::monotonic_ns();
   renderer_->update_bscans(filtered_, affected.first, affected.count, &surfaces_);
-  const std::uint32_t changed_first = std::min(outputs.first, affected.first);
-  note_bscans_changed(
-      changed_first,
-      std::max(outputs.first + outputs.count, affected.first + affected.count) - changed_first);
+  note_bscans_changed(affected.first, affected.count);  // contains the filter's outputs
   const bool render_now =
       renderer_->backend_name() != "cpu" || last_render_ns_ == 0 ||
       static_cast<double>(t2 - last_render_ns_) * 1e-9 >= config_.cpu_render_interval_s;

@@ -182,6 +182,7 @@ IOCT_HD Rgba render_ray(const RenderParams& p, const Sampler& s, const Skipper& 
   const int samples = static_cast<int>(ceilf((t_far - t_near) / e.step - 0.5f));
   const bool layer = p.kind == PixelKind::layer_aware;
   const float termination = p.early_termination;
+  const float d_rpe_px = d_rpe(p);  // once per ray: on the device it is a load
   for (int k = 0; k < samples; ++k) {
     const float t = t_near + (static_cast<float>(k) + 0.5f) * e.step;
     const Vec3 v = o + t * e.dir;
@@ -194,7 +195,7 @@ IOCT_HD Rgba render_ray(const RenderParams& p, const Sampler& s, const Skipper& 
     if (layer) {
       const float alpha = layer_opacity(p, intensity);
       if (alpha <= 0.0f) continue;
-      const float ds = delta_star(v.z, reference_at(p, v.x, v.y), d_rpe(p));
+      const float ds = delta_star(v.z, reference_at(p, v.x, v.y), d_rpe_px);
       Vec3 c = lab_lookup(p.lab_lut, intensity, ds);
       if (p.shadow_steps > 0) c = shadow_factor(p, e, s, v, LayerOpacity{p}) * c;
       composite(acc, c, alpha);
@@ -204,7 +205,7 @@ IOCT_HD Rgba render_ray(const RenderParams& p, const Sampler& s, const Skipper& 
       float alpha = tf.a;
       Vec3 c{tf.r, tf.g, tf.b};
       if (p.kind == PixelKind::axial_colorization) {
-        c = lab_lookup(p.lab_lut, intensity, delta_star(v.z, reference_at(p, v.x, v.y), d_rpe(p)));
+        c = lab_lookup(p.lab_lut, intensity, delta_star(v.z, reference_at(p, v.x, v.y), d_rpe_px));
       }
       if (p.kind != PixelKind::basic) {
         Vec3 g{0, 0, 0};
