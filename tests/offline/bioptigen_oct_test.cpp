@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <string>
@@ -261,6 +262,44 @@ TEST(BioptigenOct, RefusesEveryCorruptionNamingFileFieldAndOffset) {
       EXPECT_NE(what.find(c.message), std::string::npos) << what;
       for (const char ch : what) EXPECT_TRUE(ch >= 0x20 && ch < 0x7f) << what;
     }
+  }
+}
+
+// The fuzz target's seeds (tests/fuzz/corpus/bioptigen_oct/) are this writer's files, small enough
+// to mutate quickly: kept equal to it here. IOCT_WRITE_FUZZ_SEEDS=1 writes them afresh.
+TEST(BioptigenOct, FuzzSeedsAreTheWritersFiles) {
+  struct Seed {
+    const char* name;
+    BioptigenSpec spec;
+  };
+  std::vector<Seed> seeds(3);
+  for (Seed& s : seeds) {
+    s.spec.ascans = 4;
+    s.spec.depth = 8;
+    s.spec.scans = 2;
+    s.spec.frames = 2;
+    s.spec.description = "seed";
+  }
+  seeds[0].name = "volume-2x2-frames-4x8.OCT";
+  seeds[1].name = "linear-doppler-4x8.OCT";
+  seeds[1].spec.scan_type = 0;
+  seeds[1].spec.doppler = true;
+  seeds[2].name = "frames-per-volume-4x8.OCT";
+  seeds[2].spec.scans_and_frames_keys = false;
+  seeds[2].spec.frames = 1;
+  const std::filesystem::path dir = std::filesystem::path(IOCT_FUZZ_CORPUS_DIR) / "bioptigen_oct";
+  const char* write = std::getenv("IOCT_WRITE_FUZZ_SEEDS");
+  for (const Seed& s : seeds) {
+    SCOPED_TRACE(s.name);
+    const auto bytes = testing::make_bioptigen_bytes(s.spec);
+    if (write != nullptr && std::string(write) == "1") {
+      std::filesystem::create_directories(dir);
+      testing::write_bytes(dir / s.name, bytes);
+    }
+    ASSERT_TRUE(std::filesystem::exists(dir / s.name)) << "write it with IOCT_WRITE_FUZZ_SEEDS=1";
+    EXPECT_EQ(testing::read_bytes(dir / s.name), bytes);
+    const BioptigenOct oct = read_bioptigen_oct(dir / s.name);
+    EXPECT_EQ(oct.samples.size(), std::size_t{s.spec.scans} * s.spec.frames * 4 * 8);
   }
 }
 
