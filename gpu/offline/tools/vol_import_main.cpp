@@ -122,6 +122,7 @@ int main(int argc, char** argv) {
   app.add_option("--repeat", o.repeat,
                  "Bioptigen only: take frame N of each position instead of the mean of all");
   CLI11_PARSE(app, argc, argv);
+  // The Heidelberg import below works on these.
   const std::string input = o.input;
   const std::string out_dir = o.out_dir;
   std::string name = o.name;

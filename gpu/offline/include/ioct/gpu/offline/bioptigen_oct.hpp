@@ -10,9 +10,9 @@
 //     (A-scans per frame), LINELENGTH (samples per A-scan), SAMPLEFORMAT (u32), DESCRIPTION (text),
 //     XMIN, XMAX (f64), XCAPTION, YMIN, YMAX, YCAPTION, SCANTYPE (u32: 0 linear, 1 rectangular
 //     volume, 3 radial, 5 M-mode, 6 mixed density), SCANDEPTH, SCANLENGTH, AZSCANLENGTH,
-//     ELSCANLENGTH, OBJECTDISTANCE, SCANANGLE (f64, lengths in mm), SCANS (B-scan positions),
-//     FRAMES (frames per position, v1.7 and later; FRAMESPERVOLUME before), DOPPLERFLAG, CONFIG
-//     (text), SUBFRAME* (version 105) ...; ended by a key length of 0.
+//     ELSCANLENGTH, OBJECTDISTANCE, SCANANGLE (f64, lengths in mm), SCANS (B-scan positions;
+//     FRAMESPERVOLUME before v1.7), FRAMES (frames per position, v1.7 and later), DOPPLERFLAG,
+//     CONFIG (text), SUBFRAME* (version 105) ...; ended by a key length of 0.
 //   Per frame: the marker FRAMEDATA (a data length, no data), FRAMEDATETIME (SYSTEMTIME: 8 u16),
 //     FRAMETIMESTAMP (f64), FRAMELINES (u32), FRAMESAMPLES (FRAMELINES x LINELENGTH u16, each
 //     A-scan's samples contiguous, the first at the top), DOPPLERSAMPLES (when DOPPLERFLAG, the
@@ -20,12 +20,12 @@
 //   Frames come as whole volumes: frame f is B-scan position f % SCANS of repeat f / SCANS (as
 //   OCT-Converter orders them); a linear or M-mode scan repeats one position.
 //
-// Read: everything above. Kept but not interpreted: SAMPLEFORMAT (every reader takes u16),
-// XMIN..YCAPTION, OBJECTDISTANCE, SCANANGLE, the frame times. Skipped by their length: CONFIG
-// ("obfuscated"), DOPPLERSAMPLES, and any key a reader does not know.
+// Used: the counts, SCANTYPE, the lengths, DOPPLERFLAG, DESCRIPTION, FRAMELINES, FRAMESAMPLES.
+// Kept but not interpreted: SAMPLEFORMAT (every public reader takes u16). Skipped by their data
+// length: XMIN..YCAPTION, OBJECTDISTANCE, SCANANGLE, the frame times, CONFIG ("obfuscated"),
+// DOPPLERSAMPLES, SUBFRAME* and any key not known.
 #pragma once
 
-#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
