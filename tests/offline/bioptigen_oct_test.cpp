@@ -212,7 +212,7 @@ TEST(BioptigenOct, RefusesEveryCorruptionNamingFileFieldAndOffset) {
        "LINECOUNT (offset 47) = 0 is out of range [1, 65536]"},
       {"FRAMECOUNT not SCANS x FRAMES",
        [](B& b) { put_u32(b, bioptigen_field_data(b, "FRAMES"), 3); },
-       "FRAMECOUNT = 6 is not SCANS 3 x FRAMES 3"},
+       "FRAMECOUNT (offset 25) = 6 is not SCANS (offset 465) 3 x FRAMES (offset 482) 3"},
       {"FRAMECOUNT of the wrong length",
        [](B& b) { put_u32(b, bioptigen_field_data(b, "FRAMECOUNT") - 4, 3); },
        "FRAMECOUNT (offset 25): data length 3 is not that of an integer"},

@@ -147,9 +147,14 @@ double read_length_mm(Cursor& in, const Tag& tag) {
   return value;
 }
 
+// Where the counts were found, for messages about their consistency ("absent" when not).
+struct CountOffsets {
+  std::string frame_count = "absent", scans = "absent", frames = "absent";
+};
+
 // The file header's fields after FRAMEHEADER, up to the end marker (or FRAMEDATA in a file that
 // has none). Returns the tag that ended it.
-Tag read_file_header(Cursor& in, BioptigenHeader& h) {
+Tag read_file_header(Cursor& in, BioptigenHeader& h, CountOffsets& offsets) {
   bool have_count = false, have_lines = false, have_length = false;
   for (;;) {
     const Tag tag = read_tag(in, "file header");
@@ -165,6 +170,7 @@ Tag read_file_header(Cursor& in, BioptigenHeader& h) {
     if (tag.key == "FRAMECOUNT") {
       h.frame_count = read_uint(in, tag);
       require_range(in, tag, h.frame_count, 1, kMaxFrames);
+      offsets.frame_count = "offset " + std::to_string(tag.offset);
       have_count = true;
     } else if (tag.key == "LINECOUNT") {
       h.ascans = read_uint(in, tag);
@@ -193,9 +199,12 @@ Tag read_file_header(Cursor& in, BioptigenHeader& h) {
     } else if (tag.key == "SCANS" || (tag.key == "FRAMESPERVOLUME" && !h.scans)) {
       h.scans = read_uint(in, tag);
       require_range(in, tag, *h.scans, 1, kMaxFrames);
+      offsets.scans = (tag.key == "SCANS" ? "" : tag.key + " at ") + std::string("offset ") +
+                      std::to_string(tag.offset);
     } else if (tag.key == "FRAMES") {
       h.frames_per_scan = read_uint(in, tag);
       require_range(in, tag, *h.frames_per_scan, 1, kMaxFrames);
+      offsets.frames = "offset " + std::to_string(tag.offset);
     } else if (tag.key == "DOPPLERFLAG") {
       const std::uint32_t flag = read_uint(in, tag);
       require_range(in, tag, flag, 0, 1);
@@ -277,15 +286,18 @@ BioptigenOct read_bioptigen_oct(const std::filesystem::path& path) {
                   (first.key.empty() ? std::string("empty") : quote_input(first.key)) +
                   ", not FRAMEHEADER");
   }
-  Tag end = read_file_header(in, h);
+  CountOffsets offsets;
+  const Tag end = read_file_header(in, h, offsets);
 
   // Positions and repeats from SCANS and FRAMES, checked against FRAMECOUNT.
   const std::uint32_t scans =
       h.scans.value_or(h.frame_count / std::max(1u, h.frames_per_scan.value_or(1)));
   const std::uint64_t repeats = h.frames_per_scan.value_or(h.frame_count / std::max(1u, scans));
   if (scans == 0 || repeats == 0 || std::uint64_t{scans} * repeats != h.frame_count) {
-    throw in.fail("file header: FRAMECOUNT = " + std::to_string(h.frame_count) + " is not SCANS " +
-                  std::to_string(scans) + " x FRAMES " + std::to_string(repeats));
+    throw in.fail("file header: FRAMECOUNT (" + offsets.frame_count +
+                  ") = " + std::to_string(h.frame_count) + " is not SCANS (" + offsets.scans +
+                  ") " + std::to_string(scans) + " x FRAMES (" + offsets.frames + ") " +
+                  std::to_string(repeats));
   }
   const bool one_position = h.scan_type == 0 || h.scan_type == 5;  // linear, M-mode
   oct.positions = one_position ? 1 : scans;
