@@ -204,10 +204,13 @@ TEST(BioptigenOct, RefusesEveryCorruptionNamingFileFieldAndOffset) {
          put_u32(b, bioptigen_field_data(b, "FRAMECOUNT"), 1u << 20);
          put_u32(b, bioptigen_field_data(b, "LINECOUNT"), 65536);
          put_u32(b, bioptigen_field_data(b, "LINELENGTH"), 65536);
-         put_u32(b, bioptigen_field_data(b, "SCANS"), 1u << 20);
-         put_u32(b, bioptigen_field_data(b, "FRAMES"), 1);
+         put_u32(b, bioptigen_field_data(b, "SCANS"), 65536);
+         put_u32(b, bioptigen_field_data(b, "FRAMES"), 16);
        },
        "truncated: FRAMECOUNT 1048576 frames of 65536 x 65536 u16 need 9007199254740992 bytes"},
+      {"more positions than a volume holds",
+       [](B& b) { put_u32(b, bioptigen_field_data(b, "SCANS"), 65537); },
+       "SCANS (offset 465) = 65537 is out of range [1, 65536]"},
       {"zero A-scans", [](B& b) { put_u32(b, bioptigen_field_data(b, "LINECOUNT"), 0); },
        "LINECOUNT (offset 47) = 0 is out of range [1, 65536]"},
       {"FRAMECOUNT not SCANS x FRAMES",

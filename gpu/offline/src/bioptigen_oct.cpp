@@ -198,7 +198,7 @@ Tag read_file_header(Cursor& in, BioptigenHeader& h, CountOffsets& offsets) {
       h.el_scan_length_mm = read_length_mm(in, tag);
     } else if (tag.key == "SCANS" || (tag.key == "FRAMESPERVOLUME" && !h.scans)) {
       h.scans = read_uint(in, tag);
-      require_range(in, tag, *h.scans, 1, kMaxFrames);
+      require_range(in, tag, *h.scans, 1, kMaxDimension);  // B-scans of the volume
       offsets.scans = (tag.key == "SCANS" ? "" : tag.key + " at ") + std::string("offset ") +
                       std::to_string(tag.offset);
     } else if (tag.key == "FRAMES") {
@@ -301,6 +301,11 @@ BioptigenOct read_bioptigen_oct(const std::filesystem::path& path) {
   }
   const bool one_position = h.scan_type == 0 || h.scan_type == 5;  // linear, M-mode
   oct.positions = one_position ? 1 : scans;
+  if (oct.positions > kMaxDimension) {  // FRAMECOUNT frames without SCANS, all positions
+    throw in.fail("file header: FRAMECOUNT (" + offsets.frame_count + ") = " +
+                  std::to_string(h.frame_count) + " B-scan positions (no SCANS or FRAMES) are " +
+                  "more than " + std::to_string(kMaxDimension));
+  }
   oct.repeats = one_position ? h.frame_count : static_cast<std::uint32_t>(repeats);
 
   // The frames must fit in what is left of the file before anything is allocated for them.
