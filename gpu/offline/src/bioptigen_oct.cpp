@@ -344,26 +344,33 @@ BioptigenVolume to_volume(const BioptigenOct& oct, std::optional<std::uint32_t> 
   }
   const std::size_t frame = std::size_t{h.ascans} * h.depth;
   // Frame f is position f % positions of repeat f / positions.
-  std::vector<std::uint16_t> mean(std::size_t{oct.positions} * frame);
+  const std::size_t voxels = std::size_t{oct.positions} * frame;
   std::vector<std::uint32_t> histogram(65536, 0);
-  std::vector<std::uint64_t> sum(frame);
   const std::uint32_t first = repeat.value_or(0);
   const std::uint32_t count = repeat ? 1 : oct.repeats;
-  for (std::uint32_t p = 0; p < oct.positions; ++p) {
-    std::fill(sum.begin(), sum.end(), 0);
-    for (std::uint32_t r = first; r < first + count; ++r) {
-      const std::uint16_t* s = oct.samples.data() + (std::size_t{r} * oct.positions + p) * frame;
-      for (std::size_t i = 0; i < frame; ++i) sum[i] += s[i];
+  // One frame per position is used as it is: a repeat's frames are contiguous, so no copy.
+  std::vector<std::uint16_t> averaged;
+  const std::uint16_t* mean = oct.samples.data() + std::size_t{first} * voxels;
+  if (count > 1) {
+    averaged.resize(voxels);
+    std::vector<std::uint64_t> sum(frame);
+    for (std::uint32_t p = 0; p < oct.positions; ++p) {
+      std::fill(sum.begin(), sum.end(), 0);
+      for (std::uint32_t r = first; r < first + count; ++r) {
+        const std::uint16_t* s = oct.samples.data() + (std::size_t{r} * oct.positions + p) * frame;
+        for (std::size_t i = 0; i < frame; ++i) sum[i] += s[i];
+      }
+      std::uint16_t* m = averaged.data() + p * frame;
+      for (std::size_t i = 0; i < frame; ++i) {
+        m[i] = static_cast<std::uint16_t>((sum[i] + count / 2) / count);  // rounded mean
+      }
     }
-    std::uint16_t* m = mean.data() + p * frame;
-    for (std::size_t i = 0; i < frame; ++i) {
-      m[i] = static_cast<std::uint16_t>((sum[i] + count / 2) / count);  // rounded mean
-      ++histogram[m[i]];
-    }
+    mean = averaged.data();
   }
+  for (std::size_t i = 0; i < voxels; ++i) ++histogram[mean[i]];
   // The value at rank n * permille / 1000 of the sorted means.
   const auto percentile = [&](std::uint64_t permille) {
-    const std::uint64_t target = mean.size() * permille / 1000;
+    const std::uint64_t target = voxels * permille / 1000;
     std::uint64_t seen = 0;
     for (std::uint32_t v = 0; v < 65536; ++v) {
       seen += histogram[v];
@@ -381,7 +388,7 @@ BioptigenVolume to_volume(const BioptigenOct& oct, std::optional<std::uint32_t> 
   const double scale = 255.0 / (out.window_high - out.window_low);
   out.volume = Volume(oct.positions, h.ascans, h.depth);
   std::uint8_t* voxel = out.volume.pixels().data();
-  for (std::size_t i = 0; i < mean.size(); ++i) {
+  for (std::size_t i = 0; i < voxels; ++i) {
     const double v = (static_cast<double>(mean[i]) - out.window_low) * scale;
     voxel[i] = static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0, 255.0)));
   }
