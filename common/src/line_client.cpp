@@ -64,8 +64,13 @@ bool LineClient::connect_now() {
 }
 
 std::optional<std::string> LineClient::request(std::string_view line) {
+  return request(line, timeout_);
+}
+
+std::optional<std::string> LineClient::request(std::string_view line,
+                                               std::chrono::milliseconds timeout) {
   if (fd_ < 0 && !connect_now()) return std::nullopt;
-  const Clock::time_point end = Clock::now() + timeout_;
+  const Clock::time_point end = Clock::now() + timeout;
   std::string out(line);
   out.push_back('\n');
   std::size_t sent = 0;
@@ -98,7 +103,7 @@ std::optional<std::string> LineClient::request(std::string_view line) {
     }
     pollfd p{fd_, POLLIN, 0};
     if (::poll(&p, 1, millis_left(end)) <= 0) {
-      disconnect(path_ + ": no reply within " + std::to_string(timeout_.count()) + " ms");
+      disconnect(path_ + ": no reply within " + std::to_string(timeout.count()) + " ms");
       return std::nullopt;
     }
     char buffer[16384];

@@ -117,8 +117,14 @@ class ViewServerTest : public ::testing::Test {
       }
       return {{"ok", true}, {"generation", generation_.load()}};
     }
+    if (cmd == "snapshot") {
+      // ioct-gpu answers once the next full-size render is done: seconds on the CPU renderer.
+      std::this_thread::sleep_for(std::chrono::milliseconds(snapshot_delay_ms_.load()));
+      return {{"ok", true}, {"png", "/snapshots/s.png"}, {"json", "/snapshots/s.json"}};
+    }
     return {{"ok", true}};
   }
+  std::atomic<int> snapshot_delay_ms_{0};
 
   // The pipeline as ioct-gpu reports it: live, newest group published `age` ago.
   void report_live(std::uint64_t group, std::chrono::nanoseconds age = 0ns) {
@@ -473,6 +479,16 @@ TEST_F(ViewServerTest, EachFootswitchPressTakesASnapshotAndTellsThePages) {
   }
   std::this_thread::sleep_for(300ms);
   EXPECT_EQ(snapshots(), 2u) << "holding the pedal down is one press, not one per poll";
+}
+
+// A snapshot waits for a full-size render, longer than any other reply of ioct-gpu (the CPU
+// renderer takes seconds): it is given its own time bound, not the backends' 0.5 s.
+TEST_F(ViewServerTest, ASnapshotMayTakeLongerThanOtherReplies) {
+  snapshot_delay_ms_ = 1200;
+  start();
+  const auto reply = http_request(port_, "POST", "/api/snapshot", "{}", kToken);
+  EXPECT_EQ(reply.status, 200u) << reply.body;
+  EXPECT_NE(reply.body.find("s.png"), std::string::npos) << reply.body;
 }
 
 // ioct-rt counts the presses where it reads the line: taps between two status polls (the line

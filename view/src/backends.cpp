@@ -13,10 +13,13 @@ nlohmann::json unavailable(const std::string& who, const std::string& why) {
   return {{"ok", false}, {"error", who + " is not reachable: " + why}, {"unavailable", true}};
 }
 
-// One request over `client`; the reply parsed, or the reason it failed as an error object.
-nlohmann::json call(LineClient& client, const std::string& who, const nlohmann::json& request) {
+// One request over `client` within `timeout`; the reply parsed, or the reason it failed as an
+// error object.
+nlohmann::json call(LineClient& client, const std::string& who, const nlohmann::json& request,
+                    std::optional<std::chrono::milliseconds> timeout = std::nullopt) {
   if (client.path().empty()) return unavailable(who, "no socket configured");
-  const auto line = client.request(request.dump());
+  const auto line =
+      timeout ? client.request(request.dump(), *timeout) : client.request(request.dump());
   if (!line) return unavailable(who, client.last_error());
   nlohmann::json reply = nlohmann::json::parse(*line, nullptr, false);
   if (reply.is_discarded() || !reply.is_object()) {
@@ -140,6 +143,8 @@ void Backends::poll_gpu(LineClient& client, BackendsSnapshot& snap) {
 void Backends::run() {
   const auto timeout =
       std::chrono::milliseconds(static_cast<std::int64_t>(config_.backend_timeout_s * 1000.0));
+  const auto snapshot_timeout =
+      std::chrono::milliseconds(static_cast<std::int64_t>(config_.snapshot_timeout_s * 1000.0));
   LineClient gpu(config_.view_socket.string(), timeout);
   LineClient rt(config_.control_socket.string(), timeout);
   BackendsSnapshot snap;
@@ -154,8 +159,10 @@ void Backends::run() {
       Job job = std::move(jobs_.front());
       jobs_.pop_front();
       lock.unlock();
-      nlohmann::json reply =
-          job.to_gpu ? call(gpu, "ioct-gpu", job.request) : call(rt, "ioct-rt", job.request);
+      const bool snapshot = job.to_gpu && job.request.value("cmd", "") == "snapshot";
+      nlohmann::json reply = !job.to_gpu ? call(rt, "ioct-rt", job.request)
+                             : snapshot  ? call(gpu, "ioct-gpu", job.request, snapshot_timeout)
+                                         : call(gpu, "ioct-gpu", job.request);
       const bool changed_params = job.to_gpu && reply.value("ok", false) &&
                                   job.request.value("cmd", "") == "set" &&
                                   !job.request.contains("view");

@@ -21,6 +21,7 @@ void ViewConfig::validate() const {
   require_integer_in_range("view.max_connections", max_connections, 1, 4096);
   require_integer_in_range("view.max_message_bytes", max_message_bytes, 1024, 16u << 20);
   require_real_in_range("view.backend_timeout", backend_timeout_s, 0.01, 10.0);
+  require_real_in_range("view.snapshot_timeout", snapshot_timeout_s, 0.1, 120.0);
   require_real_in_range("view.rt_status_interval", rt_status_interval_s, 0.05, 60.0);
   if (state_dir.empty()) throw ConfigError("view.state_dir", "''", "must name a folder");
   if (footswitch_action != "none" && footswitch_action != "snapshot" &&

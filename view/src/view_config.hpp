@@ -22,8 +22,10 @@ struct ViewConfig {
   std::uint32_t max_connections = 64;
   std::uint32_t max_message_bytes = 64 * 1024;  // one browser message or HTTP body
   double backend_timeout_s = 0.5;               // a reply from ioct-gpu or ioct-rt
-  // ioct-rt's status is asked for this often: it carries the footswitch, so a press shorter than
-  // this may be missed.
+  // A snapshot's reply waits for the shared view's next full-size render: on the CPU renderer
+  // that takes seconds.
+  double snapshot_timeout_s = 10.0;
+  // ioct-rt's status (state, laser, the footswitch presses it counted) is asked for this often.
   double rt_status_interval_s = 0.1;
   // What a footswitch press does: none, snapshot, next-mode, toggle-bscan or toggle-stereo.
   std::string footswitch_action = "snapshot";

@@ -5,9 +5,9 @@
 #include <string>
 
 #include "ioct/gpu/segmentation/cpu_segmenter.hpp"
+#include "ioct/gpu/segmentation/finishing.hpp"
 #if IOCT_SEGMENTATION_HAVE_CUDA
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"
-#include "ioct/gpu/segmentation/finishing.hpp"
 #endif
 
 namespace ioct::gpu::segmentation {

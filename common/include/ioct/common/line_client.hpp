@@ -23,6 +23,8 @@ class LineClient {
   // Sends `line` (a newline is added) and returns the reply line without its newline, or nullopt
   // with the reason in last_error() (cannot connect, timed out, closed, reply too long).
   std::optional<std::string> request(std::string_view line);
+  // The same with a time bound of its own (a request whose reply takes longer, e.g. a snapshot).
+  std::optional<std::string> request(std::string_view line, std::chrono::milliseconds timeout);
 
   const std::string& last_error() const noexcept { return error_; }
   const std::string& path() const noexcept { return path_; }
