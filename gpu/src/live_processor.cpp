@@ -169,8 +169,8 @@ class LiveProcessor::Session final : public LiveEvents {
     const std::uint64_t now = shm::monotonic_ns();
     const std::uint64_t elapsed = now > header.t_publish_ns ? now - header.t_publish_ns : 0;
     const std::uint64_t latency = elapsed > completion_ns_ ? elapsed - completion_ns_ : 0;
-    // The loop's own time on the group since it asked the ring (with CUDA the host's part: the
-    // device's work overlaps the next group's copy).
+    // The loop's own time on the group since it asked the ring. With CUDA the group was read
+    // and processed during earlier polls, so this is only the host's part of retiring it.
     const std::uint64_t spent = now > poll_started_ns_ ? now - poll_started_ns_ : 0;
     ingest_ns_ = spent > completion_ns_ ? spent - completion_ns_ : 0;
     completion_ns_ = 0;
