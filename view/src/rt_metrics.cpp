@@ -1,5 +1,6 @@
 #include "rt_metrics.hpp"
 
+#include <cstdint>
 #include <optional>
 #include <vector>
 
@@ -20,6 +21,15 @@ std::optional<double> number_at(const nlohmann::json& status, const char* sectio
   return std::nullopt;
 }
 
+// A non-negative integer (a count, a pid): unsigned as parsed from text, or signed and >= 0.
+std::optional<std::uint64_t> count_of(const nlohmann::json& v) {
+  if (v.is_number_unsigned()) return v.get<std::uint64_t>();
+  if (v.is_number_integer() && v.get<std::int64_t>() >= 0) {
+    return static_cast<std::uint64_t>(v.get<std::int64_t>());
+  }
+  return std::nullopt;
+}
+
 void figure(std::string& out, const nlohmann::json& status, const char* section, const char* key,
             const char* name, const char* type, const char* help, double scale = 1.0) {
   if (const std::optional<double> v = number_at(status, section, key)) {
@@ -33,14 +43,17 @@ void wake_latency(std::string& out, const nlohmann::json& status) {
   if (!status.contains("wake_latency") || !status["wake_latency"].is_object()) return;
   const nlohmann::json& w = status["wake_latency"];
   if (!w.contains("counts") || !w["counts"].is_array() || w["counts"].size() < 2 ||
-      !w.contains("total_ns") || !w["total_ns"].is_number_unsigned()) {
+      w["counts"].size() > 64 || !w.contains("total_ns")) {
     return;
   }
+  const std::optional<std::uint64_t> total_ns = count_of(w["total_ns"]);
+  if (!total_ns) return;
   std::vector<std::uint64_t> counts;
   std::vector<double> edges_s;
   for (const nlohmann::json& c : w["counts"]) {
-    if (!c.is_number_unsigned()) return;
-    counts.push_back(c.get<std::uint64_t>());
+    const std::optional<std::uint64_t> n = count_of(c);
+    if (!n) return;
+    counts.push_back(*n);
   }
   for (std::size_t i = 0; i + 1 < counts.size(); ++i) {
     edges_s.push_back(static_cast<double>(std::uint64_t{1} << i) * 1e-6);
@@ -48,7 +61,7 @@ void wake_latency(std::string& out, const nlohmann::json& status) {
   prom::family(out, "ioct_rt_wake_latency_seconds", "histogram",
                "how late the acquisition thread woke for a group, against its planned wake-up");
   prom::histogram_samples(out, "ioct_rt_wake_latency_seconds", {}, edges_s, counts,
-                          static_cast<double>(w["total_ns"].get<std::uint64_t>()) * 1e-9);
+                          static_cast<double>(*total_ns) * 1e-9);
 }
 
 void readers(std::string& out, const nlohmann::json& status) {
@@ -64,16 +77,18 @@ void readers(std::string& out, const nlohmann::json& status) {
                               const std::vector<std::pair<const char*, const char*>>& keys) {
     std::string samples;  // the family only with samples: a strict reader wants both
     for (const nlohmann::json& r : list) {
-      if (!r.is_object() || !r.contains("pid") || !r["pid"].is_number_unsigned()) continue;
+      const std::optional<std::uint64_t> pid =
+          r.is_object() && r.contains("pid") ? count_of(r["pid"]) : std::nullopt;
+      if (!pid) continue;
       const std::string label = r.contains("label") && r["label"].is_string()
                                     ? r["label"].get<std::string>()
                                     : std::string();
-      const std::string pid = std::to_string(r["pid"].get<std::uint64_t>());
       for (const auto& [key, cause] : keys) {
-        if (!r.contains(key) || !r[key].is_number()) continue;
-        prom::Labels labels{{"reader", label}, {"pid", pid}};
+        const std::optional<std::uint64_t> n = r.contains(key) ? count_of(r[key]) : std::nullopt;
+        if (!n) continue;
+        prom::Labels labels{{"reader", label}, {"pid", std::to_string(*pid)}};
         if (cause != nullptr) labels.emplace_back("cause", cause);
-        prom::sample(samples, name, labels, r[key].get<double>());
+        prom::sample(samples, name, labels, static_cast<double>(*n));
       }
     }
     if (samples.empty()) return;
