@@ -10,6 +10,7 @@
 #include <string>
 #include <thread>
 
+#include "ioct/gpu/oct_processor.hpp"
 #include "ioct/view_test/live_appliance.hpp"
 #include "prometheus_exposition.hpp"
 
@@ -109,17 +110,17 @@ TEST(MetricsEndpoint, FiguresMoveParseStrictlyAndStopWithTheirProcess) {
   EXPECT_EQ(first.value("ioct_rt_replay"), 0.0) << "the simulator, not a recording";
   EXPECT_EQ(first.value("ioct_rt_simulated"), 1.0);
   EXPECT_GE(first.value("ioct_rt_readers"), 1.0) << "ioct-gpu reads the ring";
-#if IOCT_TEST_BUILD_HAS_CUDA
-  // A CUDA build may still run on the CPU (no GPU here); where it reports memory, it is sane.
-  if (first.has("ioct_gpu_device_memory_total_bytes")) {
-    EXPECT_GT(first.value("ioct_gpu_device_memory_total_bytes"), 0.0);
+  // ioct-gpu runs with --backend auto: CUDA where this build and machine have it.
+  if (const auto no_cuda = gpu::cuda_unavailable_reason()) {
+    EXPECT_FALSE(first.has("ioct_gpu_device_memory_used_bytes"))
+        << "the CPU backend (" << *no_cuda << ") has no device memory: absent, not 0";
+    EXPECT_FALSE(first.has("ioct_gpu_device_memory_total_bytes"));
+  } else {
+    ASSERT_TRUE(first.has("ioct_gpu_device_memory_total_bytes")) << "the CUDA backend's memory";
+    EXPECT_GT(first.value("ioct_gpu_device_memory_used_bytes"), 0.0);
     EXPECT_LE(first.value("ioct_gpu_device_memory_used_bytes"),
               first.value("ioct_gpu_device_memory_total_bytes"));
   }
-#else
-  EXPECT_FALSE(first.has("ioct_gpu_device_memory_used_bytes"))
-      << "the CPU backend has no device memory: absent, not 0";
-#endif
 
   // The figures move: more groups published and consumed, every stage timed again.
   const auto moved = [&](const Exposition& e) {
