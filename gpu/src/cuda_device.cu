@@ -6,6 +6,7 @@
 #include "cuda_kernels.cuh"
 #include "ioct/gpu/cuda_oct_processor.hpp"
 #include "ioct/gpu/cuda_support.hpp"
+#include "ioct/gpu/device_memory.hpp"
 
 #ifndef IOCT_CUDA_ARCHITECTURES
 #define IOCT_CUDA_ARCHITECTURES "unknown"
@@ -81,6 +82,16 @@ std::optional<std::string> cuda_device_problem() {
   static std::optional<std::string> problem;
   std::call_once(once, [] { problem = find_device_problem(); });
   return problem;
+}
+
+std::optional<DeviceMemory> device_memory() noexcept {
+  std::size_t free_bytes = 0;
+  std::size_t total_bytes = 0;
+  if (cudaMemGetInfo(&free_bytes, &total_bytes) != cudaSuccess) {
+    cudaGetLastError();  // not sticky: clear it for the next call
+    return std::nullopt;
+  }
+  return DeviceMemory{total_bytes - free_bytes, total_bytes};
 }
 
 }  // namespace ioct::gpu

@@ -102,6 +102,7 @@ class LiveProcessor::Session final : public LiveEvents {
         owner_.config_.processing.scale = scale;  // for the next attachment's pipeline too
       }
 
+      poll_started_ns_ = shm::monotonic_ns();
       switch (pipeline_->poll(*this)) {
         case shm::PollStatus::ready:
         case shm::PollStatus::lapped:  // counted by the reader
@@ -120,6 +121,7 @@ class LiveProcessor::Session final : public LiveEvents {
   // `finish_stage`: false when the loop goes on to wait for the producer's return; the stage
   // then keeps running across the gap and reads the next attachment's volume.
   RunSummary finish(StopReason reason, bool finish_stage) {
+    poll_started_ns_ = shm::monotonic_ns();
     pipeline_->drain(*this);
     write_pending_images();  // a volume the device pipeline reported after its last group
     const std::uint64_t now = shm::monotonic_ns();
@@ -170,6 +172,10 @@ class LiveProcessor::Session final : public LiveEvents {
     const std::uint64_t now = shm::monotonic_ns();
     const std::uint64_t elapsed = now > header.t_publish_ns ? now - header.t_publish_ns : 0;
     const std::uint64_t latency = elapsed > completion_ns_ ? elapsed - completion_ns_ : 0;
+    // The loop's own time on the group since it asked the ring. With CUDA the group was read
+    // and processed during earlier polls, so this is only the host's part of retiring it.
+    const std::uint64_t spent = now > poll_started_ns_ ? now - poll_started_ns_ : 0;
+    ingest_ns_ = spent > completion_ns_ ? spent - completion_ns_ : 0;
     completion_ns_ = 0;
     latency_total_.record(latency);
     latency_interval_.record(latency);
@@ -218,6 +224,7 @@ class LiveProcessor::Session final : public LiveEvents {
     stamp.volume_index = header.bscan_count > 0 ? header.bscans[0].volume_index : 0;
     stamp.t_published_ns = header.t_publish_ns;
     stamp.t_processed_ns = shm::monotonic_ns();
+    stamp.ingest_ns = ingest_ns_;
     stamp.groups_consumed = c.groups_consumed;
     stamp.groups_dropped = c.dropped();
     stamp.volumes_completed = c.volumes_completed;
@@ -314,6 +321,8 @@ class LiveProcessor::Session final : public LiveEvents {
   LatencyHistogram latency_total_;
   LatencyHistogram latency_interval_;
   std::uint64_t completion_ns_ = 0;
+  std::uint64_t poll_started_ns_ = 0;  // the live loop last asked the ring for a group
+  std::uint64_t ingest_ns_ = 0;        // the last group's: read, process, place
   bool stage_needs_whole_volume_ = false;
   std::optional<PendingImages> pending_;
   std::optional<ImageSet> images_;

@@ -232,6 +232,10 @@ nlohmann::json Process::status_now() {
                             {"rotation_deg", current_spec_.rotation_deg},
                             {"inactive_ascans", current_spec_.inactive_ascans}};
   status["ring"] = setup_.ring.name;
+  // Where the groups come from: a recording replayed, the simulator, or the instrument.
+  status["acquisition"]["replay"] = !setup_.replay_file.empty();
+  status["acquisition"]["simulated"] =
+      setup_.replay_file.empty() && setup_.config.digitizer_backend == "simulated";
   return status;
 }
 

@@ -203,7 +203,11 @@ nlohmann::json status_json(const StatusSample& now, std::uint64_t started_ns,
         {"mean_us", w.mean_ns() * 1e-3},
         {"p99_below_us", us(w.quantile_upper_ns(0.99))},
         {"max_us", us(w.max_ns)},
-        {"histogram", histogram}}},
+        {"histogram", histogram},
+        // Every bucket (bucket i below 2^i us, the last one the overflow) and the exact sum,
+        // for a Prometheus histogram (ioct-view's /metrics).
+        {"counts", w.counts},
+        {"total_ns", w.total_ns}}},
       {"readers", readers_json},
   };
 }

@@ -23,6 +23,7 @@ namespace {
 
 static_assert(std::is_trivially_copyable_v<FrameMeta>);
 static_assert(std::is_trivially_copyable_v<FrameRingHeader>);
+static_assert(std::is_trivially_copyable_v<FrameRingStatus>);
 static_assert(sizeof(FrameRingHeader) <= kPageBytes);
 static_assert(sizeof(FrameSlotHeader) <= kPageBytes);
 

@@ -87,6 +87,7 @@ class LiveFramesTest : public ::testing::Test {
     s.volume_index = 3;
     s.t_published_ns = 1'000'000'000ull * group;
     s.t_processed_ns = s.t_published_ns + 500'000;
+    s.ingest_ns = 1'234;
     s.groups_consumed = group + 1;
     s.groups_dropped = 2;
     s.volumes_completed = 1;
@@ -135,6 +136,20 @@ TEST_F(LiveFramesTest, FramesCarryTheirGroupAndAThresholdChangesTheNextFrame) {
   EXPECT_EQ(status.last_group_published_ns, 5'000'000'000ull);
   EXPECT_EQ(status.groups_consumed, 6u);
   EXPECT_EQ(status.groups_dropped, 2u);
+  // The figures behind /metrics: the group's publish -> processed latency as its stamp gives it,
+  // its ingest time, and the pass that rendered this frame (timed before the frame went out); no
+  // device memory on the CPU.
+  EXPECT_EQ(status.published_to_processed.count, 1u);
+  EXPECT_EQ(status.published_to_processed.sum_ns, 500'000u);
+  EXPECT_EQ(status.published_to_processed.counts[2], 1u) << "0.5 ms: the bucket up to 0.5 ms";
+  EXPECT_EQ(status.ingest.count, 1u);
+  EXPECT_EQ(status.ingest.sum_ns, 1'234u);
+  EXPECT_EQ(status.filter.count, status.passes);
+  EXPECT_EQ(status.segmentation.count, status.passes);
+  EXPECT_GE(status.passes, 1u);
+  EXPECT_GE(status.render.count, 1u);
+  EXPECT_EQ(status.published_to_rendered.count, status.passes) << "every CPU pass so far rendered";
+  EXPECT_EQ(status.device_memory_known, 0u);
 
   // No new group: the change alone brings the next frames (on the CPU small at first, as the
   // view counts as moving just after a change, then full size), and they look different.

@@ -120,6 +120,26 @@ TEST(FrameRing, StatusAndHeartbeatReadBack) {
   EXPECT_EQ(read.last_group_published_ns, 12345u);
   EXPECT_EQ(read.group_period_ns, 86'000'000u);
 
+  // The stage times and device memory travel with the rest of the status.
+  status.filter.record(3'000'000);                        // 3 ms: the 5 ms bucket
+  status.filter.record(30'000'000);                       // 30 ms: the 50 ms bucket
+  status.publish.record(kStageBucketUpperNs.back() + 1);  // past the last edge: the overflow
+  status.device_memory_known = 1;
+  status.device_memory_used_bytes = 1ull << 30;
+  status.device_memory_total_bytes = 80ull << 30;
+  writer.set_status(status);
+  ASSERT_TRUE(reader.read_status(read));
+  EXPECT_EQ(read.filter.count, 2u);
+  EXPECT_EQ(read.filter.sum_ns, 33'000'000u);
+  EXPECT_EQ(kStageBucketUpperNs[5], 5'000'000u);
+  EXPECT_EQ(read.filter.counts[5], 1u);
+  EXPECT_EQ(kStageBucketUpperNs[8], 50'000'000u);
+  EXPECT_EQ(read.filter.counts[8], 1u);
+  EXPECT_EQ(read.publish.counts[kStageBuckets - 1], 1u);
+  EXPECT_EQ(read.render.count, 0u);
+  EXPECT_EQ(read.device_memory_known, 1u);
+  EXPECT_EQ(read.device_memory_total_bytes, 80ull << 30);
+
   writer.heartbeat(monotonic_ns());
   FrameWriterHealth health = reader.health();
   EXPECT_TRUE(health.alive);
@@ -207,6 +227,13 @@ TEST(FrameRing, HeaderValidationNamesTheField) {
   bad = h;
   bad.layout_version = 99;
   EXPECT_NE(message_of(bad, bytes).find("layout version 99"), std::string::npos);
+  // A reader of this layout never maps a ring of the previous one (its status is shorter).
+  bad = h;
+  bad.layout_version = kFrameRingVersion - 1;
+  EXPECT_NE(message_of(bad, bytes)
+                .find("layout version " + std::to_string(kFrameRingVersion - 1) + ", expected " +
+                      std::to_string(kFrameRingVersion)),
+            std::string::npos);
 }
 
 TEST(FrameRing, ConfigErrorsNameTheKey) {

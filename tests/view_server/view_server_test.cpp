@@ -422,13 +422,13 @@ TEST_F(ViewServerTest, PagesAndMetricsAreServed) {
   std::string metrics;
   for (int i = 0; i < 100; ++i) {
     metrics = http_request(port_, "GET", "/metrics").body;
-    if (metrics.find("ioct_rt_acquisition_groups_published 5") != std::string::npos &&
+    if (metrics.find("ioct_rt_groups_published_total 5") != std::string::npos &&
         metrics.find("ioct_gpu_groups_consumed_total 3") != std::string::npos) {
       break;
     }
     std::this_thread::sleep_for(20ms);
   }
-  EXPECT_NE(metrics.find("ioct_rt_acquisition_groups_published 5"), std::string::npos) << metrics;
+  EXPECT_NE(metrics.find("ioct_rt_groups_published_total 5"), std::string::npos) << metrics;
   EXPECT_NE(metrics.find("ioct_gpu_groups_consumed_total 3"), std::string::npos);
   EXPECT_NE(metrics.find("ioct_view_published_to_sent_seconds_count"), std::string::npos);
 }

@@ -67,6 +67,9 @@ void FrameFollower::run() {
       in.now_ns = shm::monotonic_ns();
       snap.attached = in.attached;
       snap.health = in.health;
+      snap.writer_responding =
+          in.attached && in.health.alive &&
+          static_cast<double>(in.health.heartbeat_age_ns) * 1e-9 <= policy_.writer_silent_s;
       snap.status = in.status;
       snap.verdict = judge_signal(in, policy_);
       on_tick_(snap);

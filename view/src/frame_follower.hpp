@@ -21,6 +21,8 @@ struct FollowerSnapshot {
   SignalVerdict verdict;
   shm::FrameRingStatus status{};
   shm::FrameWriterHealth health;
+  // The writer runs and beats within the policy's bound: its status is current.
+  bool writer_responding = false;
   std::uint64_t frames_read = 0;
   std::uint64_t frames_skipped = 0;  // overwritten before this reader copied them
   std::uint64_t attaches = 0;

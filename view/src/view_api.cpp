@@ -6,6 +6,8 @@
 #include <ctime>
 #include <set>
 
+#include "gpu_metrics.hpp"
+#include "rt_metrics.hpp"
 #include "strict_json.hpp"
 
 namespace ioct::view {
@@ -31,31 +33,6 @@ std::string snapshot_name_now() {
                 utc.tm_mon + 1, utc.tm_mday, utc.tm_hour, utc.tm_min, utc.tm_sec,
                 static_cast<int>(ms));
   return text;
-}
-
-// Prometheus names: [a-zA-Z_:][a-zA-Z0-9_:]*
-std::string metric_name(const std::string& path) {
-  std::string out;
-  for (const char c : path) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9');
-    out.push_back(ok ? c : '_');
-  }
-  return out;
-}
-
-// Every number and boolean of ioct-rt's status as a gauge ioct_rt_<path>.
-void flatten_numbers(const nlohmann::json& j, const std::string& path, std::string& out) {
-  if (j.is_object()) {
-    for (const auto& [key, value] : j.items()) {
-      flatten_numbers(value, path.empty() ? key : path + "_" + key, out);
-    }
-  } else if (j.is_number() || j.is_boolean()) {
-    const double v = j.is_boolean() ? (j.get<bool>() ? 1.0 : 0.0) : j.get<double>();
-    if (!std::isfinite(v)) return;
-    char line[64];
-    std::snprintf(line, sizeof line, " %.17g\n", v);
-    out += "ioct_rt_" + metric_name(path) + line;
-  }
 }
 
 void summary(std::string& out, const std::string& name, const std::string& help,
@@ -298,7 +275,6 @@ void ViewApi::http(std::string_view method, std::string_view path, std::string_v
 std::string ViewApi::metrics() const {
   std::string out;
   const FollowerSnapshot& f = hub_.follower();
-  const shm::FrameRingStatus& s = f.status;
   auto& hub = const_cast<Hub&>(hub_);
   counter(out, "ioct_view_signal_live", "gauge", "1 while the page shows live data",
           f.verdict.signal == Signal::live ? 1 : 0);
@@ -325,19 +301,8 @@ std::string ViewApi::metrics() const {
           "group published by ioct-rt to its frame sent on the WebSocket", hub.published_to_sent());
   summary(out, "ioct_view_published_to_drawn_seconds",
           "group published by ioct-rt to its frame drawn by a page", hub.published_to_drawn());
-  counter(out, "ioct_gpu_groups_consumed_total", "counter", "ring groups ioct-gpu read intact",
-          static_cast<double>(s.groups_consumed));
-  counter(out, "ioct_gpu_groups_dropped_total", "counter", "ring groups ioct-gpu lost",
-          static_cast<double>(s.groups_dropped));
-  counter(out, "ioct_gpu_volumes_completed_total", "counter", "volumes completed",
-          static_cast<double>(s.volumes_completed));
-  counter(out, "ioct_gpu_passes_total", "counter", "live-stage passes",
-          static_cast<double>(s.passes));
-  counter(out, "ioct_gpu_renders_total", "counter", "frames rendered, all views",
-          static_cast<double>(s.renders));
-  counter(out, "ioct_gpu_group_period_seconds", "gauge", "measured time between groups",
-          static_cast<double>(s.group_period_ns) * 1e-9);
-  if (hub_.backends().rt_status.is_object()) flatten_numbers(hub_.backends().rt_status, "", out);
+  append_gpu_metrics(out, f);
+  append_rt_metrics(out, hub_.backends().rt_status);
   return out;
 }
 

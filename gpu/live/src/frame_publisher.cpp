@@ -72,18 +72,46 @@ void FramePublisher::note_group(const GroupStamp& stamp, std::uint64_t group_per
   status_.last_group_index = stamp.group_index;
   status_.last_group_published_ns = stamp.t_published_ns;
   status_.group_period_ns = group_period_ns;
+  status_.ingest.record(stamp.ingest_ns);
+  // Clamped: the publish time comes from another process.
+  if (stamp.t_processed_ns >= stamp.t_published_ns && stamp.t_published_ns != 0) {
+    status_.published_to_processed.record(stamp.t_processed_ns - stamp.t_published_ns);
+  }
   push_status_locked();
 }
 
-void FramePublisher::note_pass() {
+void FramePublisher::note_pass(std::uint64_t filter_ns, std::uint64_t segmentation_ns,
+                               bool rendered, std::uint64_t render_ns,
+                               std::uint64_t published_to_rendered_ns) {
   std::lock_guard lock(mutex_);
   ++status_.passes;
+  status_.filter.record(filter_ns);
+  status_.segmentation.record(segmentation_ns);
+  if (rendered) {
+    status_.render.record(render_ns);
+    status_.published_to_rendered.record(published_to_rendered_ns);
+  }
   push_status_locked();
 }
 
-void FramePublisher::note_render() {
+void FramePublisher::note_render_time(std::uint64_t render_ns) {
+  std::lock_guard lock(mutex_);
+  status_.render.record(render_ns);
+  push_status_locked();
+}
+
+void FramePublisher::note_frame(std::uint64_t publish_ns) {
   std::lock_guard lock(mutex_);
   ++status_.renders;
+  status_.publish.record(publish_ns);
+  push_status_locked();
+}
+
+void FramePublisher::note_device_memory(std::uint64_t used_bytes, std::uint64_t total_bytes) {
+  std::lock_guard lock(mutex_);
+  status_.device_memory_known = 1;
+  status_.device_memory_used_bytes = used_bytes;
+  status_.device_memory_total_bytes = total_bytes;
   push_status_locked();
 }
 

@@ -10,6 +10,7 @@
 
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
+#include "ioct/gpu/device_memory.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
 #include "ioct/gpu/live/frame_publisher.hpp"
 #include "ioct/gpu/render/png_rgba.hpp"
@@ -271,6 +272,8 @@ bool VolumeStages::make_backends() {
                                               config_.cpu_threads);
     renderer_ = render::make_renderer(backend, config_.cpu_threads);
     const bool cpu_renderer = renderer_->backend_name() == "cpu";
+    uses_device_ = filter_->backend_name() == "cuda" || segmenter_->backend_name() == "cuda" ||
+                   renderer_->backend_name() == "cuda";
     auto device = DeviceStageChain::make(*filter_, *segmenter_, *renderer_);
     std::lock_guard lock(mutex_);
     device_ = std::move(device);
@@ -325,6 +328,7 @@ void VolumeStages::render_views(const std::vector<DueRender>& renders, SnapshotW
       ++figures_.interactive_renders;
       figures_.render.record(t1 - t0);
     }
+    if (publisher_) publisher_->note_render_time(t1 - t0);
     deliver(render, t1, waiters);
   }
 }
@@ -347,6 +351,7 @@ void VolumeStages::deliver(const DueRender& render, std::uint64_t rendered_ns,
 }
 
 void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered_ns) {
+  const std::uint64_t started_ns = shm::monotonic_ns();
   try {
     const std::uint32_t bscans = device_ != nullptr ? device_->bscans() : filtered_.bscans();
     const std::uint32_t bscan = shown_bscan(render.config.slice, bscans);
@@ -370,7 +375,7 @@ void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered
     const std::string_view mode = render::to_string(render.config.mode);
     std::copy_n(mode.data(), std::min(mode.size(), sizeof meta.mode - 1), meta.mode);
     publisher_->publish(meta, image_);
-    publisher_->note_render();
+    publisher_->note_frame(shm::monotonic_ns() - started_ns);
     std::lock_guard lock(mutex_);
     ++figures_.frames_published;
   } catch (const std::exception& e) {
@@ -440,7 +445,25 @@ void VolumeStages::record_pass(const StagesPass& pass, std::uint64_t filter_ns,
     have_volume_ = true;
   }
   if (config_.on_pass) config_.on_pass(pass);
-  if (publisher_) publisher_->note_pass();
+  if (publisher_) {
+    // The newest group the pass took, from its publication by ioct-rt to its render (clamped:
+    // the publish time comes from another process).
+    const std::uint64_t published = shown_stamp_.t_published_ns;
+    const std::uint64_t to_rendered =
+        published != 0 && pass.rendered_ns > published ? pass.rendered_ns - published : 0;
+    publisher_->note_pass(filter_ns, segment_ns, pass.rendered, render_ns, to_rendered);
+    note_device_memory(pass.rendered_ns);
+  }
+}
+
+void VolumeStages::note_device_memory(std::uint64_t now_ns) {
+  // Once a second at most: the query is a driver call.
+  constexpr std::uint64_t kIntervalNs = 1'000'000'000;
+  if (!uses_device_ || (last_memory_ns_ != 0 && now_ns - last_memory_ns_ < kIntervalNs)) return;
+  last_memory_ns_ = now_ns;
+  if (const std::optional<DeviceMemory> m = device_memory()) {
+    publisher_->note_device_memory(m->used_bytes, m->total_bytes);
+  }
 }
 
 bool VolumeStages::live_image_due(std::uint64_t now_ns) const {

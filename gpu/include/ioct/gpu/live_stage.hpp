@@ -59,6 +59,7 @@ struct GroupStamp {
   std::uint64_t volume_index = 0;     // of the group's first B-scan
   std::uint64_t t_published_ns = 0;   // CLOCK_MONOTONIC, the slot header's t_publish_ns
   std::uint64_t t_processed_ns = 0;   // placed into the live volume
+  std::uint64_t ingest_ns = 0;        // the live loop's time on it: read, process, place
   std::uint64_t groups_consumed = 0;  // read intact so far
   std::uint64_t groups_dropped = 0;   // lapped + behind so far
   std::uint64_t volumes_completed = 0;

@@ -20,11 +20,13 @@
 #include <vector>
 
 #include "ioct/shm/shm_object.hpp"
+#include "ioct/shm/stage_histogram.hpp"
 
 namespace ioct::shm {
 
 inline constexpr std::uint64_t kFrameRingMagic = 0x454D'4152'4654'4F49;  // "IOTFRAME" (LE)
-inline constexpr std::uint32_t kFrameRingVersion = 1;
+// 2: FrameRingStatus carries the stage times, latencies and device memory.
+inline constexpr std::uint32_t kFrameRingVersion = 2;
 inline constexpr std::uint32_t kMaxFrameSlots = 64;
 inline constexpr std::uint64_t kMaxFramePayloadBytes = 64ull << 20;  // a 4K stereo JPEG is < 8 MiB
 inline constexpr std::size_t kFrameModeNameBytes = 24;
@@ -73,6 +75,19 @@ struct FrameRingStatus {
   std::uint64_t group_period_ns;          // measured between groups; 0: not known yet
   std::uint64_t passes;                   // live-stage passes (filter, segment, render)
   std::uint64_t renders;                  // frames rendered (all views)
+  // The stages' times, each from its start to its end (ioct-view serves them as /metrics).
+  StageHistogram ingest;        // the live loop's part of a group: read, process, place
+  StageHistogram filter;        // per pass
+  StageHistogram segmentation;  // per pass
+  StageHistogram render;        // per render, all views
+  StageHistogram publish;       // a frame encoded and written into this ring
+  // Latencies from the group's publication by ioct-rt (its slot header's time).
+  StageHistogram published_to_processed;  // placed into the live volume
+  StageHistogram published_to_rendered;   // rendered by the pass that took it
+  // Device memory as the CUDA backend last saw it; known = 0 on the CPU backend.
+  std::uint64_t device_memory_known;
+  std::uint64_t device_memory_used_bytes;
+  std::uint64_t device_memory_total_bytes;
 };
 
 struct FrameRingHeader {

@@ -5,7 +5,8 @@
 // The heartbeat has a thread of its own, beating every 50 ms whatever the stages are doing (a CPU
 // pass can take seconds): the view tells a silent writer (NO SIGNAL) from a slow one by it. The
 // status is set from the live loop at every group, so "no new group" (STALE) is seen as soon as it
-// happens. All calls into the ring go through one mutex, held only for the copy into the ring.
+// happens, and the stages' times (histograms, shm/stage_histogram.hpp) with it, for /metrics.
+// All calls into the ring go through one mutex, held only for the copy into the ring.
 #pragma once
 
 #include <condition_variable>
@@ -43,10 +44,19 @@ class FramePublisher {
   // frame index.
   std::uint64_t publish(shm::FrameMeta meta, const render::RgbaImage& render);
 
-  // The newest group handed to the stages (any thread).
+  // The newest group handed to the stages (any thread): the books, its ingest time and its
+  // publish -> processed latency.
   void note_group(const GroupStamp& stamp, std::uint64_t group_period_ns);
-  void note_pass();
-  void note_render();
+  // A pass's stage times; the render's and the publish -> rendered latency of its newest group
+  // only when it rendered.
+  void note_pass(std::uint64_t filter_ns, std::uint64_t segmentation_ns, bool rendered,
+                 std::uint64_t render_ns, std::uint64_t published_to_rendered_ns);
+  // A render between passes (interaction, rotation, private views).
+  void note_render_time(std::uint64_t render_ns);
+  // A frame published: its encoding and copy into the ring took `publish_ns`.
+  void note_frame(std::uint64_t publish_ns);
+  // Device memory in use and in all (the CUDA backend; never called on the CPU backend).
+  void note_device_memory(std::uint64_t used_bytes, std::uint64_t total_bytes);
 
   // Stops the heartbeat and marks the ring closed (ioct-view then shows NO SIGNAL at once).
   void close();

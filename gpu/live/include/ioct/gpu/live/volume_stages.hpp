@@ -166,6 +166,8 @@ class VolumeStages final : public LiveStage, public ViewControl {
   void run_device_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups,
                        std::uint64_t taken_ns);
   bool live_image_due(std::uint64_t now_ns) const;
+  // The device's memory to the frame ring's status (CUDA stages only; at most once a second).
+  void note_device_memory(std::uint64_t now_ns);
   // A pass changed B-scans [first, first + count) of the filtered volume or their surfaces.
   void note_bscans_changed(std::uint32_t first, std::uint32_t count);
   // A pass's figures (the render's only when it rendered), then on_pass and the frame ring's count.
@@ -224,6 +226,8 @@ class VolumeStages final : public LiveStage, public ViewControl {
   std::uint32_t bscan_shown_ = 0;
   std::uint64_t last_render_ns_ = 0;
   std::uint64_t last_image_ns_ = 0;
+  bool uses_device_ = false;  // a stage runs on the GPU: its memory is reported
+  std::uint64_t last_memory_ns_ = 0;
 
   std::thread thread_;
 };
