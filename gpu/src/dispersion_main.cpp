@@ -1,6 +1,7 @@
 // ioct-dispersion: estimates the dispersion correction (c2, c3) of a raw group, read from a file
-// or live from the ring, by maximising the sharpness of its A-scans (dispersion_estimator.hpp).
-// Prints the ioct-gpu options that apply it.
+// or live from the ring, by maximising the sharpness of its tissue, then checks it on the volume
+// the chain makes (dispersion_estimator.hpp). Prints both sharpness figures and the ioct-gpu
+// options that apply the result (none when the estimate lost the check).
 #include <CLI/CLI.hpp>
 
 #include <chrono>
@@ -154,6 +155,15 @@ int main(int argc, char** argv) {
   app.add_option("--c2-limit", search.c2_limit, "search c2 in [-limit, limit] rad");
   app.add_option("--c3-limit", search.c3_limit, "search c3 in [-limit, limit] rad");
   app.add_option("--ascans", search.ascans, "brightest A-scans used for the metric");
+  app.add_option("--dc-rows", search.dc_rows,
+                 "rows next to zero delay left out of the metric; 0: samples / 64, at least 8");
+  app.add_option("--fixed-coherence", search.fixed_coherence,
+                 "phase coherence across A-scans above which a row is a fixed-pattern line");
+  bool no_check = false;
+  app.add_flag("--no-check", no_check,
+               "skip processing the group at the estimate and at none to compare them");
+  app.add_option("--db-min", processing.scale.db_min, "dB range of the check's processing");
+  app.add_option("--db-max", processing.scale.db_max, "dB range of the check's processing");
   app.add_option("--json", json_path, "also write the result as JSON");
   file_option->excludes(ring_option);
   CLI11_PARSE(app, argc, argv);
@@ -166,6 +176,8 @@ int main(int argc, char** argv) {
     processing.window.kind = parse_window_kind(window);
     processing.resampling.interpolation = parse_interpolation(resampling);
     processing.resampling.coefficients = parse_coefficients(coefficients);
+    search.check_on_chain = !no_check;
+    processing.scale.validate();
     DispersionEstimator estimator(processing, search);
     const Group group = ring.empty() ? read_group_file(file) : read_live_group(ring, wait_s);
     if (!save_path.empty()) save_group(group, save_path);
@@ -174,22 +186,39 @@ int main(int argc, char** argv) {
     std::printf("source: %s (%u x %u x %u samples)\n", group.source.c_str(),
                 group.header.bscan_count, group.geometry.ascans_per_bscan,
                 group.geometry.samples_per_ascan);
-    std::printf("c2 = %.3f rad, c3 = %.3f rad\n", e.c2, e.c3);
     std::printf(
-        "sharpness %.5g (uncompensated %.5g, x%.2f) over the %u brightest A-scans, %u "
-        "evaluations\n",
-        e.sharpness, e.sharpness_uncompensated,
-        e.sharpness_uncompensated > 0 ? e.sharpness / e.sharpness_uncompensated : 0.0,
-        e.ascans_used, e.evaluations);
+        "search: c2 = %.3f rad, c3 = %.3f rad; metric %.5g (uncompensated %.5g) over the "
+        "%u brightest A-scans, %u evaluations; rows left out: below %u (DC), %zu "
+        "fixed-pattern\n",
+        e.searched_c2, e.searched_c3, e.sharpness, e.sharpness_uncompensated, e.ascans_used,
+        e.evaluations, e.dc_rows, e.fixed_pattern_rows.size());
+    if (e.checked) {
+      std::printf(
+          "processed volume, standard sharpness: %.5g at the search's c2, c3; %.5g "
+          "uncompensated\n",
+          e.processed_sharpness, e.processed_sharpness_uncompensated);
+    }
+    std::printf("%s\n", describe_check(e).c_str());
+    std::printf("c2 = %.3f rad, c3 = %.3f rad\n", e.c2, e.c3);
     std::printf("ioct-gpu options: --dispersion-c2 %.3f --dispersion-c3 %.3f\n", e.c2, e.c3);
     if (!json_path.empty()) {
-      const nlohmann::json j = {{"source", group.source},
-                                {"c2", e.c2},
-                                {"c3", e.c3},
-                                {"sharpness", e.sharpness},
-                                {"sharpness_uncompensated", e.sharpness_uncompensated},
-                                {"ascans_used", e.ascans_used},
-                                {"evaluations", e.evaluations}};
+      const nlohmann::json j = {
+          {"source", group.source},
+          {"c2", e.c2},
+          {"c3", e.c3},
+          {"searched_c2", e.searched_c2},
+          {"searched_c3", e.searched_c3},
+          {"rejected", e.rejected},
+          {"checked", e.checked},
+          {"check", describe_check(e)},
+          {"sharpness", e.sharpness},
+          {"sharpness_uncompensated", e.sharpness_uncompensated},
+          {"processed_sharpness", e.processed_sharpness},
+          {"processed_sharpness_uncompensated", e.processed_sharpness_uncompensated},
+          {"dc_rows", e.dc_rows},
+          {"fixed_pattern_rows", e.fixed_pattern_rows},
+          {"ascans_used", e.ascans_used},
+          {"evaluations", e.evaluations}};
       ioct::write_text_file_atomically(json_path, j.dump(2) + "\n");
     }
     return EXIT_SUCCESS;

@@ -1,21 +1,39 @@
-// Automatic dispersion estimation: the c2, c3 (dispersion.hpp) that make the A-scans of a group
-// sharpest.
+// Automatic dispersion estimation: the c2, c3 (dispersion.hpp) that make the tissue of a group
+// sharpest, checked on the processed volume so that it never makes the image worse than none.
 //
-// Sharpness metric: for each A-scan, the intensities I_d = |X_d|^2 of the positive depths
-// (skipping the first `skip_depth` bins, where what is left of the background sits) give
-//     S = sum_d I_d^2 / (sum_d I_d)^2
-// (the inverse participation ratio: 1 / the number of bins the energy is spread over), and the
-// metric is the mean of S over the A-scans used. A dispersed layer spreads its energy over many
-// bins; compensated, the same energy gathers in a few, and S rises. Noise-only A-scans score
-// about alike for every c2, c3, so the brightest A-scans of the group are used.
+// Spectra: the chain's own background removal (the group's mean spectrum), resampling and
+// window (SpectralTables::spectrum_value), then, for the metric only, each spectrum's residue of
+// the background is regressed out (s -= alpha s_bg, alpha by least squares against the windowed
+// background): the DC and fixed-pattern residue a fluctuating source power leaves in every
+// A-scan, which the mean alone cannot remove.
+//
+// Rows the metric leaves out (found once, uncompensated):
+//   - the DC region: depths below `dc_rows` (0: samples / 64, at least 8);
+//   - fixed-pattern lines: rows whose complex values keep one phase across the A-scans, i.e.
+//     coherence |sum_a X_a(d)^2| / sum_a |X_a(d)|^2 above `fixed_coherence` (tissue moves, so its
+//     phase is random from A-scan to A-scan and its coherence is about 1 / sqrt(A-scans)), and
+//     `fixed_margin` rows either side.
+//
+// Metric: per A-scan, the intensities I_d = |X_d|^2 of the rows kept give
+//     S = sum_d I_d^2 / (sum_d I_d)^2   (1 / the number of rows the energy is spread over)
+// and the metric is the mean of S weighted by each A-scan's signal: its energy in the rows kept
+// above the group's 10th percentile (about the energy of an A-scan without tissue). The A-scans
+// used are the brightest by that same energy, not by their whole energy (which DC residue and
+// fixed-pattern lines would win).
 //
 // Search: a grid over c2 (c3 = 0), then over c3, then a coordinate search that halves its step
-// around the best point until the step is below `tolerance`. The metric is evaluated on the
-// CPU (FFTW complex transforms of the chosen A-scans), about 2 ms per evaluation for 256
-// A-scans of 1376 samples.
+// around the best point until the step is below `tolerance`.
+//
+// Check: the group is then processed by the chain itself (CpuOctProcessor) at the estimate and
+// at (0, 0), and the processed volumes' standard sharpness (processed_sharpness.hpp) compared over
+// the same rows: the DC region and the fixed-pattern rows, each widened by the number of rows the
+// correction can move a line (chirp_spread_rows), are left out. When the estimate is not sharper
+// than no correction, (0, 0) is returned and `rejected` says so.
 #pragma once
 
 #include <cstdint>
+#include <span>
+#include <string>
 #include <vector>
 
 #include "ioct/gpu/oct_processor.hpp"
@@ -26,47 +44,90 @@ struct DispersionSearch {
   double c2_limit = 200.0;  // c2 searched in [-c2_limit, c2_limit] radians
   double c3_limit = 100.0;  // c3 searched in [-c3_limit, c3_limit] radians
   std::uint32_t grid_points = 41;
-  double tolerance = 0.02;       // radians: the final step of the coordinate search
-  std::uint32_t ascans = 256;    // brightest A-scans used
-  std::uint32_t skip_depth = 8;  // bins next to zero delay left out of the metric
+  double tolerance = 0.02;         // radians: the final step of the coordinate search
+  std::uint32_t ascans = 256;      // brightest A-scans used
+  std::uint32_t dc_rows = 0;       // rows next to zero delay left out; 0: samples / 64, >= 8
+  double fixed_coherence = 0.3;    // coherence above which a row is a fixed-pattern line
+  std::uint32_t fixed_margin = 3;  // rows left out either side of a fixed-pattern line
+  bool check_on_chain = true;      // compare with no correction on the processed volume
 
   // Throws ConfigError naming the key.
   void validate() const;
 };
 
 struct DispersionEstimate {
-  double c2 = 0.0;
+  double c2 = 0.0;  // what to apply: the search's result, or 0 when it lost the check
   double c3 = 0.0;
-  double sharpness = 0.0;                // metric at (c2, c3)
+  double searched_c2 = 0.0;  // the search's result, before the check
+  double searched_c3 = 0.0;
+  double sharpness = 0.0;                // metric at (searched_c2, searched_c3)
   double sharpness_uncompensated = 0.0;  // metric at (0, 0)
+  // The standard sharpness of the volume the chain makes at the search's result and at (0, 0)
+  // (0 when not checked).
+  double processed_sharpness = 0.0;
+  double processed_sharpness_uncompensated = 0.0;
+  bool checked = false;
+  bool rejected = false;  // the search's result was not sharper on the processed volume
   std::uint32_t ascans_used = 0;
   std::uint32_t evaluations = 0;
+  std::uint32_t dc_rows = 0;
+  std::vector<std::uint32_t> fixed_pattern_rows;  // rows found to be fixed-pattern lines
 };
+
+// Rows a correction can spread a line over, either side: the instantaneous frequency of its
+// chirp, phi'(t) / pi rows, that 95% of the window's energy (window^2) stays within.
+std::uint32_t chirp_spread_rows(const DispersionConfig& correction, std::span<const float> window);
 
 class DispersionEstimator {
  public:
   // `processing` gives the background mode, resampling and window to apply first (its
-  // dispersion is ignored). Throws ConfigError.
+  // dispersion is ignored; its background is the group's own mean). Throws ConfigError.
   DispersionEstimator(const OctProcessorConfig& processing, const DispersionSearch& search);
 
-  // Picks the A-scans of `group` (header checked against `geometry`) and prepares their
-  // background-free, windowed spectra. Throws std::invalid_argument for a group the chain
-  // rejects and ConfigError for a config that does not fit the geometry.
+  // Picks the A-scans of `group` (header checked against `geometry`), prepares their
+  // background-free, windowed spectra and finds the rows to leave out. Keeps a copy of the group
+  // for the check. Throws std::invalid_argument for a group the chain rejects and ConfigError
+  // for a config that does not fit the geometry.
   void load(const shm::RingGeometry& geometry, const RawGroup& group);
 
   // The metric at (c2, c3) over the loaded A-scans.
   double sharpness(double c2, double c3);
 
-  // The search. Requires load().
+  // The standard sharpness of the loaded group processed by the chain with (c2, c3), over the
+  // rows kept when comparing a correction of (spread_c2, spread_c3) with none.
+  double processed_sharpness(double c2, double c3, double spread_c2, double spread_c3) const;
+
+  // The search, then check(). Requires load().
   DispersionEstimate estimate();
 
+  // Fills e's processed figures for (e.searched_c2, e.searched_c3) and sets e.c2, e.c3 to them,
+  // or to 0 with e.rejected when they are not sharper than none. Requires load().
+  void check(DispersionEstimate& e) const;
+
+  std::uint32_t dc_rows() const noexcept { return dc_rows_; }
+  const std::vector<std::uint32_t>& fixed_pattern_rows() const noexcept { return fixed_rows_; }
+
  private:
+  // Rows kept by the metric and the check: excluded_ widened by `spread` rows.
+  std::vector<std::uint8_t> kept_rows(std::uint32_t spread) const;
+
   OctProcessorConfig processing_;
   DispersionSearch search_;
   std::uint32_t samples_ = 0;
   std::uint32_t ascans_ = 0;
-  std::vector<float> spectra_;  // [ascan][sample], real
+  std::vector<float> spectra_;   // [ascan][sample], real
+  std::vector<double> weights_;  // per A-scan used: its signal
+  std::uint32_t dc_rows_ = 0;
+  std::vector<std::uint32_t> fixed_rows_;
+  std::vector<std::uint8_t> kept_;  // per row of the positive depths: 1 when in the metric
   std::uint32_t evaluations_ = 0;
+  shm::RingGeometry geometry_;
+  shm::SlotHeader header_{};
+  std::vector<std::uint16_t> group_;  // the loaded group less its residue, for the check
+  std::vector<float> window_;
 };
+
+// One line for people: what the check found ("estimate kept: ..." / "estimate rejected: ...").
+std::string describe_check(const DispersionEstimate& estimate);
 
 }  // namespace ioct::gpu
