@@ -183,15 +183,18 @@ void DispersionEstimator::load(const shm::RingGeometry& geometry, const RawGroup
   const double threshold =
       std::max(search_.fixed_coherence, 4.0 / std::sqrt(static_cast<double>(candidates)));
   fixed_rows_.clear();
+  // Phase only, so that one bright A-scan cannot make a row look coherent on its own.
   for (std::uint32_t d = dc_rows_; d < depth; ++d) {
     std::complex<double> coherent = 0.0;
-    double power = 0.0;
+    std::uint32_t counted = 0;
     for (std::uint32_t c = 0; c < candidates; ++c) {
       const std::complex<double> x(bins.data()[std::size_t{c} * samples_ + d]);
-      coherent += x * x;
-      power += std::norm(x);
+      const double power = std::norm(x);
+      if (power <= 0.0) continue;
+      coherent += x * x / power;  // exp(2 i theta): a sign flip keeps the phase
+      ++counted;
     }
-    if (power > 0.0 && std::abs(coherent) > threshold * power) fixed_rows_.push_back(d);
+    if (counted > 0 && std::abs(coherent) > threshold * counted) fixed_rows_.push_back(d);
   }
   kept_ = kept_rows(0);
 

@@ -240,6 +240,11 @@ TEST_P(DispersionOnSpectrometerData, TheEstimateIsNearTheTruthAndNeverBlursTheVo
         [&](std::uint32_t row) { return std::abs(row - line.depth_bin) <= 1.0; }))
         << "the line at row " << line.depth_bin << " was not found";
   }
+  for (const std::uint32_t row : e.fixed_pattern_rows) {  // and nothing else (no tissue)
+    EXPECT_TRUE(std::ranges::any_of(
+        kFixedLines, [&](const Reflector& line) { return std::abs(row - line.depth_bin) <= 3.0; }))
+        << "row " << row << " taken for a fixed-pattern line";
+  }
   EXPECT_NEAR(e.c2, c.c2, c.tolerance) << "searched c2 " << e.searched_c2;
   EXPECT_NEAR(e.c3, c.c3, c.tolerance) << "searched c3 " << e.searched_c3;
   // Judged independently of the estimator's own figures, on the chain's volume.

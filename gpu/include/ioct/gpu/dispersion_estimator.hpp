@@ -47,7 +47,7 @@ struct DispersionSearch {
   double tolerance = 0.02;         // radians: the final step of the coordinate search
   std::uint32_t ascans = 256;      // brightest A-scans used
   std::uint32_t dc_rows = 0;       // rows next to zero delay left out; 0: samples / 64, >= 8
-  double fixed_coherence = 0.3;    // coherence above which a row is a fixed-pattern line
+  double fixed_coherence = 0.2;    // coherence above which a row is a fixed-pattern line
   std::uint32_t fixed_margin = 3;  // rows left out either side of a fixed-pattern line
   bool check_on_chain = true;      // compare with no correction on the processed volume
 
