@@ -20,17 +20,12 @@ namespace {
 
 constexpr double kMinimumGain = 1.001;
 
-// Forward complex FFTs of `count` real spectra of `samples` (each times `correction` when given).
+// Forward complex FFTs of `count` real spectra of `samples`, as the chain does with dispersion.
 FftwArray<std::complex<float>> transform(const float* spectra, std::uint32_t count,
-                                         std::uint32_t samples,
-                                         const std::vector<std::complex<float>>& correction) {
+                                         std::uint32_t samples) {
   FftwArray<std::complex<float>> in(std::size_t{count} * samples);
   FftwArray<std::complex<float>> out(std::size_t{count} * samples);
-  for (std::size_t i = 0; i < std::size_t{count} * samples; ++i) {
-    const float v = spectra[i];
-    in.data()[i] = correction.empty() ? std::complex<float>(v, 0.0f) : v * correction[i % samples];
-  }
-  // Planned per call with FFTW_ESTIMATE: cheap next to the transforms.
+  for (std::size_t i = 0; i < std::size_t{count} * samples; ++i) in.data()[i] = {spectra[i], 0.0f};
   FftConfig fft;
   fft.rigor = FftRigor::estimate;
   const FftwC2cPlan plan(fft, samples, count, samples, in.data(), out.data());
@@ -178,7 +173,7 @@ void DispersionEstimator::load(const shm::RingGeometry& geometry, const RawGroup
   // Rows left out: the DC region and the rows whose phase is the same in every A-scan.
   dc_rows_ = search_.dc_rows != 0 ? search_.dc_rows : std::max(8u, samples_ / 64);
   dc_rows_ = std::min(dc_rows_, depth - 1);
-  const FftwArray<std::complex<float>> bins = transform(all.data(), candidates, samples_, {});
+  const FftwArray<std::complex<float>> bins = transform(all.data(), candidates, samples_);
   // Random phases give a coherence of about 1 / sqrt(n): stay well above it for few A-scans.
   const double threshold =
       std::max(search_.fixed_coherence, 4.0 / std::sqrt(static_cast<double>(candidates)));
@@ -228,6 +223,13 @@ void DispersionEstimator::load(const shm::RingGeometry& geometry, const RawGroup
     std::fill(weights_.begin(), weights_.end(), 1.0);  // no signal above the floor: all alike
   }
 
+  metric_in_ = FftwArray<std::complex<float>>(std::size_t{ascans_} * samples_);
+  metric_out_ = FftwArray<std::complex<float>>(std::size_t{ascans_} * samples_);
+  FftConfig fft;
+  fft.rigor = FftRigor::estimate;  // planning must not cost more than the search
+  metric_plan_ =
+      FftwC2cPlan(fft, samples_, ascans_, samples_, metric_in_.data(), metric_out_.data());
+
   geometry_ = geometry;
   header_ = h;
   window_ = tables.window;
@@ -250,14 +252,20 @@ std::vector<std::uint8_t> DispersionEstimator::kept_rows(std::uint32_t spread) c
 double DispersionEstimator::sharpness(double c2, double c3) {
   if (ascans_ == 0) throw std::logic_error("DispersionEstimator::sharpness before load()");
   ++evaluations_;
-  const FftwArray<std::complex<float>> bins =
-      transform(spectra_.data(), ascans_, samples_,
-                dispersion_correction(DispersionConfig{c2, c3}, samples_));
+  const std::vector<std::complex<float>> correction =
+      dispersion_correction(DispersionConfig{c2, c3}, samples_);
+  std::complex<float>* in = metric_in_.data();
+  for (std::size_t i = 0; i < std::size_t{ascans_} * samples_; ++i) {
+    const float v = spectra_[i];
+    in[i] = correction.empty() ? std::complex<float>(v, 0.0f) : v * correction[i % samples_];
+  }
+  metric_plan_.execute(metric_in_.data(), metric_out_.data());
+  const std::complex<float>* bins = metric_out_.data();
   const std::uint32_t depth = samples_ / 2;
   double metric = 0.0;
   double weight = 0.0;
   for (std::uint32_t a = 0; a < ascans_; ++a) {
-    const std::complex<float>* x = bins.data() + std::size_t{a} * samples_;
+    const std::complex<float>* x = bins + std::size_t{a} * samples_;
     double sum = 0.0;
     double sum_squares = 0.0;
     for (std::uint32_t d = 0; d < depth; ++d) {

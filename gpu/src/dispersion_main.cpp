@@ -199,6 +199,11 @@ int main(int argc, char** argv) {
           e.processed_sharpness, e.processed_sharpness_uncompensated);
     }
     std::printf("%s\n", describe_check(e).c_str());
+    if (!processing.resampling.enabled()) {
+      std::printf(
+          "note: samples taken as linear in k (--resample none); for a lambda-linear "
+          "sweep give the chain's calibration, or the estimate compensates the sampling\n");
+    }
     std::printf("c2 = %.3f rad, c3 = %.3f rad\n", e.c2, e.c3);
     std::printf("ioct-gpu options: --dispersion-c2 %.3f --dispersion-c3 %.3f\n", e.c2, e.c3);
     if (!json_path.empty()) {

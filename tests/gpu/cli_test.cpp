@@ -140,8 +140,8 @@ TEST_F(Cli, BadOptionsExitNonZeroWithAClearMessage) {
   EXPECT_EQ(run({"--no-stages", "--view-socket", (dir_ / "view.sock").string()}, &err), 2);
   EXPECT_NE(err.find("view-socket"), std::string::npos) << err;
   std::ofstream(dir_ / "not-a-socket") << "x";
-  EXPECT_EQ(run({"--ring", absent, "--out", (dir_ / "o").string(), "--wait", "0.1",
-                 "--view-socket", (dir_ / "not-a-socket").string()},
+  EXPECT_EQ(run({"--ring", absent, "--out", (dir_ / "o").string(), "--wait", "0.1", "--view-socket",
+                 (dir_ / "not-a-socket").string()},
                 &err),
             1);
   EXPECT_NE(err.find("not a socket"), std::string::npos) << err;
@@ -278,6 +278,14 @@ TEST_F(Cli, DispersionEstimatesC2AndC3FromAGroupFile) {
   EXPECT_NEAR(j["c2"].get<double>(), 30.0, 2.0) << out;
   EXPECT_NEAR(j["c3"].get<double>(), -8.0, 2.0) << out;
   EXPECT_GT(j["sharpness"].get<double>(), j["sharpness_uncompensated"].get<double>());
+  // Checked on the processed volume, both figures reported, the estimate kept.
+  EXPECT_NE(out.find("processed volume, standard sharpness"), std::string::npos) << out;
+  EXPECT_NE(out.find("estimate kept"), std::string::npos) << out;
+  EXPECT_TRUE(j["checked"].get<bool>());
+  EXPECT_FALSE(j["rejected"].get<bool>());
+  EXPECT_GT(j["processed_sharpness"].get<double>(),
+            j["processed_sharpness_uncompensated"].get<double>());
+  EXPECT_EQ(j["searched_c2"].get<double>(), j["c2"].get<double>());
 
   // Bad input: no source, a file that is not whole B-scans, a bad calibration.
   EXPECT_EQ(run({}, &err, IOCT_DISPERSION_EXE), 2);
@@ -290,6 +298,11 @@ TEST_F(Cli, DispersionEstimatesC2AndC3FromAGroupFile) {
                 &err, IOCT_DISPERSION_EXE),
             2);
   EXPECT_NE(err.find("resampling_coefficients"), std::string::npos) << err;
+  EXPECT_EQ(run({"--group-file", group.string(), "--samples", "1024", "--ascans-per-bscan", "32",
+                 "--fixed-coherence", "1.5"},
+                &err, IOCT_DISPERSION_EXE),
+            2);
+  EXPECT_NE(err.find("fixed_coherence"), std::string::npos) << err;
 }
 
 }  // namespace

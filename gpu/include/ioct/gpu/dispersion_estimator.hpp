@@ -1,34 +1,46 @@
 // Automatic dispersion estimation: the c2, c3 (dispersion.hpp) that make the tissue of a group
 // sharpest, checked on the processed volume so that it never makes the image worse than none.
 //
-// Spectra: the chain's own background removal (the group's mean spectrum), resampling and
-// window (SpectralTables::spectrum_value), then, for the metric only, each spectrum's residue of
-// the background is regressed out (s -= alpha s_bg, alpha by least squares against the windowed
-// background): the DC and fixed-pattern residue a fluctuating source power leaves in every
-// A-scan, which the mean alone cannot remove.
+// Why it is more than "sharpest A-scans": on a real spectrometer set (2048 lambda-linear samples,
+// 400 A-scans, low signal) an estimator that picked the A-scans of most energy and scored their
+// whole depth returned c2 = -49.2, c3 = 33.9 rad that blurred the image. A source power (or
+// exposure) that varies from sweep to sweep leaves a residue of the background in every A-scan
+// (the group's mean removes only its mean): a DC peak and fixed-pattern lines, sharp at (0, 0),
+// brighter than weak tissue, and the A-scans of most energy are those of most residue. The
+// metric then scores artifacts instead of the tissue. So:
+//
+// Group: the group less its background residue: each raw spectrum r is fitted, by least squares,
+// as x + y b (b: the group's mean spectrum; x: a detector offset; y: the source power) and
+// becomes r - x - (y - 1) b (rounded to u16). Fringes are untouched (they are orthogonal to b
+// and to a constant); the mean, hence the chain's background, stays the same. The metric and
+// the check both use it. Spectra are then made by the chain's own code: its background (the
+// group's mean), resampling and window (SpectralTables::spectrum_value), and its correction
+// (dispersion_correction), so sign and scale are the chain's by construction.
 //
 // Rows the metric leaves out (found once, uncompensated):
 //   - the DC region: depths below `dc_rows` (0: samples / 64, at least 8);
-//   - fixed-pattern lines: rows whose complex values keep one phase across the A-scans, i.e.
-//     coherence |sum_a X_a(d)^2| / sum_a |X_a(d)|^2 above `fixed_coherence` (tissue moves, so its
-//     phase is random from A-scan to A-scan and its coherence is about 1 / sqrt(A-scans)), and
-//     `fixed_margin` rows either side.
+//   - fixed-pattern lines the fit could not remove (a reflection whose strength varies on its
+//     own): rows whose phase is the same, up to sign, across the A-scans, i.e. a phase coherence
+//     |mean_a exp(2 i theta_a(d))| above max(`fixed_coherence`, 4 / sqrt(A-scans)) (moving tissue
+//     has random phases: about 1 / sqrt(A-scans)), and `fixed_margin` rows either side. Phase
+//     only, so one bright A-scan cannot make a row look coherent; a stationary reflector with a
+//     stable phase (a phantom on a table) is taken for a fixed-pattern line too.
 //
 // Metric: per A-scan, the intensities I_d = |X_d|^2 of the rows kept give
 //     S = sum_d I_d^2 / (sum_d I_d)^2   (1 / the number of rows the energy is spread over)
 // and the metric is the mean of S weighted by each A-scan's signal: its energy in the rows kept
 // above the group's 10th percentile (about the energy of an A-scan without tissue). The A-scans
-// used are the brightest by that same energy, not by their whole energy (which DC residue and
-// fixed-pattern lines would win).
+// used are the brightest by that same energy.
 //
 // Search: a grid over c2 (c3 = 0), then over c3, then a coordinate search that halves its step
 // around the best point until the step is below `tolerance`.
 //
-// Check: the group is then processed by the chain itself (CpuOctProcessor) at the estimate and
-// at (0, 0), and the processed volumes' standard sharpness (processed_sharpness.hpp) compared over
-// the same rows: the DC region and the fixed-pattern rows, each widened by the number of rows the
-// correction can move a line (chirp_spread_rows), are left out. When the estimate is not sharper
-// than no correction, (0, 0) is returned and `rejected` says so.
+// Check: the group (less its residue) is then processed by the chain itself (CpuOctProcessor)
+// at the estimate and at (0, 0), and the processed volumes' standard sharpness
+// (volume_sharpness.hpp) compared over the same rows: below the DC region and away from the
+// fixed-pattern rows, each widened by the rows the correction spreads a line over
+// (chirp_spread_rows), so that the comparison is of tissue. Unless the estimate is sharper by
+// at least 0.1%, (0, 0) is returned and `rejected` says so.
 #pragma once
 
 #include <cstdint>
@@ -36,6 +48,7 @@
 #include <string>
 #include <vector>
 
+#include "ioct/gpu/fftw_c2c_plan.hpp"
 #include "ioct/gpu/oct_processor.hpp"
 
 namespace ioct::gpu {
@@ -117,6 +130,10 @@ class DispersionEstimator {
   std::uint32_t ascans_ = 0;
   std::vector<float> spectra_;   // [ascan][sample], real
   std::vector<double> weights_;  // per A-scan used: its signal
+  // The metric's transforms, allocated and planned once per load().
+  FftwArray<std::complex<float>> metric_in_;
+  FftwArray<std::complex<float>> metric_out_;
+  FftwC2cPlan metric_plan_;
   std::uint32_t dc_rows_ = 0;
   std::vector<std::uint32_t> fixed_rows_;
   std::vector<std::uint8_t> kept_;  // per row of the positive depths: 1 when in the metric
