@@ -323,12 +323,21 @@ DispersionEstimate DispersionEstimator::estimate() {
   const double n = search_.grid_points - 1;
   double step2 = search_.c2_limit > 0.0 ? 2.0 * search_.c2_limit / n : 0.0;
   double step3 = search_.c3_limit > 0.0 ? 2.0 * search_.c3_limit / n : 0.0;
+  // Within one grid spacing of the grid's best point: a metric without a clear peak (no tissue,
+  // only noise) would otherwise let the search wander.
+  const double centre2 = best_c2;
+  const double centre3 = best_c3;
+  const double reach2 = step2 * (1.0 + 1e-9);
+  const double reach3 = step3 * (1.0 + 1e-9);
   constexpr std::uint32_t kMaxEvaluations = 5000;  // a bound however the metric behaves
   while (std::max(step2, step3) >= search_.tolerance && evaluations_ < kMaxEvaluations) {
     bool moved = false;
     for (const auto& [d2, d3] : {std::pair{step2, 0.0}, std::pair{-step2, 0.0},
                                  std::pair{0.0, step3}, std::pair{0.0, -step3}}) {
       if (d2 == 0.0 && d3 == 0.0) continue;
+      if (std::abs(best_c2 + d2 - centre2) > reach2 || std::abs(best_c3 + d3 - centre3) > reach3) {
+        continue;
+      }
       const double s = sharpness(best_c2 + d2, best_c3 + d3);
       if (s > best) {
         best = s;
