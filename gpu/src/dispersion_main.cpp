@@ -18,6 +18,7 @@
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/dispersion_estimator.hpp"
+#include "ioct/gpu/offline/calibration_file.hpp"
 #include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_reader.hpp"
@@ -131,8 +132,9 @@ int main(int argc, char** argv) {
   DispersionSearch search;
   std::string background = "rolling";
   std::string window = std::string(to_string(processing.window.kind));
-  std::string resampling = "none";
-  std::string coefficients = "0,1";
+  std::string resampling;  // empty: cubic with a calibration, else none (as ioct-process)
+  std::string coefficients;
+  std::string calibration_file;
 
   CLI::App app{
       "ioct-dispersion: estimates the dispersion correction c2, c3 of a raw group (a file or "
@@ -149,8 +151,13 @@ int main(int argc, char** argv) {
   app.add_option("--save-group", save_path, "also save the group read from the ring to a file");
   app.add_option("--background", background,
                  "background removal: rolling (the group's mean) or none");
-  app.add_option("--resample", resampling, "lambda -> k resampling: none, linear or cubic");
-  app.add_option("--resample-poly", coefficients, "calibration c0,c1,... (see ioct-gpu)");
+  app.add_option("--resample", resampling,
+                 "lambda -> k resampling: none, linear or cubic (default: cubic when a "
+                 "calibration is given, else none, as ioct-process)");
+  auto* poly_option =
+      app.add_option("--resample-poly", coefficients, "calibration c0,c1,... (see ioct-gpu)");
+  auto* calibration_option = app.add_option("--calibration-file", calibration_file,
+                                            "the calibration from a file (as ioct-process)");
   app.add_option("--window", window, "spectral window: hann or rectangular");
   app.add_option("--c2-limit", search.c2_limit, "search c2 in [-limit, limit] rad");
   app.add_option("--c3-limit", search.c3_limit, "search c3 in [-limit, limit] rad");
@@ -166,6 +173,7 @@ int main(int argc, char** argv) {
   app.add_option("--db-max", processing.scale.db_max, "dB range of the check's processing");
   app.add_option("--json", json_path, "also write the result as JSON");
   file_option->excludes(ring_option);
+  poly_option->excludes(calibration_option);
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -174,8 +182,20 @@ int main(int argc, char** argv) {
     }
     processing.background.mode = parse_background_mode(background);
     processing.window.kind = parse_window_kind(window);
-    processing.resampling.interpolation = parse_interpolation(resampling);
-    processing.resampling.coefficients = parse_coefficients(coefficients);
+    // The chain's resampling, chosen as ioct-process chooses it: an estimate made on spectra
+    // resampled otherwise than the volume's compensates the difference, not the dispersion.
+    const bool calibrated = !coefficients.empty() || !calibration_file.empty();
+    if (calibrated) {
+      processing.resampling.coefficients =
+          coefficients.empty() ? ioct::gpu::offline::read_calibration_file(calibration_file)
+                               : parse_coefficients(coefficients);
+    }
+    processing.resampling.interpolation =
+        parse_interpolation(resampling.empty() ? (calibrated ? "cubic" : "none") : resampling);
+    if (processing.resampling.enabled() && !calibrated) {
+      throw ioct::ConfigError("resample", "'" + resampling + "'",
+                              "needs a calibration (--resample-poly or --calibration-file)");
+    }
     search.check_on_chain = !no_check;
     processing.scale.validate();
     DispersionEstimator estimator(processing, search);
@@ -214,6 +234,8 @@ int main(int argc, char** argv) {
           {"searched_c2", e.searched_c2},
           {"searched_c3", e.searched_c3},
           {"rejected", e.rejected},
+          {"resampling", to_string(processing.resampling.interpolation)},
+          {"resampling_coefficients", processing.resampling.coefficients},
           {"checked", e.checked},
           {"check", describe_check(e)},
           {"sharpness", e.sharpness},

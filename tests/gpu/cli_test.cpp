@@ -305,5 +305,62 @@ TEST_F(Cli, DispersionEstimatesC2AndC3FromAGroupFile) {
   EXPECT_NE(err.find("fixed_coherence"), std::string::npos) << err;
 }
 
+TEST_F(Cli, DispersionResamplesAsIoctProcessWhenGivenACalibration) {
+  // A lambda-linear sweep without dispersion, and the calibration that makes it k-linear. Given
+  // only the calibration, ioct-dispersion resamples (cubic), as ioct-process does, and finds no
+  // dispersion; told not to resample, it would "compensate" the sampling with a large c2 and
+  // says so.
+  const std::vector<double> calibration{0.0, 0.9, 0.14, -0.04};
+  shm::RingGeometry g;
+  g.samples_per_ascan = 1024;
+  g.ascans_per_bscan = 64;
+  g.bscans_per_group = 2;
+  testing::SpectrumModel model{.samples = 1024, .noise_sigma = 2.0};
+  model.k_of_sample = testing::k_of_raw_samples(calibration, 1024);
+  testing::SpectrumSynthesizer synthesizer(model, 23);
+  std::vector<std::uint16_t> payload(g.group_payload_bytes() / 2);
+  testing::fill_group(
+      g, synthesizer,
+      [](std::uint32_t, std::uint32_t a) {
+        return std::vector<testing::Reflector>{{250.0 + a % 7, 20.0}, {330.0, 15.0}};
+      },
+      payload);
+  const fs::path group = dir_ / "lambda_linear.u16";
+  std::ofstream(group, std::ios::binary)
+      .write(reinterpret_cast<const char*>(payload.data()),
+             static_cast<std::streamsize>(payload.size() * 2));
+  const std::vector<std::string> common{"--group-file",       group.string(), "--samples", "1024",
+                                        "--ascans-per-bscan", "64",           "--ascans",  "64"};
+  const fs::path calibration_file = dir_ / "calibration.txt";
+  std::ofstream(calibration_file) << "# lambda -> k\n0 0.9\n0.14 -0.04\n";
+
+  std::string err;
+  std::string out;
+  const fs::path json = dir_ / "resampled.json";
+  std::vector<std::string> args = common;
+  args.insert(args.end(),
+              {"--calibration-file", calibration_file.string(), "--json", json.string()});
+  ASSERT_EQ(run(args, &err, IOCT_DISPERSION_EXE, &out), 0) << err;
+  const nlohmann::json resampled = nlohmann::json::parse(read_file(json));
+  EXPECT_EQ(resampled["resampling"], "cubic") << out;
+  EXPECT_EQ(resampled["resampling_coefficients"], calibration) << out;
+  EXPECT_NEAR(resampled["searched_c2"].get<double>(), 0.0, 1.0) << out;
+  EXPECT_NEAR(resampled["searched_c3"].get<double>(), 0.0, 1.0) << out;
+
+  const fs::path raw_json = dir_ / "not_resampled.json";
+  args = common;
+  args.insert(args.end(), {"--resample", "none", "--json", raw_json.string()});
+  ASSERT_EQ(run(args, &err, IOCT_DISPERSION_EXE, &out), 0) << err;
+  EXPECT_GT(std::abs(nlohmann::json::parse(read_file(raw_json))["searched_c2"].get<double>()), 10.0)
+      << out;
+  EXPECT_NE(out.find("compensates the sampling"), std::string::npos) << out;
+
+  // Resampling without a calibration is refused, as by ioct-process.
+  args = common;
+  args.insert(args.end(), {"--resample", "cubic"});
+  EXPECT_EQ(run(args, &err, IOCT_DISPERSION_EXE), 2);
+  EXPECT_NE(err.find("needs a calibration"), std::string::npos) << err;
+}
+
 }  // namespace
 }  // namespace ioct::gpu

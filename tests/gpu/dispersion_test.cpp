@@ -128,24 +128,6 @@ const std::vector<double> kCalibration{0.0, 0.9, 0.14, -0.04};  // x(t) / (N - 1
 const std::vector<Reflector> kFixedLines{
     {90.0, 150.0}, {262.0, 120.0}, {560.0, 100.0}, {700.0, 150.0}};
 
-// Wavenumber (k-linear sample units) of each raw sample: the inverse of the calibration.
-std::vector<double> lambda_linear_sampling(std::uint32_t samples) {
-  std::vector<double> k(samples);
-  for (std::uint32_t s = 0; s < samples; ++s) {
-    double lo = 0.0;
-    double hi = samples - 1.0;
-    for (int i = 0; i < 60; ++i) {
-      const double mid = 0.5 * (lo + hi);
-      const double t = mid / (samples - 1);
-      double x = 0.0;
-      for (std::size_t c = kCalibration.size(); c-- > 0;) x = x * t + kCalibration[c];
-      (x * (samples - 1) < s ? lo : hi) = mid;
-    }
-    k[s] = 0.5 * (lo + hi);
-  }
-  return k;
-}
-
 OctProcessorConfig spectrometer_config() {
   OctProcessorConfig config = testing::quick_config();
   config.resampling.interpolation = Interpolation::cubic;
@@ -163,7 +145,7 @@ Group spectrometer_group(double c2, double c3, bool tissue = true, std::uint32_t
   testing::SpectrumModel model{.samples = kSpectrometerSamples, .noise_sigma = 4.0};
   model.c2 = c2;
   model.c3 = c3;
-  model.k_of_sample = lambda_linear_sampling(kSpectrometerSamples);
+  model.k_of_sample = testing::k_of_raw_samples(kCalibration, kSpectrometerSamples);
   model.fixed_pattern_lines = kFixedLines;
   model.power_jitter = 0.03;
   model.fixed_pattern_jitter = 0.03;

@@ -52,6 +52,24 @@ void SpectrumSynthesizer::fill(std::span<std::uint16_t> spectrum,
   }
 }
 
+std::vector<double> k_of_raw_samples(const std::vector<double>& coefficients,
+                                     std::uint32_t samples) {
+  std::vector<double> k(samples);
+  for (std::uint32_t s = 0; s < samples; ++s) {
+    double lo = 0.0;  // bisection on the increasing x(k)
+    double hi = samples - 1.0;
+    for (int i = 0; i < 60; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      const double t = mid / (samples - 1);
+      double x = 0.0;
+      for (std::size_t c = coefficients.size(); c-- > 0;) x = x * t + coefficients[c];
+      (x * (samples - 1) < s ? lo : hi) = mid;
+    }
+    k[s] = 0.5 * (lo + hi);
+  }
+  return k;
+}
+
 void fill_group(const shm::RingGeometry& geometry, SpectrumSynthesizer& synthesizer,
                 const ReflectorsOf& reflectors, std::span<std::uint16_t> payload) {
   const std::size_t samples = geometry.samples_per_ascan;

@@ -75,6 +75,11 @@ class SpectrumSynthesizer {
 using ReflectorsOf =
     std::function<std::vector<Reflector>(std::uint32_t bscan, std::uint32_t record)>;
 
+// k_of_sample for a sweep that the chain's calibration `coefficients` (resampling.hpp) makes
+// k-linear: raw sample s is taken at the k where the calibration reads it (its inverse).
+std::vector<double> k_of_raw_samples(const std::vector<double>& coefficients,
+                                     std::uint32_t samples);
+
 // Fills a whole group's payload [bscan][record][sample].
 void fill_group(const shm::RingGeometry& geometry, SpectrumSynthesizer& synthesizer,
                 const ReflectorsOf& reflectors, std::span<std::uint16_t> payload);
