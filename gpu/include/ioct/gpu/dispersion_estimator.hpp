@@ -2,12 +2,13 @@
 // sharpest, checked on the processed volume so that it never makes the image worse than none.
 //
 // Why it is more than "sharpest A-scans": on a real spectrometer set (2048 lambda-linear samples,
-// 400 A-scans, low signal) an estimator that picked the A-scans of most energy and scored their
-// whole depth returned c2 = -49.2, c3 = 33.9 rad that blurred the image. A source power (or
-// exposure) that varies from sweep to sweep leaves a residue of the background in every A-scan
-// (the group's mean removes only its mean): a DC peak and fixed-pattern lines, sharp at (0, 0),
-// brighter than weak tissue, and the A-scans of most energy are those of most residue. The
-// metric then scores artifacts instead of the tissue. So:
+// 400 A-scans, low signal) the tool returned c2 = -49.2, c3 = 33.9 rad that blurred the image.
+// Two causes, both fixed: ioct-dispersion did not resample when given only a calibration (so it
+// compensated the sampling's chirp; see dispersion_main.cpp), and the metric scored artifacts.
+// A source power (or exposure) that varies from sweep to sweep leaves a residue of the
+// background in every A-scan (the group's mean removes only its mean): a DC peak and
+// fixed-pattern lines, sharp at (0, 0), brighter than weak tissue; and the A-scans of most
+// energy are those of most residue. So:
 //
 // Group: the group less its background residue: each raw spectrum r is fitted, by least squares,
 // as x + y b (b: the group's mean spectrum; x: a detector offset; y: the source power) and
