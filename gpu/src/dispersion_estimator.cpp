@@ -223,6 +223,38 @@ void DispersionEstimator::load(const shm::RingGeometry& geometry, const RawGroup
     std::fill(weights_.begin(), weights_.end(), 1.0);  // no signal above the floor: all alike
   }
 
+  // The tissue's median row: the mean intensity per kept row of the A-scans used, less the
+  // noise floor (the median over the kept rows: tissue fills fewer than half of them).
+  std::vector<double> profile(depth, 0.0);
+  for (std::uint32_t a = 0; a < ascans_; ++a) {
+    const std::complex<float>* x = bins.data() + std::size_t{energy[a].second} * samples_;
+    for (std::uint32_t d = 0; d < depth; ++d) {
+      if (kept_[d]) profile[d] += std::norm(std::complex<double>(x[d]));
+    }
+  }
+  std::vector<double> kept_profile;
+  for (std::uint32_t d = 0; d < depth; ++d) {
+    if (kept_[d]) kept_profile.push_back(profile[d]);
+  }
+  tissue_median_row_ = 0;
+  if (!kept_profile.empty()) {
+    std::nth_element(kept_profile.begin(), kept_profile.begin() + kept_profile.size() / 2,
+                     kept_profile.end());
+    const double noise = kept_profile[kept_profile.size() / 2];
+    double total_signal = 0.0;
+    for (std::uint32_t d = 0; d < depth; ++d) {
+      if (kept_[d]) total_signal += std::max(0.0, profile[d] - noise);
+    }
+    double running = 0.0;
+    for (std::uint32_t d = 0; d < depth && total_signal > 0.0; ++d) {
+      if (kept_[d]) running += std::max(0.0, profile[d] - noise);
+      if (running >= 0.5 * total_signal) {
+        tissue_median_row_ = d;
+        break;
+      }
+    }
+  }
+
   metric_in_ = FftwArray<std::complex<float>>(std::size_t{ascans_} * samples_);
   metric_out_ = FftwArray<std::complex<float>>(std::size_t{ascans_} * samples_);
   FftConfig fft;
@@ -251,6 +283,10 @@ std::vector<std::uint8_t> DispersionEstimator::kept_rows(std::uint32_t spread) c
 
 double DispersionEstimator::sharpness(double c2, double c3) {
   if (ascans_ == 0) throw std::logic_error("DispersionEstimator::sharpness before load()");
+  return metric(c2, c3, kept_);
+}
+
+double DispersionEstimator::metric(double c2, double c3, const std::vector<std::uint8_t>& kept) {
   ++evaluations_;
   const std::vector<std::complex<float>> correction =
       dispersion_correction(DispersionConfig{c2, c3}, samples_);
@@ -269,7 +305,7 @@ double DispersionEstimator::sharpness(double c2, double c3) {
     double sum = 0.0;
     double sum_squares = 0.0;
     for (std::uint32_t d = 0; d < depth; ++d) {
-      if (!kept_[d]) continue;
+      if (!kept[d]) continue;
       const double intensity = std::norm(std::complex<double>(x[d]));
       sum += intensity;
       sum_squares += intensity * intensity;
@@ -280,6 +316,45 @@ double DispersionEstimator::sharpness(double c2, double c3) {
     }
   }
   return weight > 0.0 ? metric / weight : 0.0;
+}
+
+double DispersionEstimator::best_c2(const std::vector<std::uint8_t>& kept, double c2, double c3) {
+  constexpr std::uint32_t kPoints = 21;
+  const double half_width = std::max(10.0, 0.5 * std::abs(c2));
+  double step = 2.0 * half_width / (kPoints - 1);
+  double best = c2;
+  double best_metric = metric(c2, c3, kept);
+  for (std::uint32_t i = 0; i < kPoints; ++i) {
+    const double candidate = c2 - half_width + step * i;
+    const double m = metric(candidate, c3, kept);
+    if (m > best_metric) {
+      best_metric = m;
+      best = candidate;
+    }
+  }
+  for (step /= 2.0; step >= 0.1; step /= 2.0) {
+    for (const double candidate : {best - step, best + step}) {
+      const double m = metric(candidate, c3, kept);
+      if (m > best_metric) {
+        best_metric = m;
+        best = candidate;
+      }
+    }
+  }
+  return best;
+}
+
+void DispersionEstimator::check_depth_consistency(DispersionEstimate& e) {
+  if ((e.searched_c2 == 0.0 && e.searched_c3 == 0.0) || tissue_median_row_ == 0) return;
+  std::vector<std::uint8_t> shallow = kept_;
+  std::vector<std::uint8_t> deep = kept_;
+  std::fill(shallow.begin() + tissue_median_row_, shallow.end(), 0);
+  std::fill(deep.begin(), deep.begin() + tissue_median_row_, 0);
+  e.depth_split = tissue_median_row_;
+  e.c2_shallow = best_c2(shallow, e.searched_c2, e.searched_c3);
+  e.c2_deep = best_c2(deep, e.searched_c2, e.searched_c3);
+  e.depth_dependent =
+      std::abs(e.c2_shallow - e.c2_deep) > std::max(3.0, 0.1 * std::abs(e.searched_c2));
 }
 
 double DispersionEstimator::processed_sharpness(double c2, double c3, double spread_c2,
@@ -360,6 +435,8 @@ DispersionEstimate DispersionEstimator::estimate() {
   result.evaluations = evaluations_;
   result.dc_rows = dc_rows_;
   result.fixed_pattern_rows = fixed_rows_;
+  check_depth_consistency(result);
+  result.evaluations = evaluations_;
   if (search_.check_on_chain) check(result);
   return result;
 }

@@ -206,6 +206,14 @@ int main(int argc, char** argv) {
     std::printf("source: %s (%u x %u x %u samples)\n", group.source.c_str(),
                 group.header.bscan_count, group.geometry.ascans_per_bscan,
                 group.geometry.samples_per_ascan);
+    std::printf("processing: resampling %s%s%s, window %s, background %s\n",
+                std::string(to_string(processing.resampling.interpolation)).c_str(),
+                processing.resampling.enabled() ? " " : "",
+                processing.resampling.enabled()
+                    ? format_coefficients(processing.resampling.coefficients).c_str()
+                    : "",
+                std::string(to_string(processing.window.kind)).c_str(),
+                std::string(to_string(processing.background.mode)).c_str());
     std::printf(
         "search: c2 = %.3f rad, c3 = %.3f rad; metric %.5g (uncompensated %.5g) over the "
         "%u brightest A-scans, %u evaluations; rows left out: below %u (DC), %zu "
@@ -219,10 +227,18 @@ int main(int argc, char** argv) {
           e.processed_sharpness, e.processed_sharpness_uncompensated);
     }
     std::printf("%s\n", describe_check(e).c_str());
+    if (e.depth_dependent) {
+      std::printf(
+          "warning: the best c2 depends on depth (%.3f rad above row %u, %.3f below): "
+          "the spectra are probably not linear in k as processed; check the calibration "
+          "(--resample-poly, --calibration-file) before applying this estimate\n",
+          e.c2_shallow, e.depth_split, e.c2_deep);
+    }
     if (!processing.resampling.enabled()) {
       std::printf(
-          "note: samples taken as linear in k (--resample none); for a lambda-linear "
-          "sweep give the chain's calibration, or the estimate compensates the sampling\n");
+          "note: samples taken as linear in k (no resampling); for a lambda-linear sweep give "
+          "the calibration the volume is processed with, or the estimate compensates the "
+          "sampling instead of the dispersion\n");
     }
     std::printf("c2 = %.3f rad, c3 = %.3f rad\n", e.c2, e.c3);
     std::printf("ioct-gpu options: --dispersion-c2 %.3f --dispersion-c3 %.3f\n", e.c2, e.c3);
@@ -243,6 +259,10 @@ int main(int argc, char** argv) {
           {"processed_sharpness", e.processed_sharpness},
           {"processed_sharpness_uncompensated", e.processed_sharpness_uncompensated},
           {"dc_rows", e.dc_rows},
+          {"depth_split", e.depth_split},
+          {"c2_shallow", e.c2_shallow},
+          {"c2_deep", e.c2_deep},
+          {"depth_dependent", e.depth_dependent},
           {"fixed_pattern_rows", e.fixed_pattern_rows},
           {"ascans_used", e.ascans_used},
           {"evaluations", e.evaluations}};

@@ -346,6 +346,7 @@ TEST_F(Cli, DispersionResamplesAsIoctProcessWhenGivenACalibration) {
   EXPECT_EQ(resampled["resampling_coefficients"], calibration) << out;
   EXPECT_NEAR(resampled["searched_c2"].get<double>(), 0.0, 1.0) << out;
   EXPECT_NEAR(resampled["searched_c3"].get<double>(), 0.0, 1.0) << out;
+  EXPECT_FALSE(resampled["depth_dependent"].get<bool>()) << out;
 
   const fs::path raw_json = dir_ / "not_resampled.json";
   args = common;
@@ -354,6 +355,12 @@ TEST_F(Cli, DispersionResamplesAsIoctProcessWhenGivenACalibration) {
   EXPECT_GT(std::abs(nlohmann::json::parse(read_file(raw_json))["searched_c2"].get<double>()), 10.0)
       << out;
   EXPECT_NE(out.find("compensates the sampling"), std::string::npos) << out;
+  // The "dispersion" it finds grows with depth, and it warns.
+  const nlohmann::json raw = nlohmann::json::parse(read_file(raw_json));
+  EXPECT_TRUE(raw["depth_dependent"].get<bool>()) << out;
+  EXPECT_GT(raw["depth_split"].get<int>(), 253) << out;
+  EXPECT_LT(raw["depth_split"].get<int>(), 331) << out;
+  EXPECT_NE(out.find("the best c2 depends on depth"), std::string::npos) << out;
 
   // Resampling without a calibration is refused, as by ioct-process.
   args = common;

@@ -227,6 +227,8 @@ TEST_P(DispersionOnSpectrometerData, TheEstimateIsNearTheTruthAndNeverBlursTheVo
         kFixedLines, [&](const Reflector& line) { return std::abs(row - line.depth_bin) <= 3.0; }))
         << "row " << row << " taken for a fixed-pattern line";
   }
+  EXPECT_FALSE(e.depth_dependent) << e.c2_shallow << " above row " << e.depth_split << ", "
+                                  << e.c2_deep << " below";
   EXPECT_NEAR(e.c2, c.c2, c.tolerance) << "searched c2 " << e.searched_c2;
   EXPECT_NEAR(e.c3, c.c3, c.tolerance) << "searched c3 " << e.searched_c3;
   // Judged independently of the estimator's own figures, on the chain's volume.

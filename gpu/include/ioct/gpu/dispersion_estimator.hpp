@@ -36,6 +36,9 @@
 // Search: a grid over c2 (c3 = 0), then over c3, then a coordinate search that halves its step
 // around the best point until the step is below `tolerance`.
 //
+// Depth consistency: for a non-zero result, c2 is searched again over the tissue above and
+// below its median row (DispersionEstimate::depth_dependent).
+//
 // Check: the group (less its residue) is then processed by the chain itself (CpuOctProcessor)
 // at the estimate and at (0, 0), and the processed volumes' standard sharpness
 // (volume_sharpness.hpp) compared over the same rows: below the DC region and away from the
@@ -86,6 +89,15 @@ struct DispersionEstimate {
   std::uint32_t evaluations = 0;
   std::uint32_t dc_rows = 0;
   std::vector<std::uint32_t> fixed_pattern_rows;  // rows found to be fixed-pattern lines
+  // Dispersion is the same at every depth; a sweep that is not linear in k as processed (no or
+  // a wrong calibration) blurs deeper layers more, and its "best c2" grows with depth. So c2 is
+  // searched again (c3 as found) over the tissue above and below its median row `depth_split`;
+  // `depth_dependent` when they differ by more than max(3 rad, 10% of |c2|). Only for a
+  // non-zero search result.
+  double c2_shallow = 0.0;
+  double c2_deep = 0.0;
+  std::uint32_t depth_split = 0;
+  bool depth_dependent = false;
 };
 
 // Rows a correction can spread a line over, either side: the instantaneous frequency of its
@@ -124,6 +136,11 @@ class DispersionEstimator {
  private:
   // Rows kept by the metric and the check: excluded_ widened by `spread` rows.
   std::vector<std::uint8_t> kept_rows(std::uint32_t spread) const;
+  // The metric over the rows `kept` flags.
+  double metric(double c2, double c3, const std::vector<std::uint8_t>& kept);
+  // The c2 of the best metric over `kept`, searched around `c2` with c3 fixed.
+  double best_c2(const std::vector<std::uint8_t>& kept, double c2, double c3);
+  void check_depth_consistency(DispersionEstimate& e);
 
   OctProcessorConfig processing_;
   DispersionSearch search_;
@@ -137,7 +154,8 @@ class DispersionEstimator {
   FftwC2cPlan metric_plan_;
   std::uint32_t dc_rows_ = 0;
   std::vector<std::uint32_t> fixed_rows_;
-  std::vector<std::uint8_t> kept_;  // per row of the positive depths: 1 when in the metric
+  std::vector<std::uint8_t> kept_;       // per row of the positive depths: 1 when in the metric
+  std::uint32_t tissue_median_row_ = 0;  // half the tissue's energy above, half below
   std::uint32_t evaluations_ = 0;
   shm::RingGeometry geometry_;
   shm::SlotHeader header_{};
