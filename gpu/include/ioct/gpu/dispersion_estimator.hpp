@@ -123,18 +123,21 @@ class DispersionEstimator {
   // rows kept when comparing a correction of (spread_c2, spread_c3) with none.
   double processed_sharpness(double c2, double c3, double spread_c2, double spread_c3) const;
 
-  // The search, then check(). Requires load().
+  // The search, the depth consistency, then check() (unless search.check_on_chain is off).
+  // Requires load().
   DispersionEstimate estimate();
 
   // Fills e's processed figures for (e.searched_c2, e.searched_c3) and sets e.c2, e.c3 to them,
-  // or to 0 with e.rejected when they are not sharper than none. Requires load().
+  // or to 0 with e.rejected when they are not sharper than none by at least 0.1%. Requires
+  // load().
   void check(DispersionEstimate& e) const;
 
   std::uint32_t dc_rows() const noexcept { return dc_rows_; }
   const std::vector<std::uint32_t>& fixed_pattern_rows() const noexcept { return fixed_rows_; }
 
  private:
-  // Rows kept by the metric and the check: excluded_ widened by `spread` rows.
+  // Rows kept by the metric and the check: all but the DC region and the fixed-pattern rows
+  // (with their margin), each widened by `spread` rows.
   std::vector<std::uint8_t> kept_rows(std::uint32_t spread) const;
   // The metric over the rows `kept` flags.
   double metric(double c2, double c3, const std::vector<std::uint8_t>& kept);
