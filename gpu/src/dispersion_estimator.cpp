@@ -55,7 +55,7 @@ std::vector<std::uint16_t> without_residue(std::span<const std::uint16_t> spectr
     double srb = 0.0;
     for (std::size_t j = 0; j < n; ++j) {
       sr += spectra[first + j];
-      srb += double{spectra[first + j]} * background[j];
+      srb += static_cast<double>(spectra[first + j]) * background[j];
     }
     const double x = (sr * sbb - srb * sb) / det;
     const double y = (srb * s1 - sr * sb) / det;

@@ -237,7 +237,9 @@ TEST_P(DispersionOnSpectrometerData, TheEstimateIsNearTheTruthAndNeverBlursTheVo
   const double at_estimate = chain_sharpness(g, e.c2, e.c3, spread);
   const double uncompensated = chain_sharpness(g, 0.0, 0.0, spread);
   EXPECT_GE(at_estimate, uncompensated);
-  if (std::abs(c.c2) >= 20.0) EXPECT_GT(at_estimate, 1.2 * uncompensated);  // it helps
+  if (std::abs(c.c2) >= 20.0) {
+    EXPECT_GT(at_estimate, 1.2 * uncompensated);  // it helps
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(FewNoisyAscansWithFixedPatternAndDc, DispersionOnSpectrometerData,
@@ -246,7 +248,9 @@ INSTANTIATE_TEST_SUITE_P(FewNoisyAscansWithFixedPatternAndDc, DispersionOnSpectr
                                            SpectrometerCase{-4.0, 2.0, 1.5},
                                            SpectrometerCase{40.0, -15.0, 2.0},
                                            SpectrometerCase{-60.0, 20.0, 2.0}),
-                         [](const auto& info) { return "case" + std::to_string(info.index); });
+                         [](const ::testing::TestParamInfo<SpectrometerCase>& param) {
+                           return "case" + std::to_string(param.index);
+                         });
 
 TEST(Dispersion, AnEstimateThatBlursTheProcessedVolumeIsRejected) {
   // The values the old estimator reported for a set whose optimum is near 0.
