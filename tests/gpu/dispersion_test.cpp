@@ -122,6 +122,11 @@ TEST(Dispersion, TheEstimatorFindsC2AndC3FromTheData) {
 // retina-like band of weak speckle (a few counts against a noise of 4 counts) over a brighter
 // RPE, strong fixed-pattern lines from the optics and a source power (and lines) that fluctuate
 // by 3% from sweep to sweep, so a residue of the DC and of the lines is left in every A-scan.
+// The dispersion (c2, c3) is put into the fringes with the convention of dispersion.hpp, so a
+// recovered estimate within the stated tolerance, which sharpens the chain's volume, checks the
+// estimator's sign and scale against the chain's end to end. On these groups the estimator
+// before the metric measured tissue returned c3 = -45 rad for the small cases and c2 = +-88,
+// c3 = 85 rad for the large ones.
 
 constexpr std::uint32_t kSpectrometerSamples = 2048;
 const std::vector<double> kCalibration{0.0, 0.9, 0.14, -0.04};  // x(t) / (N - 1), cubic
