@@ -134,8 +134,8 @@ void CpuOctProcessor::make_spectrum(const std::uint16_t* raw, std::uint32_t row,
     values = converted;
   }
   const auto value_at = [&](std::uint32_t j) {
-    const float x = values != nullptr ? tables.resampled(values, j) : static_cast<float>(raw[j]);
-    return x * window[j] - windowed_background[j];
+    if (values != nullptr) return tables.spectrum_value(values, windowed_background, j);
+    return static_cast<float>(raw[j]) * window[j] - windowed_background[j];
   };
   if (tables.complex_fft()) {
     std::complex<float>* spectrum =

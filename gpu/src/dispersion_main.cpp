@@ -1,6 +1,7 @@
 // ioct-dispersion: estimates the dispersion correction (c2, c3) of a raw group, read from a file
-// or live from the ring, by maximising the sharpness of its A-scans (dispersion_estimator.hpp).
-// Prints the ioct-gpu options that apply it.
+// or live from the ring, by maximising the sharpness of its tissue, then checks it on the volume
+// the chain makes (dispersion_estimator.hpp). Prints both sharpness figures and the ioct-gpu
+// options that apply the result (none when the estimate lost the check).
 #include <CLI/CLI.hpp>
 
 #include <chrono>
@@ -17,6 +18,7 @@
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/dispersion_estimator.hpp"
+#include "ioct/gpu/offline/calibration_file.hpp"
 #include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_reader.hpp"
@@ -130,8 +132,9 @@ int main(int argc, char** argv) {
   DispersionSearch search;
   std::string background = "rolling";
   std::string window = std::string(to_string(processing.window.kind));
-  std::string resampling = "none";
-  std::string coefficients = "0,1";
+  std::string resampling;  // empty: cubic with a calibration, else none (as ioct-process)
+  std::string coefficients;
+  std::string calibration_file;
 
   CLI::App app{
       "ioct-dispersion: estimates the dispersion correction c2, c3 of a raw group (a file or "
@@ -148,14 +151,29 @@ int main(int argc, char** argv) {
   app.add_option("--save-group", save_path, "also save the group read from the ring to a file");
   app.add_option("--background", background,
                  "background removal: rolling (the group's mean) or none");
-  app.add_option("--resample", resampling, "lambda -> k resampling: none, linear or cubic");
-  app.add_option("--resample-poly", coefficients, "calibration c0,c1,... (see ioct-gpu)");
+  app.add_option("--resample", resampling,
+                 "lambda -> k resampling: none, linear or cubic (default: cubic when a "
+                 "calibration is given, else none, as ioct-process)");
+  auto* poly_option =
+      app.add_option("--resample-poly", coefficients, "calibration c0,c1,... (see ioct-gpu)");
+  auto* calibration_option = app.add_option("--calibration-file", calibration_file,
+                                            "the calibration from a file (as ioct-process)");
   app.add_option("--window", window, "spectral window: hann or rectangular");
   app.add_option("--c2-limit", search.c2_limit, "search c2 in [-limit, limit] rad");
   app.add_option("--c3-limit", search.c3_limit, "search c3 in [-limit, limit] rad");
   app.add_option("--ascans", search.ascans, "brightest A-scans used for the metric");
+  app.add_option("--dc-rows", search.dc_rows,
+                 "rows next to zero delay left out of the metric; 0: samples / 64, at least 8");
+  app.add_option("--fixed-coherence", search.fixed_coherence,
+                 "phase coherence across A-scans above which a row is a fixed-pattern line");
+  bool no_check = false;
+  app.add_flag("--no-check", no_check,
+               "skip processing the group at the estimate and at none to compare them");
+  app.add_option("--db-min", processing.scale.db_min, "dB range of the check's processing");
+  app.add_option("--db-max", processing.scale.db_max, "dB range of the check's processing");
   app.add_option("--json", json_path, "also write the result as JSON");
   file_option->excludes(ring_option);
+  poly_option->excludes(calibration_option);
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -164,8 +182,22 @@ int main(int argc, char** argv) {
     }
     processing.background.mode = parse_background_mode(background);
     processing.window.kind = parse_window_kind(window);
-    processing.resampling.interpolation = parse_interpolation(resampling);
-    processing.resampling.coefficients = parse_coefficients(coefficients);
+    // The chain's resampling, chosen as ioct-process chooses it: an estimate made on spectra
+    // resampled otherwise than the volume's compensates the difference, not the dispersion.
+    const bool calibrated = !coefficients.empty() || !calibration_file.empty();
+    if (calibrated) {
+      processing.resampling.coefficients =
+          coefficients.empty() ? ioct::gpu::offline::read_calibration_file(calibration_file)
+                               : parse_coefficients(coefficients);
+    }
+    processing.resampling.interpolation =
+        parse_interpolation(resampling.empty() ? (calibrated ? "cubic" : "none") : resampling);
+    if (processing.resampling.enabled() && !calibrated) {
+      throw ioct::ConfigError("resample", "'" + resampling + "'",
+                              "needs a calibration (--resample-poly or --calibration-file)");
+    }
+    search.check_on_chain = !no_check;
+    processing.scale.validate();
     DispersionEstimator estimator(processing, search);
     const Group group = ring.empty() ? read_group_file(file) : read_live_group(ring, wait_s);
     if (!save_path.empty()) save_group(group, save_path);
@@ -174,22 +206,66 @@ int main(int argc, char** argv) {
     std::printf("source: %s (%u x %u x %u samples)\n", group.source.c_str(),
                 group.header.bscan_count, group.geometry.ascans_per_bscan,
                 group.geometry.samples_per_ascan);
-    std::printf("c2 = %.3f rad, c3 = %.3f rad\n", e.c2, e.c3);
+    std::printf("processing: resampling %s%s%s, window %s, background %s\n",
+                std::string(to_string(processing.resampling.interpolation)).c_str(),
+                processing.resampling.enabled() ? " " : "",
+                processing.resampling.enabled()
+                    ? format_coefficients(processing.resampling.coefficients).c_str()
+                    : "",
+                std::string(to_string(processing.window.kind)).c_str(),
+                std::string(to_string(processing.background.mode)).c_str());
     std::printf(
-        "sharpness %.5g (uncompensated %.5g, x%.2f) over the %u brightest A-scans, %u "
-        "evaluations\n",
-        e.sharpness, e.sharpness_uncompensated,
-        e.sharpness_uncompensated > 0 ? e.sharpness / e.sharpness_uncompensated : 0.0,
-        e.ascans_used, e.evaluations);
+        "search: c2 = %.3f rad, c3 = %.3f rad; metric %.5g (uncompensated %.5g) over the "
+        "%u brightest A-scans, %u evaluations; rows left out: below %u (DC), %zu "
+        "fixed-pattern\n",
+        e.searched_c2, e.searched_c3, e.sharpness, e.sharpness_uncompensated, e.ascans_used,
+        e.evaluations, e.dc_rows, e.fixed_pattern_rows.size());
+    if (e.checked) {
+      std::printf(
+          "processed volume, standard sharpness: %.5g at the search's c2, c3; %.5g "
+          "uncompensated\n",
+          e.processed_sharpness, e.processed_sharpness_uncompensated);
+    }
+    std::printf("%s\n", describe_check(e).c_str());
+    if (e.depth_dependent) {
+      std::printf(
+          "warning: the best c2 depends on depth (%.3f rad above row %u, %.3f below): "
+          "the spectra are probably not linear in k as processed; check the calibration "
+          "(--resample-poly, --calibration-file) before applying this estimate\n",
+          e.c2_shallow, e.depth_split, e.c2_deep);
+    }
+    if (!processing.resampling.enabled()) {
+      std::printf(
+          "note: samples taken as linear in k (no resampling); for a lambda-linear sweep give "
+          "the calibration the volume is processed with, or the estimate compensates the "
+          "sampling instead of the dispersion\n");
+    }
+    std::printf("c2 = %.3f rad, c3 = %.3f rad\n", e.c2, e.c3);
     std::printf("ioct-gpu options: --dispersion-c2 %.3f --dispersion-c3 %.3f\n", e.c2, e.c3);
     if (!json_path.empty()) {
-      const nlohmann::json j = {{"source", group.source},
-                                {"c2", e.c2},
-                                {"c3", e.c3},
-                                {"sharpness", e.sharpness},
-                                {"sharpness_uncompensated", e.sharpness_uncompensated},
-                                {"ascans_used", e.ascans_used},
-                                {"evaluations", e.evaluations}};
+      const nlohmann::json j = {
+          {"source", group.source},
+          {"c2", e.c2},
+          {"c3", e.c3},
+          {"searched_c2", e.searched_c2},
+          {"searched_c3", e.searched_c3},
+          {"rejected", e.rejected},
+          {"resampling", to_string(processing.resampling.interpolation)},
+          {"resampling_coefficients", processing.resampling.coefficients},
+          {"checked", e.checked},
+          {"check", describe_check(e)},
+          {"sharpness", e.sharpness},
+          {"sharpness_uncompensated", e.sharpness_uncompensated},
+          {"processed_sharpness", e.processed_sharpness},
+          {"processed_sharpness_uncompensated", e.processed_sharpness_uncompensated},
+          {"dc_rows", e.dc_rows},
+          {"depth_split", e.depth_split},
+          {"c2_shallow", e.c2_shallow},
+          {"c2_deep", e.c2_deep},
+          {"depth_dependent", e.depth_dependent},
+          {"fixed_pattern_rows", e.fixed_pattern_rows},
+          {"ascans_used", e.ascans_used},
+          {"evaluations", e.evaluations}};
       ioct::write_text_file_atomically(json_path, j.dump(2) + "\n");
     }
     return EXIT_SUCCESS;

@@ -140,8 +140,8 @@ TEST_F(Cli, BadOptionsExitNonZeroWithAClearMessage) {
   EXPECT_EQ(run({"--no-stages", "--view-socket", (dir_ / "view.sock").string()}, &err), 2);
   EXPECT_NE(err.find("view-socket"), std::string::npos) << err;
   std::ofstream(dir_ / "not-a-socket") << "x";
-  EXPECT_EQ(run({"--ring", absent, "--out", (dir_ / "o").string(), "--wait", "0.1",
-                 "--view-socket", (dir_ / "not-a-socket").string()},
+  EXPECT_EQ(run({"--ring", absent, "--out", (dir_ / "o").string(), "--wait", "0.1", "--view-socket",
+                 (dir_ / "not-a-socket").string()},
                 &err),
             1);
   EXPECT_NE(err.find("not a socket"), std::string::npos) << err;
@@ -278,6 +278,14 @@ TEST_F(Cli, DispersionEstimatesC2AndC3FromAGroupFile) {
   EXPECT_NEAR(j["c2"].get<double>(), 30.0, 2.0) << out;
   EXPECT_NEAR(j["c3"].get<double>(), -8.0, 2.0) << out;
   EXPECT_GT(j["sharpness"].get<double>(), j["sharpness_uncompensated"].get<double>());
+  // Checked on the processed volume, both figures reported, the estimate kept.
+  EXPECT_NE(out.find("processed volume, standard sharpness"), std::string::npos) << out;
+  EXPECT_NE(out.find("estimate kept"), std::string::npos) << out;
+  EXPECT_TRUE(j["checked"].get<bool>());
+  EXPECT_FALSE(j["rejected"].get<bool>());
+  EXPECT_GT(j["processed_sharpness"].get<double>(),
+            j["processed_sharpness_uncompensated"].get<double>());
+  EXPECT_EQ(j["searched_c2"].get<double>(), j["c2"].get<double>());
 
   // Bad input: no source, a file that is not whole B-scans, a bad calibration.
   EXPECT_EQ(run({}, &err, IOCT_DISPERSION_EXE), 2);
@@ -290,6 +298,75 @@ TEST_F(Cli, DispersionEstimatesC2AndC3FromAGroupFile) {
                 &err, IOCT_DISPERSION_EXE),
             2);
   EXPECT_NE(err.find("resampling_coefficients"), std::string::npos) << err;
+  EXPECT_EQ(run({"--group-file", group.string(), "--samples", "1024", "--ascans-per-bscan", "32",
+                 "--fixed-coherence", "1.5"},
+                &err, IOCT_DISPERSION_EXE),
+            2);
+  EXPECT_NE(err.find("fixed_coherence"), std::string::npos) << err;
+}
+
+TEST_F(Cli, DispersionResamplesAsIoctProcessWhenGivenACalibration) {
+  // A lambda-linear sweep without dispersion, and the calibration that makes it k-linear. Given
+  // only the calibration, ioct-dispersion resamples (cubic), as ioct-process does, and finds no
+  // dispersion; told not to resample, it would "compensate" the sampling with a large c2 and
+  // says so.
+  const std::vector<double> calibration{0.0, 0.9, 0.14, -0.04};
+  shm::RingGeometry g;
+  g.samples_per_ascan = 1024;
+  g.ascans_per_bscan = 64;
+  g.bscans_per_group = 2;
+  testing::SpectrumModel model{.samples = 1024, .noise_sigma = 2.0};
+  model.k_of_sample = testing::k_of_raw_samples(calibration, 1024);
+  testing::SpectrumSynthesizer synthesizer(model, 23);
+  std::vector<std::uint16_t> payload(g.group_payload_bytes() / 2);
+  testing::fill_group(
+      g, synthesizer,
+      [](std::uint32_t, std::uint32_t a) {
+        return std::vector<testing::Reflector>{{250.0 + a % 7, 20.0}, {330.0, 15.0}};
+      },
+      payload);
+  const fs::path group = dir_ / "lambda_linear.u16";
+  std::ofstream(group, std::ios::binary)
+      .write(reinterpret_cast<const char*>(payload.data()),
+             static_cast<std::streamsize>(payload.size() * 2));
+  const std::vector<std::string> common{"--group-file",       group.string(), "--samples", "1024",
+                                        "--ascans-per-bscan", "64",           "--ascans",  "64"};
+  const fs::path calibration_file = dir_ / "calibration.txt";
+  std::ofstream(calibration_file) << "# lambda -> k\n0 0.9\n0.14 -0.04\n";
+
+  std::string err;
+  std::string out;
+  const fs::path json = dir_ / "resampled.json";
+  std::vector<std::string> args = common;
+  args.insert(args.end(),
+              {"--calibration-file", calibration_file.string(), "--json", json.string()});
+  ASSERT_EQ(run(args, &err, IOCT_DISPERSION_EXE, &out), 0) << err;
+  const nlohmann::json resampled = nlohmann::json::parse(read_file(json));
+  EXPECT_EQ(resampled["resampling"], "cubic") << out;
+  EXPECT_EQ(resampled["resampling_coefficients"], calibration) << out;
+  EXPECT_NEAR(resampled["searched_c2"].get<double>(), 0.0, 1.0) << out;
+  EXPECT_NEAR(resampled["searched_c3"].get<double>(), 0.0, 1.0) << out;
+  EXPECT_FALSE(resampled["depth_dependent"].get<bool>()) << out;
+
+  const fs::path raw_json = dir_ / "not_resampled.json";
+  args = common;
+  args.insert(args.end(), {"--resample", "none", "--json", raw_json.string()});
+  ASSERT_EQ(run(args, &err, IOCT_DISPERSION_EXE, &out), 0) << err;
+  EXPECT_GT(std::abs(nlohmann::json::parse(read_file(raw_json))["searched_c2"].get<double>()), 10.0)
+      << out;
+  EXPECT_NE(out.find("compensates the sampling"), std::string::npos) << out;
+  // The "dispersion" it finds grows with depth, and it warns.
+  const nlohmann::json raw = nlohmann::json::parse(read_file(raw_json));
+  EXPECT_TRUE(raw["depth_dependent"].get<bool>()) << out;
+  EXPECT_GT(raw["depth_split"].get<int>(), 253) << out;
+  EXPECT_LT(raw["depth_split"].get<int>(), 331) << out;
+  EXPECT_NE(out.find("the best c2 depends on depth"), std::string::npos) << out;
+
+  // Resampling without a calibration is refused, as by ioct-process.
+  args = common;
+  args.insert(args.end(), {"--resample", "cubic"});
+  EXPECT_EQ(run(args, &err, IOCT_DISPERSION_EXE), 2);
+  EXPECT_NE(err.find("needs a calibration"), std::string::npos) << err;
 }
 
 }  // namespace

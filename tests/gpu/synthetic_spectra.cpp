@@ -25,6 +25,10 @@ void SpectrumSynthesizer::fill(std::span<std::uint16_t> spectrum,
                                std::span<const Reflector> reflectors) {
   std::normal_distribution<double> noise(0.0, model_.noise_sigma);
   std::uniform_real_distribution<double> phase(0.0, 2.0 * std::numbers::pi);
+  std::normal_distribution<double> standard(0.0, 1.0);
+  const double power = model_.power_jitter > 0.0 ? 1.0 + model_.power_jitter * standard(rng_) : 1.0;
+  const double line_gain =
+      model_.fixed_pattern_jitter > 0.0 ? 1.0 + model_.fixed_pattern_jitter * standard(rng_) : 1.0;
   std::vector<double> phases;
   for (std::size_t r = 0; r < reflectors.size(); ++r) phases.push_back(phase(rng_));
   const double step = 2.0 * std::numbers::pi / model_.samples;
@@ -33,15 +37,37 @@ void SpectrumSynthesizer::fill(std::span<std::uint16_t> spectrum,
     const double envelope = envelope_[s];
     const double t = 2.0 * k / (model_.samples - 1) - 1.0;
     const double dispersion = (model_.c2 + model_.c3 * t) * t * t;
-    double fringe =
-        model_.fixed_pattern_amplitude * std::cos(step * model_.fixed_pattern_depth * k);
+    double fixed = model_.fixed_pattern_amplitude * std::cos(step * model_.fixed_pattern_depth * k);
+    for (const Reflector& line : model_.fixed_pattern_lines) {
+      fixed += line.amplitude * std::cos(step * line.depth_bin * k);
+    }
+    double fringe = power * line_gain * fixed;
     for (std::size_t r = 0; r < reflectors.size(); ++r) {
       fringe += reflectors[r].amplitude *
                 std::cos(step * reflectors[r].depth_bin * k + dispersion + phases[r]);
     }
-    const double value = model_.dc + model_.pattern * envelope + envelope * fringe + noise(rng_);
+    const double value =
+        model_.dc + power * model_.pattern * envelope + envelope * fringe + noise(rng_);
     spectrum[s] = static_cast<std::uint16_t>(std::clamp(std::lround(value), 0L, 4095L));
   }
+}
+
+std::vector<double> k_of_raw_samples(const std::vector<double>& coefficients,
+                                     std::uint32_t samples) {
+  std::vector<double> k(samples);
+  for (std::uint32_t s = 0; s < samples; ++s) {
+    double lo = 0.0;  // bisection on the increasing x(k)
+    double hi = samples - 1.0;
+    for (int i = 0; i < 60; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      const double t = mid / (samples - 1);
+      double x = 0.0;
+      for (std::size_t c = coefficients.size(); c-- > 0;) x = x * t + coefficients[c];
+      (x * (samples - 1) < s ? lo : hi) = mid;
+    }
+    k[s] = 0.5 * (lo + hi);
+  }
+  return k;
 }
 
 void fill_group(const shm::RingGeometry& geometry, SpectrumSynthesizer& synthesizer,

@@ -1,9 +1,15 @@
 // Synthetic raw spectra for the gpu tests and benchmarks: what a k-clocked swept source and a
 // 12-bit digitizer deliver, reduced to what the processing chain must cope with.
 //
-//   sample(s) = dc + pattern * envelope(k)                      background, the same every sweep
+//   sample(s) = dc + g * pattern * envelope(k)                  background
+//             + g * envelope(k) * sum_l F_l cos(2 pi f_l k / N)  fixed-pattern lines (optics)
 //             + envelope(k) * sum_r A_r cos(2 pi f_r k / N + disp(k) + phi)   each reflector
 //             + noise                                           white, sigma counts
+// where g = 1 + power_jitter * n (n standard normal, drawn per sweep) is the source power of the
+// sweep: with jitter, the mean spectrum no longer removes the background and the fixed pattern
+// exactly, and a residue of them (DC and fixed-pattern lines) is left in every A-scan, as a
+// spectrometer whose exposure or source power fluctuates leaves it. The lines also have their
+// own factor 1 + fixed_pattern_jitter * n' (a reflection whose strength varies).
 // where k = k(s) is the wavenumber (in k-linear sample units) at which raw sample s was taken:
 // k = s for a k-clocked source, or a chirp given by `k_of_sample` for one that needs resampling;
 // disp(k) = c2 t^2 + c3 t^3, t = 2 k / (N - 1) - 1, is a dispersion mismatch.
@@ -40,6 +46,12 @@ struct SpectrumModel {
   // A reflection in the optics at this depth bin, the same phase in every sweep (0: none).
   double fixed_pattern_depth = 0.0;
   double fixed_pattern_amplitude = 0.0;
+  // More such lines (depth bin, amplitude in ADC counts), on top of the one above.
+  std::vector<Reflector> fixed_pattern_lines{};
+  double power_jitter = 0.0;  // relative sigma of the source power from sweep to sweep
+  // Relative sigma of the fixed-pattern lines' own strength from sweep to sweep, apart from the
+  // power (a vibrating lens): a residue the background's shape cannot explain.
+  double fixed_pattern_jitter = 0.0;
 };
 
 class SpectrumSynthesizer {
@@ -62,6 +74,11 @@ class SpectrumSynthesizer {
 // The reflectors of record `record` (0 = first recorded A-scan) of the group's B-scan `bscan`.
 using ReflectorsOf =
     std::function<std::vector<Reflector>(std::uint32_t bscan, std::uint32_t record)>;
+
+// k_of_sample for a sweep that the chain's calibration `coefficients` (resampling.hpp) makes
+// k-linear: raw sample s is taken at the k where the calibration reads it (its inverse).
+std::vector<double> k_of_raw_samples(const std::vector<double>& coefficients,
+                                     std::uint32_t samples);
 
 // Fills a whole group's payload [bscan][record][sample].
 void fill_group(const shm::RingGeometry& geometry, SpectrumSynthesizer& synthesizer,

@@ -42,6 +42,13 @@ struct SpectralTables {
     return sum;
   }
 
+  // spectrum[j] before the dispersion correction, from the raw values as float: the one place
+  // both the chain and the dispersion estimator compute it.
+  float spectrum_value(const float* values, const float* windowed_background,
+                       std::uint32_t j) const noexcept {
+    return resampled(values, j) * window[j] - windowed_background[j];
+  }
+
   // windowed_background[j] for every j from the background spectrum (raw sample order).
   void windowed_background(std::span<const float> background, std::span<float> out) const;
 };
