@@ -11,6 +11,7 @@
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -184,18 +185,13 @@ int main(int argc, char** argv) {
     processing.window.kind = parse_window_kind(window);
     // The chain's resampling, chosen as ioct-process chooses it: an estimate made on spectra
     // resampled otherwise than the volume's compensates the difference, not the dispersion.
-    const bool calibrated = !coefficients.empty() || !calibration_file.empty();
-    if (calibrated) {
-      processing.resampling.coefficients =
-          coefficients.empty() ? ioct::gpu::offline::read_calibration_file(calibration_file)
-                               : parse_coefficients(coefficients);
+    std::optional<std::vector<double>> calibration;
+    if (!coefficients.empty() || !calibration_file.empty()) {
+      calibration = coefficients.empty()
+                        ? ioct::gpu::offline::read_calibration_file(calibration_file)
+                        : parse_coefficients(coefficients);
     }
-    processing.resampling.interpolation =
-        parse_interpolation(resampling.empty() ? (calibrated ? "cubic" : "none") : resampling);
-    if (processing.resampling.enabled() && !calibrated) {
-      throw ioct::ConfigError("resample", "'" + resampling + "'",
-                              "needs a calibration (--resample-poly or --calibration-file)");
-    }
+    processing.resampling = choose_resampling(resampling, calibration ? &*calibration : nullptr);
     search.check_on_chain = !no_check;
     processing.scale.validate();
     DispersionEstimator estimator(processing, search);

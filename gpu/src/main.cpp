@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "ioct/common/config_error.hpp"
@@ -33,8 +34,8 @@ int main(int argc, char** argv) {
   std::string out_dir = config.out_dir.string();
   std::string background = std::string(to_string(config.processing.background.mode));
   std::string window = std::string(to_string(config.processing.window.kind));
-  std::string resampling = std::string(to_string(config.processing.resampling.interpolation));
-  std::string coefficients = "0,1";
+  std::string resampling;    // empty: cubic with a calibration, none without (choose_resampling)
+  std::string coefficients;  // empty: no calibration
   std::string rigor = std::string(to_string(config.processing.fft.rigor));
   std::string enface = std::string(to_string(config.enface));
 
@@ -62,7 +63,8 @@ int main(int argc, char** argv) {
   app.add_option("--background-groups", config.processing.background.groups,
                  "groups in the rolling mean background, the current one included (1 to 64)");
   app.add_option("--resample", resampling,
-                 "lambda -> k resampling: none (k-clock), linear or cubic");
+                 "lambda -> k resampling: none (k-clock), linear or cubic (default: cubic with "
+                 "--resample-poly, none without)");
   app.add_option("--resample-poly", coefficients,
                  "calibration c0,c1,...: output sample j is read at raw position "
                  "(N-1) * sum c_i (j/(N-1))^i");
@@ -126,8 +128,10 @@ int main(int argc, char** argv) {
     config.backend = parse_backend(backend);
     config.processing.background.mode = parse_background_mode(background);
     config.processing.window.kind = parse_window_kind(window);
-    config.processing.resampling.interpolation = parse_interpolation(resampling);
-    config.processing.resampling.coefficients = parse_coefficients(coefficients);
+    std::optional<std::vector<double>> calibration;
+    if (!coefficients.empty()) calibration = parse_coefficients(coefficients);
+    config.processing.resampling =
+        choose_resampling(resampling, calibration ? &*calibration : nullptr);
     config.processing.fft.rigor = parse_fft_rigor(rigor);
     config.enface = parse_enface_projection(enface);
     LiveProcessor processor(config);

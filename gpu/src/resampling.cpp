@@ -45,6 +45,19 @@ Interpolation parse_interpolation(std::string_view text) {
   throw ConfigError("resampling", "'" + std::string(text) + "'", "must be none, linear or cubic");
 }
 
+ResamplingConfig choose_resampling(std::string_view interpolation,
+                                   const std::vector<double>* calibration) {
+  ResamplingConfig config;
+  if (calibration != nullptr) config.coefficients = *calibration;
+  config.interpolation = parse_interpolation(
+      interpolation.empty() ? (calibration != nullptr ? "cubic" : "none") : interpolation);
+  if (config.enabled() && calibration == nullptr) {
+    throw ConfigError("resample", "'" + std::string(interpolation) + "'",
+                      "needs a calibration (--resample-poly or --calibration-file)");
+  }
+  return config;
+}
+
 std::string format_coefficients(const std::vector<double>& coefficients) {
   std::string text = "[";
   for (std::size_t i = 0; i < coefficients.size(); ++i) {

@@ -196,20 +196,15 @@ int main(int argc, char** argv) {
       source = std::make_unique<RawSpectraFile>(input, layout);
     }
 
-    const bool calibrated =
-        !poly.empty() || !calibration_file.empty() || !recording_calibration.empty();
+    std::optional<std::vector<double>> calibration;
     if (!poly.empty() || !calibration_file.empty()) {
-      settings.processing.resampling.coefficients =
+      calibration =
           poly.empty() ? read_calibration_file(calibration_file) : parse_coefficients(poly);
     } else if (!recording_calibration.empty()) {
-      settings.processing.resampling.coefficients = recording_calibration;
+      calibration = recording_calibration;
     }
-    settings.processing.resampling.interpolation =
-        parse_interpolation(resample.empty() ? (calibrated ? "cubic" : "none") : resample);
-    if (settings.processing.resampling.enabled() && !calibrated) {
-      throw ioct::ConfigError("resample", "'" + resample + "'",
-                              "needs a calibration (--resample-poly or --calibration-file)");
-    }
+    settings.processing.resampling =
+        choose_resampling(resample, calibration ? &*calibration : nullptr);
     if (filter != "none") {
       ioct::gpu::filters::VolumeFilterConfig config =
           ioct::gpu::filters::filter_by_name("filter", filter);

@@ -44,6 +44,13 @@ struct ResamplingConfig {
   void validate_for(std::uint32_t samples) const;
 };
 
+// The resampling the command-line tools (ioct-gpu, ioct-process, ioct-dispersion) choose, one rule
+// for all: `interpolation` as given ("none", "linear", "cubic"); when empty, cubic if a calibration
+// was given and none otherwise (a calibration given is meant to be used). A resampling asked for
+// without a calibration is refused: ConfigError("resample", ...).
+ResamplingConfig choose_resampling(std::string_view interpolation,
+                                   const std::vector<double>* calibration);
+
 // "0,1,-0.02" -> {0, 1, -0.02}. Throws ConfigError("resampling_coefficients", ...) for text that
 // is not a comma-separated list of numbers.
 std::vector<double> parse_coefficients(std::string_view text);
