@@ -110,6 +110,7 @@ rt::LoopSettings loop_settings(const rt::RtSetup& setup) {
                    : c.digitizer_backend == "simulated" ? shm::kStatusSimulated
                                                         : 0u;
   s.realtime = setup.realtime;
+  s.pace_speed = setup.replay_speed;
   s.stack_prefault_bytes = static_cast<std::size_t>(c.stack_prefault_kib) * 1024;
   s.publish_slack_ns = c.publish_slack_us * 1000;
   s.max_consecutive_misses = c.max_consecutive_deadline_misses;
@@ -374,7 +375,7 @@ int Process::run() {
   if (config.start_scanning) supervisor_->request_start();
 
   budget_ns_ = static_cast<std::uint64_t>(static_cast<double>(setup_.digitizer.sweeps_per_group()) *
-                                          setup_.digitizer.sweep_period_ns());
+                                          setup_.digitizer.sweep_period_ns() / setup_.replay_speed);
   const std::uint64_t interval_ns = static_cast<std::uint64_t>(config.status_interval_s * 1e9);
   const rt::StatusSample first = rt::sample_status(*loop_);
   started_ns_ = first.wall_ns;
