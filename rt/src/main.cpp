@@ -17,7 +17,6 @@
 #include "acquisition_loop.hpp"
 #include "backends.hpp"
 #include "control_protocol.hpp"
-#include "control_server.hpp"
 #include "effective_config.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/input_file.hpp"
@@ -364,7 +363,7 @@ int Process::run() {
   outcome.fifo_error = outcome.fifo_error != 0 ? outcome.fifo_error : safety_outcome.fifo_error;
   if (!outcome.complete()) say("warning: " + rt::describe_shortfall(setup_.realtime, outcome));
 
-  std::optional<rt::ControlServer> control;
+  std::optional<LineServer> control;
   if (!config.control_socket.empty()) {
     control.emplace(config.control_socket, config.control_group, config.max_clients,
                     config.idle_timeout_ms);
@@ -389,9 +388,7 @@ int Process::run() {
   std::uint64_t next_watchdog_ns = started_ns_;
   std::string reason = "--seconds elapsed";
   std::vector<pollfd> fds;
-  const rt::ControlServer::Handler handler = [this](const std::string& line) {
-    return handle(line);
-  };
+  const LineServer::Handler handler = [this](const std::string& line) { return handle(line); };
 
   for (;;) {
     std::uint64_t now = shm::monotonic_ns();
