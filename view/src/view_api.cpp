@@ -6,6 +6,7 @@
 #include <ctime>
 #include <set>
 
+#include "recording_metrics.hpp"
 #include "strict_json.hpp"
 
 namespace ioct::view {
@@ -338,6 +339,7 @@ std::string ViewApi::metrics() const {
   counter(out, "ioct_gpu_group_period_seconds", "gauge", "measured time between groups",
           static_cast<double>(s.group_period_ns) * 1e-9);
   if (hub_.backends().rt_status.is_object()) flatten_numbers(hub_.backends().rt_status, "", out);
+  write_recording_metrics(hub_.backends().record_status, out);
   return out;
 }
 
