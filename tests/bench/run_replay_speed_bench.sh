@@ -17,6 +17,7 @@ speeds=1,2,4,8,16
 if [ $# -gt 0 ] && [ "$1" != "--" ]; then speeds=$1; shift; fi
 [ $# -gt 0 ] && [ "$1" = "--" ] && shift
 seconds=${IOCT_BENCH_SECONDS:-20}
+backend=${IOCT_BENCH_BACKEND:-cuda}  # cpu: to try the script on a machine without a GPU
 [ -f "$recording" ] || { echo "run_replay_speed_bench.sh: no recording $recording" >&2; exit 2; }
 mkdir -p "$out"
 ring="ioct-replay-bench-$$"
@@ -27,7 +28,7 @@ for speed in ${speeds//,/ }; do
   "$bin/ioct-rt" --ring "$ring" "$@" --replay "$recording" --replay-speed "$speed" \
     --seconds "$seconds" --summary "$dir/rt.json" >"$dir/rt.log" 2>&1 &
   rt_pid=$!
-  "$bin/ioct-gpu" --backend cuda --ring "$ring" --out "$dir" --wait 30 \
+  "$bin/ioct-gpu" --backend "$backend" --ring "$ring" --out "$dir" --wait 30 \
     --exit-when-producer-gone >"$dir/gpu.log" 2>&1 || echo "speed $speed: ioct-gpu failed, see $dir/gpu.log" >&2
   wait "$rt_pid" || echo "speed $speed: ioct-rt failed, see $dir/rt.log" >&2
   python3 - "$speed" "$dir/summary.json" "$dir/rt.json" <<'PY'
