@@ -1,8 +1,9 @@
 // ioct-record --standby beside a simulated ioct-rt, driven through its control socket: follows
-// the ring without writing, records from record-start to record-stop (or the recording's
-// seconds), again into a second file, refuses bad names, an existing file, a second start and a
-// stop with nothing recording, each naming the command and the value; both files open with
-// their groups, in order and intact. ioct-rtctl reaches the same socket.
+// the ring without writing (its reader status counting the groups it read), records from
+// record-start to record-stop (or the recording's seconds), again into a second file, refuses bad
+// names, an existing file, a second start and a stop with nothing recording, each naming the
+// command and the value; both files open with their groups, in order and intact. ioct-rtctl reaches
+// the same socket.
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -19,6 +20,7 @@
 
 #include "ioct/common/line_client.hpp"
 #include "ioct/ringrec/ring_recording_reader.hpp"
+#include "ioct/shm/reader_status.hpp"
 #include "ioct/test_support/child_process.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"
 
@@ -76,6 +78,14 @@ class Recorder {
  private:
   LineClient client_;
 };
+
+// The groups ioct-record has read, as its reader status tells ioct-rt; nullopt when it has none.
+std::optional<std::uint64_t> recorder_consumed(const std::string& ring) {
+  for (const shm::ReaderReport& reader : shm::scan_reader_status(ring)) {
+    if (reader.label == "ioct-record" && reader.alive) return reader.counters.consumed;
+  }
+  return std::nullopt;
+}
 
 std::string error_of(const nlohmann::json& reply) {
   EXPECT_TRUE(reply.is_object()) << "no reply";
@@ -138,6 +148,15 @@ TEST(IoctRecordStandby, StartStopAndStartAgainIntoASecondFileWhileIoctRtRuns) {
   EXPECT_NE(error_of(control.send({{"cmd", "record-start"}, {"name", "bad\x01name"}}))
                 .find("control bytes"),
             std::string::npos);
+  // It follows the ring meanwhile: its reader status (what ioct-rt sees) counts groups read.
+  const std::optional<std::uint64_t> consumed = recorder_consumed(ring.str());
+  ASSERT_TRUE(consumed.has_value()) << "no live reader status labelled ioct-record";
+  std::optional<std::uint64_t> later = consumed;
+  for (int tries = 0; tries < 1500 && later.value_or(0) < *consumed + 5; ++tries) {
+    std::this_thread::sleep_for(20ms);
+    later = recorder_consumed(ring.str());
+  }
+  EXPECT_GE(later.value_or(0), *consumed + 5) << "the recorder in standby stopped reading";
   std::vector<std::string> files;
   for (const auto& entry : fs::directory_iterator(dir.path)) {
     if (entry.path() != socket) files.push_back(entry.path().filename().string());
