@@ -27,8 +27,9 @@ extern "C" void on_stop_signal(int) {
 }
 
 constexpr std::size_t kMaxMetadataFileBytes = 1 << 20;
-// Beside ioct-rt's control socket (/run/ioct/rt.sock in the shipped units).
-constexpr const char* kDefaultControlSocket = "/run/ioct/record.sock";
+// A directory of its own beside ioct-rt's /run/ioct (which only ioct-rt may write), as ioct-gpu
+// has /run/ioct-gpu.
+constexpr const char* kDefaultControlSocket = "/run/ioct-record/record.sock";
 
 std::string read_metadata_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

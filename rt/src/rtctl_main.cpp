@@ -1,8 +1,9 @@
 // ioct-rtctl: one request to ioct-rt's control socket (or ioct-record's), its reply on stdout.
 //   ioct-rtctl [--socket PATH] status | start | stop | scan KEY=VALUE... | raw 'JSON LINE'
 //   ioct-rtctl [--socket PATH] record-start NAME [SECONDS] | record-stop | record-status
-// The record-* verbs go to the recorder's socket (/run/ioct/record.sock unless --socket says).
-// Exit status 0 when the reply says "ok": true, 1 when it does not, 2 when there was no reply.
+// The record-* verbs go to the recorder's socket (/run/ioct-record/record.sock unless --socket
+// says). Exit status 0 when the reply says "ok": true, 1 when it does not, 2 when there was no
+// reply.
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
@@ -29,9 +30,10 @@ int main(int argc, char** argv) {
   double timeout_s = 5.0;
   std::string verb;
   std::vector<std::string> arguments;
-  app.add_option("--socket", socket_path,
-                 "the control socket: ioct-rt's (control.socket; default /run/ioct/rt.sock) or, "
-                 "for record-*, ioct-record's (--control-socket; default /run/ioct/record.sock)");
+  app.add_option(
+      "--socket", socket_path,
+      "the control socket: ioct-rt's (control.socket; default /run/ioct/rt.sock) or, "
+      "for record-*, ioct-record's (--control-socket; default /run/ioct-record/record.sock)");
   app.add_option("--timeout", timeout_s, "seconds to wait for the reply")->capture_default_str();
   app.add_option("command", verb,
                  "status, start, stop, scan KEY=VALUE..., raw LINE (ioct-rt); record-start NAME "
@@ -44,7 +46,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   const bool to_recorder = verb.rfind("record-", 0) == 0;
   if (socket_path.empty())
-    socket_path = to_recorder ? "/run/ioct/record.sock" : "/run/ioct/rt.sock";
+    socket_path = to_recorder ? "/run/ioct-record/record.sock" : "/run/ioct/rt.sock";
 
   std::string line;
   if (verb == "raw") {
