@@ -15,10 +15,9 @@
 #include <filesystem>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <ostream>
 #include <string>
-
-#include <optional>
 
 #include "ioct/ringrec/ring_recording_format.hpp"
 #include "ioct/shm/ring_layout.hpp"
