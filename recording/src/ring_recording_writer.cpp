@@ -97,8 +97,10 @@ RingRecordingWriter::RingRecordingWriter(const std::filesystem::path& path,
   // SWMR needs the latest file format (1.10's).
   h5_check(H5Pset_libver_bounds(fapl.get(), H5F_LIBVER_LATEST, H5F_LIBVER_LATEST),
            "library version bounds");
-  file_ = make(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.get()), H5Fclose,
-               path.string() + ": cannot create");
+  // Without overwrite, EXCL also refuses a file that appeared since the check above (O_EXCL).
+  file_ = make(
+      H5Fcreate(path.c_str(), overwrite ? H5F_ACC_TRUNC : H5F_ACC_EXCL, H5P_DEFAULT, fapl.get()),
+      H5Fclose, path.string() + ": cannot create");
 
   const hid_t root = file_.get();
   write_string_attribute(root, "format", std::string(kFormatName));

@@ -2,14 +2,19 @@
 // an HDF5 file (SWMR), next to ioct-gpu and without disturbing it or ioct-rt.
 #include <CLI/CLI.hpp>
 
+#include <atomic>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <string>
+#include <thread>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/common/line_server.hpp"
 #include "ioct/common/stop_signals.hpp"
 #include "ioct/ringrec/h5_handle.hpp"
+#include "ioct/ringrec/recorder_control.hpp"
 #include "ioct/ringrec/ring_recorder.hpp"
 #include "ioct/shm/ring_error.hpp"
 
@@ -22,6 +27,9 @@ extern "C" void on_stop_signal(int) {
 }
 
 constexpr std::size_t kMaxMetadataFileBytes = 1 << 20;
+// A directory of its own beside ioct-rt's /run/ioct (which only ioct-rt may write), as ioct-gpu
+// has /run/ioct-gpu.
+constexpr const char* kDefaultControlSocket = "/run/ioct-record/record.sock";
 
 std::string read_metadata_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -45,11 +53,24 @@ int main(int argc, char** argv) {
   std::string out;
   std::string metadata_file;
   double max_mb = 0.0;
+  std::string control_socket;
+  std::string control_group;
 
   CLI::App app{"ioct-record: records the ring's raw groups into an HDF5 file (SWMR)"};
   app.option_defaults()->always_capture_default();
   app.add_option("--ring", config.ring_name, "shared-memory ring to read");
-  app.add_option("--out", out, "the HDF5 file to write")->required();
+  app.add_option("--out", out,
+                 "the HDF5 file to write; with --standby the directory the recordings go into")
+      ->required();
+  app.add_flag("--standby", config.standby,
+               "attach and wait: record only on record-start (control socket), each recording "
+               "into a new file of the --out directory");
+  app.add_option("--control-socket", control_socket,
+                 std::string("the recorder's control socket (record-start, record-stop, "
+                             "record-status); default with --standby: ") +
+                     kDefaultControlSocket + ", else none");
+  app.add_option("--control-group", control_group,
+                 "group of the control socket (mode 0660); default: ours");
   app.add_flag("--overwrite", config.overwrite, "replace an existing file");
   app.add_option("--seconds", config.run_s, "seconds to record; 0: until SIGINT/SIGTERM");
   app.add_option("--wait", config.wait_s, "seconds to wait for the ring to appear");
@@ -73,20 +94,43 @@ int main(int argc, char** argv) {
     }
     config.max_bytes = static_cast<std::uint64_t>(max_mb * 1e6);
     if (!metadata_file.empty()) config.run_metadata = read_metadata_file(metadata_file);
+    if (control_socket.empty() && config.standby) control_socket = kDefaultControlSocket;
     RingRecorder recorder(config);
+    std::optional<ioct::LineServer> control;
+    if (!control_socket.empty()) {
+      control.emplace(control_socket, control_group, 8, 30'000,
+                      ioct::LineServerNames{"recorder control socket", "ioct-record",
+                                            "--control-group", "max clients"});
+      std::cout << "ioct-record: control: listening on " << control_socket << std::endl;
+    }
+    std::atomic<bool> control_done{false};
+    std::thread control_thread;
+    if (control) {
+      control_thread = std::thread(
+          [&] { ioct::ringrec::serve_recorder_control(*control, recorder, control_done); });
+    }
     g_recorder = &recorder;
     ioct::install_stop_handler(on_stop_signal);
-    const RecorderSummary summary = recorder.run(&std::cout);
+    RecorderSummary summary;
+    try {
+      summary = recorder.run(&std::cout);
+    } catch (...) {
+      control_done = true;
+      if (control_thread.joinable()) control_thread.join();
+      throw;
+    }
+    control_done = true;
+    if (control_thread.joinable()) control_thread.join();
     g_recorder = nullptr;
     const CounterValues& c = summary.counters;
     auto at = [&](Counter k) { return c[static_cast<std::size_t>(k)]; };
     std::cout << "ioct-record: " << summary.stop_reason << " after " << summary.seconds
               << " s: " << at(Counter::groups_written) << " groups (" << at(Counter::bytes_written)
               << " bytes, writing at " << summary.write_mb_per_s << " MB/s) in "
-              << config.out.string() << "; lost: lapped " << at(Counter::dropped_lapped)
-              << ", behind " << at(Counter::dropped_behind) << ", queue full "
-              << at(Counter::dropped_queue_full) << ", disk full " << at(Counter::dropped_disk_full)
-              << std::endl;
+              << (summary.file.empty() ? std::string("no recording") : summary.file.string())
+              << "; lost: lapped " << at(Counter::dropped_lapped) << ", behind "
+              << at(Counter::dropped_behind) << ", queue full " << at(Counter::dropped_queue_full)
+              << ", disk full " << at(Counter::dropped_disk_full) << std::endl;
     if (summary.failed) {
       std::cerr << "ioct-record: " << summary.stop_reason << std::endl;
       return 3;

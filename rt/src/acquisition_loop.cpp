@@ -61,6 +61,11 @@ std::uint32_t galvo_faults(const hal::GalvoStatus& status,
   return faults;
 }
 
+// The sweep period of the loop's clock: the digitizer's, shortened by a faster replay.
+double paced_sweep_period_ns(const LoopSettings& settings) noexcept {
+  return settings.geometry.sweep_period_ns() / settings.pace_speed;
+}
+
 }  // namespace
 
 AcquisitionLoop::AcquisitionLoop(shm::RingWriter& ring, hal::Digitizer& digitizer,
@@ -76,7 +81,7 @@ AcquisitionLoop::AcquisitionLoop(shm::RingWriter& ring, hal::Digitizer& digitize
   const std::uint64_t capacity = galvo_.config().fifo_capacity;
   feed_target_ = std::min<std::uint64_t>(
       capacity, std::uint64_t{settings_.feed_ahead_groups} * settings_.geometry.sweeps_per_group());
-  clock_ = SweepClock(0, settings_.geometry.sweep_period_ns());
+  clock_ = SweepClock(0, paced_sweep_period_ns(settings_));
 }
 
 AcquisitionLoop::~AcquisitionLoop() {
@@ -166,7 +171,7 @@ std::string AcquisitionLoop::failure() const {
 
 SweepClock AcquisitionLoop::clock() const noexcept {
   return SweepClock(clock_start_ns_.load(std::memory_order_acquire),
-                    settings_.geometry.sweep_period_ns());
+                    paced_sweep_period_ns(settings_));
 }
 
 bool AcquisitionLoop::commanded_to_run() const noexcept {
@@ -285,7 +290,7 @@ void AcquisitionLoop::arm() noexcept {
     return;
   }
   const std::uint64_t now = shm::monotonic_ns();
-  clock_ = SweepClock(now, settings_.geometry.sweep_period_ns());
+  clock_ = SweepClock(now, paced_sweep_period_ns(settings_));
   clock_start_ns_.store(now, std::memory_order_release);
   underruns_at_arm_ = galvo_.status().underruns;
   add(counters_.arms, std::uint64_t{1});

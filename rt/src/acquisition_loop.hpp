@@ -39,6 +39,9 @@ struct LoopSettings {
   hal::DigitizerConfig geometry;   // what the digitizer was prepared with
   std::uint32_t extra_status = 0;  // shm::kStatus* that hold for every group (simulated)
   RealtimeRequest realtime;
+  // The loop's clock runs this many times faster than the sweeps (a replay faster than real
+  // time); 1 for acquisition. Group deadlines and timestamps follow the paced clock.
+  double pace_speed = 1.0;
   std::size_t stack_prefault_bytes = 256 * 1024;
   // A group published later than this after its last sweep ended is a deadline miss.
   std::uint64_t publish_slack_ns = 2'000'000;

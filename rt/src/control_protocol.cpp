@@ -168,12 +168,4 @@ ScanSpec apply_scan_changes(const ScanSpec& base, const nlohmann::json& changes)
   return spec;
 }
 
-std::string error_reply(const std::string& message, const nlohmann::json& id,
-                        std::string_view cmd) {
-  nlohmann::json reply = {{"ok", false}, {"error", message}};
-  if (!cmd.empty()) reply["cmd"] = std::string(cmd);
-  if (!id.is_null()) reply["id"] = id;
-  return reply.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-}
-
 }  // namespace ioct::rt

@@ -15,11 +15,13 @@
 #include <string_view>
 #include <variant>
 
+#include "ioct/common/line_server.hpp"
 #include "scan/scan_spec.hpp"
 
 namespace ioct::rt {
 
-inline constexpr std::size_t kMaxControlLineBytes = 4096;
+using ioct::error_reply;
+using ioct::kMaxControlLineBytes;
 
 enum class ControlVerb { status, start, stop, scan };
 std::string_view to_string(ControlVerb verb) noexcept;
@@ -42,9 +44,5 @@ std::variant<ControlRequest, ControlParseError> parse_control_line(std::string_v
 // offset_y, rotation_deg, inactive_ascans) and validated. Throws ConfigError naming "scan.<key>"
 // for an unknown key, a wrong type or a value out of range.
 ScanSpec apply_scan_changes(const ScanSpec& base, const nlohmann::json& changes);
-
-// {"ok": false, "error": message} (+ id, + cmd when known), as one line without the newline.
-std::string error_reply(const std::string& message, const nlohmann::json& id = nullptr,
-                        std::string_view cmd = {});
 
 }  // namespace ioct::rt

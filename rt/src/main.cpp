@@ -17,7 +17,6 @@
 #include "acquisition_loop.hpp"
 #include "backends.hpp"
 #include "control_protocol.hpp"
-#include "control_server.hpp"
 #include "effective_config.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/input_file.hpp"
@@ -110,6 +109,7 @@ rt::LoopSettings loop_settings(const rt::RtSetup& setup) {
                    : c.digitizer_backend == "simulated" ? shm::kStatusSimulated
                                                         : 0u;
   s.realtime = setup.realtime;
+  s.pace_speed = setup.replay_speed;
   s.stack_prefault_bytes = static_cast<std::size_t>(c.stack_prefault_kib) * 1024;
   s.publish_slack_ns = c.publish_slack_us * 1000;
   s.max_consecutive_misses = c.max_consecutive_deadline_misses;
@@ -367,7 +367,7 @@ int Process::run() {
   outcome.fifo_error = outcome.fifo_error != 0 ? outcome.fifo_error : safety_outcome.fifo_error;
   if (!outcome.complete()) say("warning: " + rt::describe_shortfall(setup_.realtime, outcome));
 
-  std::optional<rt::ControlServer> control;
+  std::optional<LineServer> control;
   if (!config.control_socket.empty()) {
     control.emplace(config.control_socket, config.control_group, config.max_clients,
                     config.idle_timeout_ms);
@@ -378,7 +378,7 @@ int Process::run() {
   if (config.start_scanning) supervisor_->request_start();
 
   budget_ns_ = static_cast<std::uint64_t>(static_cast<double>(setup_.digitizer.sweeps_per_group()) *
-                                          setup_.digitizer.sweep_period_ns());
+                                          setup_.digitizer.sweep_period_ns() / setup_.replay_speed);
   const std::uint64_t interval_ns = static_cast<std::uint64_t>(config.status_interval_s * 1e9);
   const rt::StatusSample first = rt::sample_status(*loop_);
   started_ns_ = first.wall_ns;
@@ -392,9 +392,7 @@ int Process::run() {
   std::uint64_t next_watchdog_ns = started_ns_;
   std::string reason = "--seconds elapsed";
   std::vector<pollfd> fds;
-  const rt::ControlServer::Handler handler = [this](const std::string& line) {
-    return handle(line);
-  };
+  const LineServer::Handler handler = [this](const std::string& line) { return handle(line); };
 
   for (;;) {
     std::uint64_t now = shm::monotonic_ns();

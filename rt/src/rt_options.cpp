@@ -1,6 +1,7 @@
 #include "rt_options.hpp"
 
 #include <array>
+#include <cmath>
 #include <thread>
 #include <utility>
 
@@ -18,6 +19,9 @@ std::uint32_t RtConfig::resolved_simulation_workers() const noexcept {
 }
 
 namespace {
+
+// A bound for typing errors: at 1000x a default group (86 ms) is paced every 86 us.
+constexpr double kMaxReplaySpeed = 1000.0;
 
 // A flag that overrides a configuration key.
 struct Override {
@@ -86,6 +90,21 @@ bool given(const RtOptions& options, const char* option) {
   throw;
 }
 
+// --replay-speed: a multiple of the recorded rate, for a replay only.
+double validated_replay_speed(const RtOptions& options) {
+  const double speed = options.replay_speed;
+  if (!std::isfinite(speed) || speed <= 0.0 || speed > kMaxReplaySpeed) {
+    throw ConfigError(
+        "replay-speed", format_value(speed),
+        "must be a multiple of the recorded rate in (0, " + format_value(kMaxReplaySpeed) + "]");
+  }
+  if (speed != 1.0 && options.replay.empty()) {
+    throw ConfigError("replay-speed", format_value(speed),
+                      "paces a replay: give --replay FILE with it");
+  }
+  return speed;
+}
+
 }  // namespace
 
 void add_rt_options(CLI::App& app, RtOptions& options) {
@@ -99,6 +118,10 @@ void add_rt_options(CLI::App& app, RtOptions& options) {
   app.add_flag("--replay-once", options.replay_once,
                "stop at the recording's end (the digitizer reports the source gone) instead of "
                "playing it again");
+  app.add_option("--replay-speed", options.replay_speed,
+                 "pace the replay at this multiple of the recorded group rate (> 0, up to "
+                 "1000; e.g. 2, 8): step it up to find the fastest rate the readers keep up with")
+      ->capture_default_str();
   app.add_option("--ring", options.ring, "ring.name: the shared-memory ring (POSIX shm, no '/')")
       ->capture_default_str();
   app.add_option("--slots", options.slots, "ring.slots: slots in the ring, each one group")
@@ -230,6 +253,7 @@ RtSetup make_setup(const RtOptions& options) {
   setup.realtime.lock_memory = config.lock_memory;
   setup.replay_file = options.replay;
   setup.replay_loop = !options.replay_once;
+  setup.replay_speed = validated_replay_speed(options);
   return setup;
 }
 

@@ -34,10 +34,11 @@ struct RtOptions {
   std::string pattern = "raster";
   std::string control_socket;  // empty: none
   // Run-time only (not configuration keys).
-  std::string replay;        // play this recording (HDF5 ring or raw) instead of acquiring
-  bool replay_once = false;  // stop at the recording's end instead of starting it again
-  double seconds = 0.0;      // 0: until SIGINT or SIGTERM
-  std::string summary;       // JSON file written at exit; empty: none
+  std::string replay;         // play this recording (HDF5 ring or raw) instead of acquiring
+  bool replay_once = false;   // stop at the recording's end instead of starting it again
+  double replay_speed = 1.0;  // the replay's group rate over the recorded one (> 0)
+  double seconds = 0.0;       // 0: until SIGINT or SIGTERM
+  std::string summary;        // JSON file written at exit; empty: none
   bool check_config = false;
   bool self_test = false;
   double self_test_seconds = 10.0;
@@ -60,6 +61,7 @@ struct RtSetup {
   RealtimeRequest realtime;
   std::string replay_file;  // empty: acquire (the configured digitizer backend)
   bool replay_loop = true;
+  double replay_speed = 1.0;  // 1: as recorded; 8: eight times as many groups per second
 };
 
 // Reads the file (if any), applies the given flags, validates everything and derives each part's

@@ -1,6 +1,9 @@
-// ioct-rtctl: one request to ioct-rt's control socket, its reply on stdout.
+// ioct-rtctl: one request to ioct-rt's control socket (or ioct-record's), its reply on stdout.
 //   ioct-rtctl [--socket PATH] status | start | stop | scan KEY=VALUE... | raw 'JSON LINE'
-// Exit status 0 when the reply says "ok": true, 1 when it does not, 2 when there was no reply.
+//   ioct-rtctl [--socket PATH] record-start NAME [SECONDS] | record-stop | record-status
+// The record-* verbs go to the recorder's socket (/run/ioct-record/record.sock unless --socket
+// says). Exit status 0 when the reply says "ok": true, 1 when it does not, 2 when there was no
+// reply.
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
@@ -23,18 +26,27 @@ nlohmann::json scalar(const std::string& text) {
 
 int main(int argc, char** argv) {
   CLI::App app{"ioct-rtctl: send one command to ioct-rt's control socket and print the reply"};
-  std::string socket_path = "/run/ioct/rt.sock";
+  std::string socket_path;
   double timeout_s = 5.0;
   std::string verb;
   std::vector<std::string> arguments;
-  app.add_option("--socket", socket_path, "ioct-rt's control socket (control.socket)")
-      ->capture_default_str();
+  app.add_option(
+      "--socket", socket_path,
+      "the control socket: ioct-rt's (control.socket; default /run/ioct/rt.sock) or, "
+      "for record-*, ioct-record's (--control-socket; default /run/ioct-record/record.sock)");
   app.add_option("--timeout", timeout_s, "seconds to wait for the reply")->capture_default_str();
-  app.add_option("command", verb, "status, start, stop, scan KEY=VALUE..., or raw LINE")
+  app.add_option("command", verb,
+                 "status, start, stop, scan KEY=VALUE..., raw LINE (ioct-rt); record-start NAME "
+                 "[SECONDS], record-stop, record-status (ioct-record)")
       ->required()
-      ->check(CLI::IsMember({"status", "start", "stop", "scan", "raw"}));
-  app.add_option("arguments", arguments, "scan: KEY=VALUE pairs; raw: the line to send");
+      ->check(CLI::IsMember({"status", "start", "stop", "scan", "raw", "record-start",
+                             "record-stop", "record-status"}));
+  app.add_option("arguments", arguments,
+                 "scan: KEY=VALUE pairs; raw: the line to send; record-start: NAME [SECONDS]");
   CLI11_PARSE(app, argc, argv);
+  const bool to_recorder = verb.rfind("record-", 0) == 0;
+  if (socket_path.empty())
+    socket_path = to_recorder ? "/run/ioct-record/record.sock" : "/run/ioct/rt.sock";
 
   std::string line;
   if (verb == "raw") {
@@ -52,6 +64,25 @@ int main(int argc, char** argv) {
         scan[a.substr(0, eq)] = scalar(a.substr(eq + 1));
       }
       request["scan"] = scan;
+    } else if (verb == "record-start") {
+      if (arguments.empty() || arguments.size() > 2) {
+        std::fprintf(stderr, "ioct-rtctl: record-start takes NAME [SECONDS], not %zu arguments\n",
+                     arguments.size());
+        return 2;
+      }
+      request["name"] = arguments[0];
+      if (arguments.size() == 2) {
+        const nlohmann::json seconds = scalar(arguments[1]);
+        if (!seconds.is_number()) {
+          std::fprintf(stderr, "ioct-rtctl: record-start SECONDS = \"%s\": not a number\n",
+                       arguments[1].c_str());
+          return 2;
+        }
+        request["seconds"] = seconds;
+      }
+    } else if (!arguments.empty()) {
+      std::fprintf(stderr, "ioct-rtctl: %s takes no arguments\n", verb.c_str());
+      return 2;
     }
     line = request.dump();
   }

@@ -364,6 +364,85 @@ TEST(IoctRecord, ReplayThroughIoctRtPublishesTheRecordedGroupsBitForBit) {
   EXPECT_EQ(exit_code(replay.wait_for(30s)), 0);
 }
 
+// --replay-speed 4: the loop stamps and publishes the groups four times as fast as the
+// recorded rate, with the recorded bytes. The stamps follow the loop's paced clock exactly; the
+// publication times only loosely (at least twice real time), so a slow machine cannot fail it.
+TEST(IoctRecord, ReplaySpeedPacesTheGroupsFasterAndKeepsThemBitForBit) {
+  const test_support::ScopedShmName ring("record-speed-live");
+  const test_support::ScopedShmName replay_ring("record-speed");
+  const TempPath out("speed");
+  {
+    ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
+    ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
+    std::string lines;
+    ASSERT_TRUE(wait_for_groups_written(recorder, 40, lines)) << lines;
+    recorder.send_signal(SIGTERM);
+    ASSERT_EQ(exit_code(recorder.wait_for(30s)), 0);
+  }
+  const RingRecordingReader recorded(out.path);
+  std::map<std::uint64_t, std::uint64_t> by_sweep;  // first sweep counter -> file group
+  shm::SlotHeader header{};
+  for (std::uint64_t i = 0; i < recorded.group_count(); ++i) {
+    recorded.read_header(i, header);
+    by_sweep[header.first_sweep_counter] = i;
+  }
+
+  constexpr double kSpeed = 4.0;
+  constexpr double kAscanRateHz = 10000.0;  // recorded rate: 1 group per 64 ms or more
+  std::vector<std::string> arguments = small_rt(replay_ring.str());
+  arguments.insert(arguments.end(), {"--replay", out.path.string(), "--replay-once", "--ascan-rate",
+                                     "10000", "--replay-speed", "4"});
+  ChildProcess replay = start("ioct-rt", arguments);
+  std::optional<shm::RingReader> reader;
+  for (int tries = 0; tries < 3000 && !reader; ++tries) {
+    try {
+      reader = shm::RingReader::attach(replay_ring.str(), {.label = "replay-speed-test"});
+    } catch (const shm::RingError&) {
+      std::this_thread::sleep_for(2ms);
+    }
+  }
+  ASSERT_TRUE(reader.has_value()) << "the replaying ioct-rt never created its ring";
+  std::vector<std::byte> live(reader->layout().group_payload_bytes);
+  std::vector<std::byte> file(recorded.group_bytes());
+  std::uint64_t compared = 0;
+  std::optional<shm::SlotHeader> first;
+  shm::SlotHeader last{};
+  const auto end = std::chrono::steady_clock::now() + 60s;
+  while (std::chrono::steady_clock::now() < end) {
+    const shm::PollStatus poll = reader->read_next(live, header);
+    if (poll == shm::PollStatus::producer_gone) break;
+    if (poll != shm::PollStatus::ready) {
+      std::this_thread::sleep_for(1ms);
+      continue;
+    }
+    const auto it = by_sweep.find(header.first_sweep_counter);
+    if (it == by_sweep.end()) break;
+    shm::SlotHeader recorded_header{};
+    recorded.read_group(it->second, file, recorded_header);
+    EXPECT_TRUE(live == file) << "replayed group " << header.group_index << " differs";
+    ++compared;
+    if (!first) first = header;
+    last = header;
+    if (it->second + 1 == recorded.group_count()) break;
+  }
+  replay.send_signal(SIGTERM);
+  EXPECT_EQ(exit_code(replay.wait_for(30s)), 0);
+  ASSERT_TRUE(first.has_value());
+  ASSERT_GE(compared, 10u);
+  const double sweeps = static_cast<double>(last.first_sweep_counter - first->first_sweep_counter);
+  const double recorded_ns = sweeps * 1e9 / kAscanRateHz;
+  const double stamped_ns = static_cast<double>(last.t_first_sweep_ns - first->t_first_sweep_ns);
+  const double published_ns = static_cast<double>(last.t_publish_ns - first->t_publish_ns);
+  std::printf(
+      "[ paced    ] %llu groups: recorded span %.0f ms, stamped %.0f ms, published %.0f "
+      "ms (speed %.0f)\n",
+      static_cast<unsigned long long>(compared), recorded_ns * 1e-6, stamped_ns * 1e-6,
+      published_ns * 1e-6, kSpeed);
+  EXPECT_NEAR(stamped_ns, recorded_ns / kSpeed, recorded_ns * 0.001)
+      << "the slot stamps do not follow a clock four times the recorded rate";
+  EXPECT_LT(published_ns, recorded_ns / 2) << "published no faster than twice real time";
+}
+
 TEST(IoctRecord, ReplayOfAnotherGeometryIsRefusedNamingBothValues) {
   const test_support::ScopedShmName ring("record-geometry");
   const TempPath out("geometry");

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -193,6 +195,33 @@ TEST(RtConfig, AFlagsBadValueIsReportedAgainstTheFlag) {
   } catch (const ConfigError& e) {
     EXPECT_EQ(option_for_error(e.what()), "--pattern");
   }
+}
+
+TEST(RtConfig, ReplaySpeedIsAPositiveMultipleAndOnlyForAReplay) {
+  for (const double bad : {0.0, -2.0, 1001.0, std::nan("")}) {
+    RtOptions options;
+    options.replay = "run.h5";
+    options.replay_speed = bad;
+    try {
+      make_setup(options);
+      FAIL() << "--replay-speed " << bad << " was accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_EQ(e.key(), "replay-speed");
+      EXPECT_NE(std::string(e.what()).find("(0, 1000]"), std::string::npos) << e.what();
+    }
+  }
+  RtOptions live;
+  live.replay_speed = 2.0;
+  try {
+    make_setup(live);
+    FAIL() << "--replay-speed without --replay was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("--replay FILE"), std::string::npos) << e.what();
+  }
+  RtOptions fast;
+  fast.replay = "run.h5";
+  fast.replay_speed = 8.0;
+  EXPECT_EQ(make_setup(fast).replay_speed, 8.0);
 }
 
 }  // namespace

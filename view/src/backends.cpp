@@ -140,6 +140,13 @@ void Backends::poll_gpu(LineClient& client, BackendsSnapshot& snap) {
   }
 }
 
+void Backends::poll_record(LineClient& client, BackendsSnapshot& snap) {
+  snap.record_status = nullptr;  // none configured, not running, or not answering: no metrics
+  if (client.path().empty()) return;
+  const nlohmann::json reply = call(client, "ioct-record", {{"cmd", "record-status"}});
+  if (reply.value("ok", false) && reply.contains("status")) snap.record_status = reply["status"];
+}
+
 void Backends::run() {
   const auto timeout =
       std::chrono::milliseconds(static_cast<std::int64_t>(config_.backend_timeout_s * 1000.0));
@@ -147,6 +154,7 @@ void Backends::run() {
       std::chrono::milliseconds(static_cast<std::int64_t>(config_.snapshot_timeout_s * 1000.0));
   LineClient gpu(config_.view_socket.string(), timeout);
   LineClient rt(config_.control_socket.string(), timeout);
+  LineClient record(config_.record_socket.string(), timeout);
   BackendsSnapshot snap;
   const auto interval = std::chrono::duration_cast<Clock::duration>(
       std::chrono::duration<double>(config_.rt_status_interval_s));
@@ -186,6 +194,7 @@ void Backends::run() {
       lock.unlock();
       poll_rt(rt, snap);
       poll_gpu(gpu, snap);
+      poll_record(record, snap);
       deliver_([cb = on_snapshot_, snap] { cb(snap); });
       lock.lock();
     }

@@ -3,8 +3,9 @@
 // on a thread of their own with bounded timeouts, so a peer that hangs never holds up a browser;
 // replies are handed back through `deliver` (ioct-view posts them onto its io thread).
 //
-// The thread also polls: ioct-rt's status and ioct-gpu's parameters, and when ioct-gpu comes
-// (back) it re-applies the parameters last saved, so settings survive a restart of either side.
+// The thread also polls: ioct-rt's status, ioct-gpu's parameters, ioct-record's status (metrics),
+// and when ioct-gpu comes (back) it re-applies the parameters last saved, so settings survive a
+// restart of either side.
 #pragma once
 
 #include <condition_variable>
@@ -34,6 +35,7 @@ struct BackendsSnapshot {
   std::uint64_t generation = 0;
   std::string gpu_error;
   std::uint64_t footswitch_presses = 0;  // footswitch presses so far (ioct-rt counts them)
+  nlohmann::json record_status;          // ioct-record's record-status "status"; null: no recorder
 };
 
 class Backends {
@@ -68,6 +70,7 @@ class Backends {
   void poll_rt(LineClient& client, BackendsSnapshot& snap);
   void count_footswitch_presses(BackendsSnapshot& snap);
   void poll_gpu(LineClient& client, BackendsSnapshot& snap);
+  static void poll_record(LineClient& client, BackendsSnapshot& snap);
 
   const ViewConfig config_;
   PresetStore& presets_;

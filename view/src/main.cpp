@@ -43,6 +43,8 @@ int main(int argc, char** argv) {
   app.add_option("--frames", frames, "the frame ring's name (overrides <ring>.frames)");
   app.add_option("--view-socket", config.view_socket, "ioct-gpu's view socket");
   app.add_option("--control-socket", config.control_socket, "ioct-rt's control socket");
+  app.add_option("--record-socket", config.record_socket,
+                 "ioct-record's control socket, for the ioct_record_* metrics");
   app.add_option("--www", www, "folder of the pages (default: beside the executable)");
   app.add_option("--token-file", config.token_file,
                  "the operators' token (mode 0600); default: made in the state folder");

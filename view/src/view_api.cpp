@@ -7,6 +7,7 @@
 #include <set>
 
 #include "gpu_metrics.hpp"
+#include "recording_metrics.hpp"
 #include "rt_metrics.hpp"
 #include "strict_json.hpp"
 
@@ -303,6 +304,7 @@ std::string ViewApi::metrics() const {
           "group published by ioct-rt to its frame drawn by a page", hub.published_to_drawn());
   append_gpu_metrics(out, f);
   append_rt_metrics(out, hub_.backends().rt_status);
+  write_recording_metrics(hub_.backends().record_status, out);
   return out;
 }
 

@@ -14,8 +14,9 @@ struct ViewConfig {
   std::string frames = "ioct-ring.frames";   // the frame ring ioct-gpu writes
   std::filesystem::path view_socket;         // ioct-gpu's view socket; empty: no render control
   std::filesystem::path control_socket;      // ioct-rt's control socket; empty: no scan control
-  std::filesystem::path www_dir;             // the pages; empty: beside the executable
-  std::filesystem::path token_file;          // the operators' token; empty: made in state_dir
+  std::filesystem::path record_socket;  // ioct-record's control socket; empty: no recording metrics
+  std::filesystem::path www_dir;        // the pages; empty: beside the executable
+  std::filesystem::path token_file;     // the operators' token; empty: made in state_dir
   std::filesystem::path state_dir = "/var/lib/ioct/view";  // presets, last parameters, token
   double stale_after_s = 0.0;        // 0: stale_after_periods measured group periods
   double stale_after_periods = 3.0;  // the default bound: three group periods

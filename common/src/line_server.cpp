@@ -1,4 +1,4 @@
-#include "control_server.hpp"
+#include "ioct/common/line_server.hpp"
 
 #include <fcntl.h>
 #include <grp.h>
@@ -9,13 +9,18 @@
 
 #include <cerrno>
 #include <cstring>
+#include <ctime>
 #include <stdexcept>
 
-#include "control_protocol.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
-
-namespace ioct::rt {
+namespace ioct {
 namespace {
+
+std::uint64_t monotonic_ns() noexcept {
+  timespec now{};
+  ::clock_gettime(CLOCK_MONOTONIC, &now);
+  return static_cast<std::uint64_t>(now.tv_sec) * 1'000'000'000u +
+         static_cast<std::uint64_t>(now.tv_nsec);
+}
 
 std::string errno_text(int error) {
   return std::strerror(error);
@@ -25,14 +30,14 @@ sockaddr_un address_of(const std::string& path) {
   sockaddr_un address{};
   address.sun_family = AF_UNIX;
   if (path.empty() || path.size() >= sizeof(address.sun_path)) {
-    throw std::runtime_error("control socket path \"" + path + "\" must be 1 to " +
+    throw std::runtime_error("socket path \"" + path + "\" must be 1 to " +
                              std::to_string(sizeof(address.sun_path) - 1) + " bytes long");
   }
   std::memcpy(address.sun_path, path.c_str(), path.size() + 1);
   return address;
 }
 
-// True when something accepts connections on `path` (another ioct-rt).
+// True when something accepts connections on `path` (another server).
 bool answered(const sockaddr_un& address) {
   const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
   if (fd < 0) return false;
@@ -43,9 +48,18 @@ bool answered(const sockaddr_un& address) {
 
 }  // namespace
 
-ControlServer::ControlServer(std::string path, const std::string& group, std::uint32_t max_clients,
-                             std::uint64_t idle_timeout_ms)
+std::string error_reply(const std::string& message, const nlohmann::json& id,
+                        std::string_view cmd) {
+  nlohmann::json reply = {{"ok", false}, {"error", message}};
+  if (!cmd.empty()) reply["cmd"] = std::string(cmd);
+  if (!id.is_null()) reply["id"] = id;
+  return reply.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+LineServer::LineServer(std::string path, const std::string& group, std::uint32_t max_clients,
+                       std::uint64_t idle_timeout_ms, LineServerNames names)
     : path_(std::move(path)),
+      names_(std::move(names)),
       max_clients_(max_clients),
       idle_timeout_ns_(idle_timeout_ms * 1'000'000u) {
   const sockaddr_un address = address_of(path_);
@@ -53,25 +67,25 @@ ControlServer::ControlServer(std::string path, const std::string& group, std::ui
   if (!group.empty()) {
     const ::group* g = ::getgrnam(group.c_str());
     if (g == nullptr) {
-      throw std::runtime_error("control socket " + path_ + ": no group \"" + group +
-                               "\" (control.socket_group)");
+      throw std::runtime_error(names_.socket + " " + path_ + ": no group \"" + group + "\" (" +
+                               names_.group_key + ")");
     }
     gid = g->gr_gid;
   }
   struct stat existing {};
   if (::lstat(path_.c_str(), &existing) == 0) {
     if (!S_ISSOCK(existing.st_mode)) {
-      throw std::runtime_error("control socket " + path_ +
+      throw std::runtime_error(names_.socket + " " + path_ +
                                " exists and is not a socket; not replacing it");
     }
     if (answered(address)) {
-      throw std::runtime_error("control socket " + path_ +
-                               " is in use by a running process (another ioct-rt?)");
+      throw std::runtime_error(names_.socket + " " + path_ +
+                               " is in use by a running process (another " + names_.owner + "?)");
     }
     ::unlink(path_.c_str());  // a stale socket of a process that is gone
   }
   listen_fd_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
-  if (listen_fd_ < 0) throw std::runtime_error("control socket: socket(): " + errno_text(errno));
+  if (listen_fd_ < 0) throw std::runtime_error(names_.socket + ": socket(): " + errno_text(errno));
   // No moment with wider permissions than 0660: the umask covers bind(), chmod() makes it exact.
   const mode_t old_mask = ::umask(0117);
   const int bound =
@@ -80,7 +94,7 @@ ControlServer::ControlServer(std::string path, const std::string& group, std::ui
   ::umask(old_mask);
   if (bound != 0) {
     ::close(listen_fd_);
-    throw std::runtime_error("control socket " + path_ + ": bind(): " + errno_text(bind_error));
+    throw std::runtime_error(names_.socket + " " + path_ + ": bind(): " + errno_text(bind_error));
   }
   if (::chmod(path_.c_str(), 0660) != 0 ||
       (gid != static_cast<gid_t>(-1) && ::chown(path_.c_str(), static_cast<uid_t>(-1), gid) != 0) ||
@@ -88,12 +102,12 @@ ControlServer::ControlServer(std::string path, const std::string& group, std::ui
     const int error = errno;
     ::close(listen_fd_);
     ::unlink(path_.c_str());
-    throw std::runtime_error("control socket " + path_ + ": " + errno_text(error) +
+    throw std::runtime_error(names_.socket + " " + path_ + ": " + errno_text(error) +
                              (group.empty() ? "" : " (group " + group + ")"));
   }
 }
 
-ControlServer::~ControlServer() {
+LineServer::~LineServer() {
   for (Client& c : clients_) ::close(c.fd);
   if (listen_fd_ >= 0) {
     ::close(listen_fd_);
@@ -101,7 +115,7 @@ ControlServer::~ControlServer() {
   }
 }
 
-void ControlServer::add_poll_fds(std::vector<pollfd>& fds) const {
+void LineServer::add_poll_fds(std::vector<pollfd>& fds) const {
   fds.push_back({listen_fd_, POLLIN, 0});
   for (const Client& c : clients_) {
     const short events =
@@ -110,8 +124,8 @@ void ControlServer::add_poll_fds(std::vector<pollfd>& fds) const {
   }
 }
 
-void ControlServer::process(const pollfd* fds, std::size_t count, const Handler& handler) {
-  const std::uint64_t now = shm::monotonic_ns();
+void LineServer::process(const pollfd* fds, std::size_t count, const Handler& handler) {
+  const std::uint64_t now = monotonic_ns();
   // fds[0] is the listener, fds[1 + i] client i, as add_poll_fds() laid them out.
   std::vector<bool> drop(clients_.size(), false);
   for (std::size_t i = 0; i + 1 < count && i < clients_.size(); ++i) {
@@ -133,7 +147,7 @@ void ControlServer::process(const pollfd* fds, std::size_t count, const Handler&
   if (count > 0 && (fds[0].revents & POLLIN) != 0) accept_clients(now);
 }
 
-void ControlServer::close_idle(std::uint64_t now_ns, std::vector<bool>& drop) {
+void LineServer::close_idle(std::uint64_t now_ns, std::vector<bool>& drop) {
   for (std::size_t i = 0; i < clients_.size() && i < drop.size(); ++i) {
     Client& c = clients_[i];
     // last_heard_ns may be a little after now_ns (a line read during this pass).
@@ -148,7 +162,7 @@ void ControlServer::close_idle(std::uint64_t now_ns, std::vector<bool>& drop) {
   }
 }
 
-bool ControlServer::evict_silent(std::uint64_t now_ns) {
+bool LineServer::evict_silent(std::uint64_t now_ns) {
   std::size_t silent = clients_.size();
   for (std::size_t i = 0; i < clients_.size(); ++i) {
     if (silent == clients_.size() || clients_[i].last_heard_ns < clients_[silent].last_heard_ns) {
@@ -171,13 +185,13 @@ bool ControlServer::evict_silent(std::uint64_t now_ns) {
   return true;
 }
 
-void ControlServer::accept_clients(std::uint64_t now_ns) {
+void LineServer::accept_clients(std::uint64_t now_ns) {
   for (;;) {
     const int fd = ::accept4(listen_fd_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
     if (fd < 0) return;  // EAGAIN: none left (or a transient error: the next poll retries)
     if (clients_.size() >= max_clients_ && !evict_silent(now_ns)) {
       ++rejected_;
-      const std::string reply = error_reply("too many control clients (control.max_clients = " +
+      const std::string reply = error_reply("too many control clients (" + names_.max_clients_key + " = " +
                                             std::to_string(max_clients_) + "); try again later") +
                                 "\n";
       (void)!::send(fd, reply.data(), reply.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
@@ -188,7 +202,7 @@ void ControlServer::accept_clients(std::uint64_t now_ns) {
   }
 }
 
-bool ControlServer::read_from(Client& client, const Handler& handler) {
+bool LineServer::read_from(Client& client, const Handler& handler) {
   char buffer[8192];
   // Bounded work per wake-up, so one client cannot hold the housekeeping loop.
   for (int rounds = 0; rounds < 8; ++rounds) {
@@ -211,7 +225,7 @@ bool ControlServer::read_from(Client& client, const Handler& handler) {
         if (!line.empty() && line.back() == '\r') line.pop_back();
         // Every line gets its reply, a blank one included (an error saying it is empty).
         ++requests_;
-        client.last_heard_ns = shm::monotonic_ns();
+        client.last_heard_ns = monotonic_ns();
         client.out += handler(line);
         client.out += '\n';
         continue;
@@ -232,7 +246,7 @@ bool ControlServer::read_from(Client& client, const Handler& handler) {
   return true;
 }
 
-bool ControlServer::write_to(Client& client) {
+bool LineServer::write_to(Client& client) {
   while (!client.out.empty()) {
     const ssize_t sent =
         ::send(client.fd, client.out.data(), client.out.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
@@ -242,4 +256,4 @@ bool ControlServer::write_to(Client& client) {
   return true;
 }
 
-}  // namespace ioct::rt
+}  // namespace ioct

@@ -1,8 +1,9 @@
-// The control channel's Unix socket: a listening stream socket at a path (mode 0660, owned by a
-// configured group, so access is a matter of filesystem permissions), and its clients, served
-// without threads from the housekeeping loop's poll(). Every line a client sends is handed to a
+// A JSON-lines control socket (ioct-rt's control channel, ioct-record's recorder socket): a
+// listening Unix stream socket at a path (mode 0660, owned by a configured group, so access is a
+// matter of filesystem permissions), and its clients, served without threads from the owner's
+// poll(). Every line a client sends is handed to a
 // handler whose reply goes back as one line. Garbage, over-long lines, clients that never read
-// and clients beyond the limit are answered or dropped; none of it reaches the acquisition.
+// and clients beyond the limit are answered or dropped; none of it reaches the owner's work.
 //
 // Idle clients cannot lock the operator out: a client silent for the idle timeout is closed, and
 // when every slot is taken a new connection takes the slot of the client that has been silent
@@ -15,12 +16,29 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
+#include <string_view>
 #include <vector>
 
-namespace ioct::rt {
+namespace ioct {
 
-class ControlServer {
+// Lines longer than this are answered with an error and skipped up to their newline.
+inline constexpr std::size_t kMaxControlLineBytes = 4096;
+
+// {"ok": false, "error": message} (+ id, + cmd when known), as one line without the newline.
+std::string error_reply(const std::string& message, const nlohmann::json& id = nullptr,
+                        std::string_view cmd = {});
+
+// How the server's messages name it and its settings.
+struct LineServerNames {
+  std::string socket = "control socket";  // "control socket /run/ioct/rt.sock: ..."
+  std::string owner = "ioct-rt";          // "in use by a running process (another ...?)"
+  std::string group_key = "control.socket_group";
+  std::string max_clients_key = "control.max_clients";
+};
+
+class LineServer {
  public:
   // Turns one request line into one reply line (no newline in either).
   using Handler = std::function<std::string(const std::string& line)>;
@@ -28,12 +46,12 @@ class ControlServer {
   // Binds `path` (replacing a stale socket; refusing one a live server answers on) with mode
   // 0660 and, when `group` is not empty, that group. Throws std::runtime_error naming the path,
   // the group and the reason.
-  ControlServer(std::string path, const std::string& group, std::uint32_t max_clients,
-                std::uint64_t idle_timeout_ms = 30'000);
-  ControlServer(const ControlServer&) = delete;
-  ControlServer& operator=(const ControlServer&) = delete;
+  LineServer(std::string path, const std::string& group, std::uint32_t max_clients,
+             std::uint64_t idle_timeout_ms = 30'000, LineServerNames names = {});
+  LineServer(const LineServer&) = delete;
+  LineServer& operator=(const LineServer&) = delete;
   // Closes every client and removes the socket file.
-  ~ControlServer();
+  ~LineServer();
 
   // Adds the descriptors to wait on; process() takes the same range back after poll().
   void add_poll_fds(std::vector<pollfd>& fds) const;
@@ -70,6 +88,7 @@ class ControlServer {
   bool write_to(Client& client);
 
   std::string path_;
+  LineServerNames names_;
   std::uint32_t max_clients_;
   std::uint64_t idle_timeout_ns_;
   int listen_fd_ = -1;
@@ -79,4 +98,4 @@ class ControlServer {
   std::uint64_t closed_idle_ = 0;
 };
 
-}  // namespace ioct::rt
+}  // namespace ioct
