@@ -22,7 +22,7 @@ void CpuInstrumentDetector::classify(const Volume& volume, BscanSpan group,
       const ColumnFinding c =
           classify_column(pixels.data() + std::size_t{a} * volume.depth(), params, floor_level);
       const std::size_t k = findings.index(b, a);
-      findings.mask[k] = c.kind;
+      findings.columns[k] = c.kind;
       findings.reflex_px[k] = c.reflex_px;
     }
   });

@@ -17,6 +17,8 @@ constexpr double kMaxRadiusUm = 550.0;
 // A-scans where its footprint disagrees with the sphere's: this much of each costs the same.
 constexpr double kDepthSpreadPx2 = 4.0;
 constexpr double kFootprintMismatch = 0.1;
+// Surfaces are taken this many A-scans away from the shadow mask at least.
+constexpr std::int64_t kSurfaceMarginAscans = 2;
 
 struct Footprint {
   std::vector<std::uint32_t> ascans;  // indices into the mask
@@ -71,9 +73,23 @@ SurfaceAt surfaces_at(const InstrumentFindings& f, const Surfaces& s, double bsc
                       const VolumeSampling& sampling) {
   SurfaceAt out;
   if (s.bscans != f.bscans || s.ascans != f.ascans || f.size() == 0) return out;
+  // Away from the mask by kSurfaceMarginAscans along the B-scan and one B-scan across: the
+  // filtered volume the segmentation reads smears the shadow's edge over its neighbours.
+  const auto near_mask = [&](std::int64_t b, std::int64_t a) {
+    for (std::int64_t nb = std::max<std::int64_t>(0, b - 1); nb <= std::min<std::int64_t>(f.bscans - 1, b + 1); ++nb) {
+      for (std::int64_t na = std::max<std::int64_t>(0, a - kSurfaceMarginAscans);
+           na <= std::min<std::int64_t>(f.ascans - 1, a + kSurfaceMarginAscans); ++na) {
+        if (f.mask[f.index(static_cast<std::uint32_t>(nb), static_cast<std::uint32_t>(na))] !=
+            ColumnKind::clear) {
+          return true;
+        }
+      }
+    }
+    return false;
+  };
   const auto usable = [&](std::int64_t b, std::int64_t a) {
     const std::size_t k = f.index(static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a));
-    return f.mask[k] == ColumnKind::clear && s.state[k] == SurfaceState::measured &&
+    return !near_mask(b, a) && s.state[k] == SurfaceState::measured &&
            std::isfinite(s.ilm[k]) && std::isfinite(s.rpe[k]);
   };
   const std::int64_t b0 = std::clamp<std::int64_t>(std::lround(bscan), 0, f.bscans - 1);
@@ -292,10 +308,32 @@ InstrumentTip tip_of(const Footprint& fp, const InstrumentFindings& f,
   return tip;
 }
 
+void clean_mask(InstrumentFindings& f) {
+  for (std::int64_t b = 0; b < f.bscans; ++b) {
+    for (std::int64_t a = 0; a < f.ascans; ++a) {
+      const std::size_t k = f.index(static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a));
+      f.mask[k] = ColumnKind::clear;
+      if (f.columns[k] == ColumnKind::clear) continue;
+      int neighbours = 0;
+      for (std::int64_t nb = std::max<std::int64_t>(0, b - 1); nb <= std::min<std::int64_t>(f.bscans - 1, b + 1); ++nb) {
+        for (std::int64_t na = std::max<std::int64_t>(0, a - 1); na <= std::min<std::int64_t>(f.ascans - 1, a + 1); ++na) {
+          if ((nb != b || na != a) &&
+              f.columns[f.index(static_cast<std::uint32_t>(nb), static_cast<std::uint32_t>(na))] !=
+                  ColumnKind::clear) {
+            ++neighbours;
+          }
+        }
+      }
+      if (neighbours >= InstrumentFindings::kMinMaskedNeighbours) f.mask[k] = f.columns[k];
+    }
+  }
+}
+
 }  // namespace
 
 void find_tips(InstrumentFindings& findings, const Surfaces& surfaces,
                const InstrumentConfig& config, const VolumeSampling& sampling) {
+  clean_mask(findings);
   findings.tips.clear();
   findings.nearest = -1;
   findings.warning = false;

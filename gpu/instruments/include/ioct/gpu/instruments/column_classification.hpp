@@ -12,8 +12,8 @@
 //            mean is at most half the dark margin above the floor: a translucent tool (the
 //            scraper's paddle) above the tissue it half shadows;
 //   clear    anything else (tissue from the top, nothing at all, an object too deep to be a tool).
-// A metal tool's reflex is the object's brightest px (the first of equals), refined by a parabola
-// through it and its neighbours; a translucent tool's is the middle of the object.
+// A metal tool's reflex is the object's last peak (from its last bright px upwards while the px
+// rise), refined by a parabola through it and its neighbours; a translucent tool's is the middle of the object.
 #pragma once
 
 #include <cstdint>
@@ -49,10 +49,10 @@ IOCT_HD ColumnFinding classify_column(const std::uint8_t* column, const ColumnPa
     }
   }
   if (top < 0) return out;
-  // The object's end: the first px of a run of `gap` dark px.
+  // The object's end: the first px of a run of `gap` dark px; and its last bright px.
   int end = -1;
   int dark_run = 0;
-  int peak = top;
+  int last_bright = top;
   for (int z = top; z < p.depth; ++z) {
     if (column[z] <= dark_level) {
       if (++dark_run == p.gap) {
@@ -61,9 +61,13 @@ IOCT_HD ColumnFinding classify_column(const std::uint8_t* column, const ColumnPa
       }
     } else {
       dark_run = 0;
-      if (column[z] > column[peak]) peak = z;
+      if (column[z] >= object_level) last_bright = z;
     }
   }
+  // A metal tool ends the object (nothing beneath it is seen): its reflex is the object's last
+  // peak (climbing up from its last bright px while the px rise), also where tissue lies above.
+  int peak = last_bright;
+  while (peak > top && column[peak - 1] > column[peak]) --peak;
   if (end < 0 || end - top > p.max_reflex) return out;
   int next = -1;
   for (int z = end; z < p.depth; ++z) {

@@ -47,7 +47,12 @@ struct InstrumentFindings {
 
   std::uint32_t bscans = 0;
   std::uint32_t ascans = 0;
-  std::vector<ColumnKind> mask;    // [bscan][ascan]
+  // [bscan][ascan]: each A-scan as classified on its own, and the shadow mask: those of them
+  // with at least kMinMaskedNeighbours of their 8 neighbours classified so too (a lone A-scan
+  // is speckle, not a tool).
+  static constexpr int kMinMaskedNeighbours = 3;
+  std::vector<ColumnKind> columns;
+  std::vector<ColumnKind> mask;
   std::vector<float> reflex_px;    // [bscan][ascan]; 0 where clear
   std::vector<std::uint8_t> floor;  // [bscan]: the noise floor found (u8)
   std::vector<InstrumentTip> tips;  // largest footprint first, at most kMaxInstruments
@@ -60,6 +65,7 @@ struct InstrumentFindings {
     bscans = bscan_count;
     ascans = ascan_count;
     const std::size_t n = std::size_t{bscan_count} * ascan_count;
+    columns.assign(n, ColumnKind::clear);
     mask.assign(n, ColumnKind::clear);
     reflex_px.assign(n, 0.0f);
     floor.assign(bscan_count, 0);
