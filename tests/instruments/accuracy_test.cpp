@@ -23,7 +23,8 @@ using gpu::instruments::InstrumentFindings;
 
 double p95(std::vector<double> v) {
   std::sort(v.begin(), v.end());
-  const std::size_t k = static_cast<std::size_t>(std::ceil(0.95 * static_cast<double>(v.size()))) - 1;
+  const std::size_t k =
+      static_cast<std::size_t>(std::ceil(0.95 * static_cast<double>(v.size()))) - 1;
   return v[std::min(k, v.size() - 1)];
 }
 
@@ -35,10 +36,10 @@ double median(std::vector<double> v) {
 struct Errors {
   std::vector<double> tip, ilm, rpe;
   void print(const char* what) const {
-    std::printf("[ figures  ] %s, %zu scenes: tip median %.2f p95 %.2f vox; ILM distance median "
-                "%.1f p95 %.1f um; RPE distance median %.1f p95 %.1f um\n",
-                what, tip.size(), median(tip), p95(tip), median(ilm), p95(ilm), median(rpe),
-                p95(rpe));
+    std::printf(
+        "[ figures  ] %s, %zu scenes: tip median %.2f p95 %.2f vox; ILM distance median "
+        "%.1f p95 %.1f um; RPE distance median %.1f p95 %.1f um\n",
+        what, tip.size(), median(tip), p95(tip), median(ilm), p95(ilm), median(rpe), p95(rpe));
   }
 };
 
@@ -71,7 +72,8 @@ TEST(InstrumentAccuracy, TipAndDistancesAgainstTheSimulatorsPose) {
     const double ilm_error = std::abs(tip.to_ilm_um - s.to_ilm_um);
     const double rpe_error = std::abs(tip.to_rpe_um - s.to_rpe_um);
     for (Errors* e : {&all, &metal}) {
-      if (e == &metal && (scene.kind == sim::InstrumentKind::scraper || scene.jaw_opening_deg > 0)) {
+      if (e == &metal &&
+          (scene.kind == sim::InstrumentKind::scraper || scene.jaw_opening_deg > 0)) {
         continue;
       }
       e->tip.push_back(error);

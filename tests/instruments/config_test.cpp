@@ -33,8 +33,7 @@ TEST(InstrumentConfig, BadValuesAreRefusedNamingTheKey) {
   expect_refused([](InstrumentConfig& c) { c.gap_um = 0.0; }, "instruments.gap_um");
   expect_refused([](InstrumentConfig& c) { c.max_reflex_um = -1.0; }, "instruments.max_reflex_um");
   expect_refused([](InstrumentConfig& c) { c.min_shadow_um = 1e9; }, "instruments.min_shadow_um");
-  expect_refused([](InstrumentConfig& c) { c.partial_gap_um = 0.0; },
-                 "instruments.partial_gap_um");
+  expect_refused([](InstrumentConfig& c) { c.partial_gap_um = 0.0; }, "instruments.partial_gap_um");
   expect_refused([](InstrumentConfig& c) { c.min_ascans = 0; }, "instruments.min_ascans");
   expect_refused([](InstrumentConfig& c) { c.medium_group_index = 0.5; },
                  "instruments.medium_group_index");

@@ -27,7 +27,8 @@ TEST(InstrumentsCudaVsCpu, SameMaskReflexesAndTipsGroupByGroup) {
     gpu::segmentation::Surfaces surfaces;
     gpu::segmentation::make_segmenter(gpu::Backend::cpu, {}, s.sampling, 2)
         ->segment_volume(s.filtered, surfaces);
-    const auto cpu = gpu::instruments::make_instrument_detector(gpu::Backend::cpu, {}, s.sampling, 2);
+    const auto cpu =
+        gpu::instruments::make_instrument_detector(gpu::Backend::cpu, {}, s.sampling, 2);
     InstrumentFindings a, b;
     // Group by group, as live: 16 B-scans at a time.
     for (std::uint32_t first = 0; first < s.volume.volume.bscans(); first += 16) {
@@ -36,8 +37,8 @@ TEST(InstrumentsCudaVsCpu, SameMaskReflexesAndTipsGroupByGroup) {
     }
     ASSERT_EQ(a.floor, b.floor) << scene.name;
     ASSERT_EQ(a.columns, b.columns) << scene.name;
-    ASSERT_EQ(0, std::memcmp(a.reflex_px.data(), b.reflex_px.data(),
-                             a.reflex_px.size() * sizeof(float)))
+    ASSERT_EQ(
+        0, std::memcmp(a.reflex_px.data(), b.reflex_px.data(), a.reflex_px.size() * sizeof(float)))
         << scene.name;
     ASSERT_EQ(a.tips.size(), b.tips.size()) << scene.name;
     for (std::size_t i = 0; i < a.tips.size(); ++i) {

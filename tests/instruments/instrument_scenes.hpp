@@ -1,8 +1,8 @@
 // The simulator's instrument scenes with their ground truth: a forceps, a needle and a scraper
 // approaching the retina, touching it, indenting it and below its surface; each a small raster
 // about the tool's tip at the default raster's spacing (11.7 um between A-scans, 47 um between
-// B-scans), through the CPU chain (and the volume filters for the segmentation); beside it where the tip is (voxels,
-// from the pose: sim::tip_voxel) and the ILM and RPE under the tip.
+// B-scans), through the CPU chain (and the volume filters for the segmentation); beside it where
+// the tip is (voxels, from the pose: sim::tip_voxel) and the ILM and RPE under the tip.
 #pragma once
 
 #include <string>
@@ -30,10 +30,10 @@ struct SceneVolume {
   seg_test::SimulatedVolume volume;  // as processed (what the detection reads), with the truth
   gpu::Volume filtered;              // median + Gaussian (what the segmentation reads)
   gpu::segmentation::VolumeSampling sampling;
-  sim::VoxelPoint tip;        // truth (the pose's tip point)
-  double ilm_px = 0.0;        // the truth surfaces under the tip (continuous)
+  sim::VoxelPoint tip;  // truth (the pose's tip point)
+  double ilm_px = 0.0;  // the truth surfaces under the tip (continuous)
   double rpe_px = 0.0;
-  double to_ilm_um = 0.0;     // truth distances, signed as the detection's
+  double to_ilm_um = 0.0;  // truth distances, signed as the detection's
   double to_rpe_um = 0.0;
 };
 

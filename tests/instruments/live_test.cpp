@@ -79,11 +79,12 @@ TEST(LiveInstrumentsOff, NothingIsReportedWhenDisabled) {
   EXPECT_EQ(stages.status().find("instruments"), std::string::npos);
 }
 
+std::string backend_name(const ::testing::TestParamInfo<gpu::Backend>& param) {
+  return param.param == gpu::Backend::cpu ? "cpu" : "cuda";
+}
+
 INSTANTIATE_TEST_SUITE_P(Backends, LiveInstruments,
-                         ::testing::Values(gpu::Backend::cpu, gpu::Backend::cuda),
-                         [](const auto& info) {
-                           return info.param == gpu::Backend::cpu ? "cpu" : "cuda";
-                         });
+                         ::testing::Values(gpu::Backend::cpu, gpu::Backend::cuda), backend_name);
 
 }  // namespace
 }  // namespace ioct::instruments_test

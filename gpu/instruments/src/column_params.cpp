@@ -7,7 +7,8 @@ namespace ioct::gpu::instruments {
 namespace {
 
 std::int32_t px_of(double um, const VolumeSampling& sampling) {
-  return std::max<std::int32_t>(1, static_cast<std::int32_t>(std::lround(um / sampling.axial_um_per_px)));
+  return std::max<std::int32_t>(
+      1, static_cast<std::int32_t>(std::lround(um / sampling.axial_um_per_px)));
 }
 
 }  // namespace

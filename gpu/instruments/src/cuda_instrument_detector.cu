@@ -20,7 +20,8 @@ __global__ void classify_bscans(const std::uint8_t* bscans, std::uint32_t ascans
   const std::uint8_t* bscan = bscans + b * pixels;
   for (int i = threadIdx.x; i < 256; i += blockDim.x) histogram[i] = 0;
   __syncthreads();
-  for (std::size_t i = threadIdx.x; i < pixels; i += blockDim.x) atomicAdd(&histogram[bscan[i]], 1u);
+  for (std::size_t i = threadIdx.x; i < pixels; i += blockDim.x)
+    atomicAdd(&histogram[bscan[i]], 1u);
   __syncthreads();
   if (threadIdx.x == 0) {
     floor_level = median_of_histogram(histogram, pixels);
@@ -28,7 +29,8 @@ __global__ void classify_bscans(const std::uint8_t* bscans, std::uint32_t ascans
   }
   __syncthreads();
   for (std::uint32_t a = threadIdx.x; a < ascans; a += blockDim.x) {
-    const ColumnFinding c = classify_column(bscan + std::size_t{a} * params.depth, params, floor_level);
+    const ColumnFinding c =
+        classify_column(bscan + std::size_t{a} * params.depth, params, floor_level);
     kinds[std::size_t{b} * ascans + a] = static_cast<std::uint8_t>(c.kind);
     reflexes[std::size_t{b} * ascans + a] = c.reflex_px;
   }
@@ -64,10 +66,9 @@ void CudaInstrumentDetector::classify(const Volume& volume, BscanSpan group,
   cuda::copy_async(bscans_.data(), volume.bscan(group.first).data(), bscans_.bytes(),
                    cudaMemcpyHostToDevice, stream, cuda::Payload::volume,
                    "instruments: the group's B-scans to the device");
-  classify_bscans<<<group.count, kThreads, 0, stream>>>(bscans_.data(),
-                                                         static_cast<std::uint32_t>(ascans), params,
-                                                         kinds_.data(), reflexes_.data(),
-                                                         floors_.data());
+  classify_bscans<<<group.count, kThreads, 0, stream>>>(
+      bscans_.data(), static_cast<std::uint32_t>(ascans), params, kinds_.data(), reflexes_.data(),
+      floors_.data());
   cuda::check_launch("instruments: classify_bscans");
   const std::size_t offset = std::size_t{group.first} * ascans;
   cuda::copy_async(host_kinds_.data(), kinds_.data(), columns, cudaMemcpyDeviceToHost, stream,

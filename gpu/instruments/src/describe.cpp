@@ -25,8 +25,9 @@ std::string describe(const InstrumentFindings& findings) {
     std::snprintf(line, sizeof line, "tip (%.1f, %.1f, %.1f) vox, no retina under it", tip->bscan,
                   tip->ascan, tip->depth_px);
   } else {
-    std::snprintf(line, sizeof line, "tip (%.1f, %.1f, %.1f) vox: ILM %+.0f um, RPE %+.0f um (%s)%s",
-                  tip->bscan, tip->ascan, tip->depth_px, tip->to_ilm_um, tip->to_rpe_um,
+    std::snprintf(line, sizeof line,
+                  "tip (%.1f, %.1f, %.1f) vox: ILM %+.0f um, RPE %+.0f um (%s)%s", tip->bscan,
+                  tip->ascan, tip->depth_px, tip->to_ilm_um, tip->to_rpe_um,
                   std::string(to_string(tip->source)).c_str(), findings.warning ? " WARNING" : "");
   }
   std::string out = line;

@@ -29,8 +29,8 @@ nlohmann::json to_json(const InstrumentFindings& findings) {
                     {"footprint_ascans", t.footprint_ascans}});
   }
   return {{"tips", tips},
-          {"nearest", findings.nearest >= 0 ? nlohmann::json(findings.nearest)
-                                            : nlohmann::json(nullptr)},
+          {"nearest",
+           findings.nearest >= 0 ? nlohmann::json(findings.nearest) : nlohmann::json(nullptr)},
           {"warning", findings.warning},
           {"shadowed_ascans", shadowed},
           {"partly_shadowed_ascans", partial},

@@ -9,9 +9,9 @@ void InstrumentConfig::validate() const {
   require_integer_in_range("instruments.object_margin", object_margin, 1, 254);
   require_integer_in_range("instruments.dark_margin", dark_margin, 0, 253);
   if (dark_margin >= object_margin) {
-    throw ConfigError("instruments.dark_margin", format_value(std::uint64_t{dark_margin}),
-                      "must be below instruments.object_margin (" +
-                          std::to_string(object_margin) + ")");
+    throw ConfigError(
+        "instruments.dark_margin", format_value(std::uint64_t{dark_margin}),
+        "must be below instruments.object_margin (" + std::to_string(object_margin) + ")");
   }
   require_real_in_range("instruments.gap_um", gap_um, 0.1, 2000.0);
   require_real_in_range("instruments.max_reflex_um", max_reflex_um, 1.0, 5000.0);

@@ -38,8 +38,7 @@ void InstrumentDetector::detect_group(const Volume& volume, BscanSpan group,
   find_tips(findings, surfaces, config_, sampling_);
 }
 
-void InstrumentDetector::detect_volume(const Volume& volume,
-                                       const segmentation::Surfaces& surfaces,
+void InstrumentDetector::detect_volume(const Volume& volume, const segmentation::Surfaces& surfaces,
                                        InstrumentFindings& findings) {
   findings.reset(volume.bscans(), volume.ascans());
   detect_group(volume, {0, volume.bscans()}, surfaces, findings);

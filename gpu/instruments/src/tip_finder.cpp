@@ -8,8 +8,8 @@
 namespace ioct::gpu::instruments {
 namespace {
 
-using segmentation::SurfaceState;
 using segmentation::Surfaces;
+using segmentation::SurfaceState;
 
 // The largest end radius tried (um): a 19 G shaft's.
 constexpr double kMaxRadiusUm = 550.0;
@@ -76,7 +76,8 @@ SurfaceAt surfaces_at(const InstrumentFindings& f, const Surfaces& s, double bsc
   // Away from the mask by kSurfaceMarginAscans along the B-scan and one B-scan across: the
   // filtered volume the segmentation reads smears the shadow's edge over its neighbours.
   const auto near_mask = [&](std::int64_t b, std::int64_t a) {
-    for (std::int64_t nb = std::max<std::int64_t>(0, b - 1); nb <= std::min<std::int64_t>(f.bscans - 1, b + 1); ++nb) {
+    for (std::int64_t nb = std::max<std::int64_t>(0, b - 1);
+         nb <= std::min<std::int64_t>(f.bscans - 1, b + 1); ++nb) {
       for (std::int64_t na = std::max<std::int64_t>(0, a - kSurfaceMarginAscans);
            na <= std::min<std::int64_t>(f.ascans - 1, a + kSurfaceMarginAscans); ++na) {
         if (f.mask[f.index(static_cast<std::uint32_t>(nb), static_cast<std::uint32_t>(na))] !=
@@ -89,8 +90,8 @@ SurfaceAt surfaces_at(const InstrumentFindings& f, const Surfaces& s, double bsc
   };
   const auto usable = [&](std::int64_t b, std::int64_t a) {
     const std::size_t k = f.index(static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a));
-    return !near_mask(b, a) && s.state[k] == SurfaceState::measured &&
-           std::isfinite(s.ilm[k]) && std::isfinite(s.rpe[k]);
+    return !near_mask(b, a) && s.state[k] == SurfaceState::measured && std::isfinite(s.ilm[k]) &&
+           std::isfinite(s.rpe[k]);
   };
   const std::int64_t b0 = std::clamp<std::int64_t>(std::lround(bscan), 0, f.bscans - 1);
   const std::int64_t a0 = std::clamp<std::int64_t>(std::lround(ascan), 0, f.ascans - 1);
@@ -255,9 +256,11 @@ InstrumentTip tip_of(const Footprint& fp, const InstrumentFindings& f,
       const double reach = r + rim;
       const double cx = mx + cs * ux - rim_across * uy, cy = my + cs * uy + rim_across * ux;
       const std::int64_t a_lo = std::max<std::int64_t>(0, std::lround((cx - reach) / sx));
-      const std::int64_t a_hi = std::min<std::int64_t>(f.ascans - 1, std::lround((cx + reach) / sx));
+      const std::int64_t a_hi =
+          std::min<std::int64_t>(f.ascans - 1, std::lround((cx + reach) / sx));
       const std::int64_t b_lo = std::max<std::int64_t>(0, std::lround((cy - reach) / sy));
-      const std::int64_t b_hi = std::min<std::int64_t>(f.bscans - 1, std::lround((cy + reach) / sy));
+      const std::int64_t b_hi =
+          std::min<std::int64_t>(f.bscans - 1, std::lround((cy + reach) / sy));
       std::size_t cells = 0, mismatches = 0;
       for (std::int64_t b = b_lo; b <= b_hi; ++b) {
         for (std::int64_t a = a_lo; a <= a_hi; ++a) {
@@ -266,13 +269,15 @@ InstrumentTip tip_of(const Footprint& fp, const InstrumentFindings& f,
           const double d2 = dx * dx + dy * dy;
           if (d2 > reach * reach) continue;
           const bool inside = d2 < r * r;
-          const bool masked = f.mask[f.index(static_cast<std::uint32_t>(b),
-                                             static_cast<std::uint32_t>(a))] != ColumnKind::clear;
+          const bool masked =
+              f.mask[f.index(static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a))] !=
+              ColumnKind::clear;
           ++cells;
           mismatches += inside != masked ? 1 : 0;
         }
       }
-      const double mismatch = cells > 0 ? static_cast<double>(mismatches) / static_cast<double>(cells) : 1.0;
+      const double mismatch =
+          cells > 0 ? static_cast<double>(mismatches) / static_cast<double>(cells) : 1.0;
       const double cost = variance / kDepthSpreadPx2 + mismatch / kFootprintMismatch;
       if (cost < best_fit.cost) best_fit = {r, mean, cost};
     }
@@ -315,8 +320,10 @@ void clean_mask(InstrumentFindings& f) {
       f.mask[k] = ColumnKind::clear;
       if (f.columns[k] == ColumnKind::clear) continue;
       int neighbours = 0;
-      for (std::int64_t nb = std::max<std::int64_t>(0, b - 1); nb <= std::min<std::int64_t>(f.bscans - 1, b + 1); ++nb) {
-        for (std::int64_t na = std::max<std::int64_t>(0, a - 1); na <= std::min<std::int64_t>(f.ascans - 1, a + 1); ++na) {
+      for (std::int64_t nb = std::max<std::int64_t>(0, b - 1);
+           nb <= std::min<std::int64_t>(f.bscans - 1, b + 1); ++nb) {
+        for (std::int64_t na = std::max<std::int64_t>(0, a - 1);
+             na <= std::min<std::int64_t>(f.ascans - 1, a + 1); ++na) {
           if ((nb != b || na != a) &&
               f.columns[f.index(static_cast<std::uint32_t>(nb), static_cast<std::uint32_t>(na))] !=
                   ColumnKind::clear) {

@@ -11,12 +11,12 @@
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
+#include "ioct/gpu/instruments/findings_json.hpp"
+#include "ioct/gpu/instruments/instrument_detector.hpp"
 #include "ioct/gpu/live/frame_publisher.hpp"
 #include "ioct/gpu/render/png_rgba.hpp"
 #include "ioct/gpu/render/render_params_json.hpp"
 #include "ioct/gpu/render/renderer.hpp"
-#include "ioct/gpu/instruments/findings_json.hpp"
-#include "ioct/gpu/instruments/instrument_detector.hpp"
 #include "ioct/gpu/segmentation/overlay_image.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"
 #include "ioct/gpu/segmentation/surfaces_csv.hpp"
@@ -278,8 +278,8 @@ bool VolumeStages::make_backends() {
                                                         config_.sampling, config_.cpu_threads);
     }
     const bool cpu_renderer = renderer_->backend_name() == "cpu";
-    auto device = detector_ != nullptr ? nullptr
-                                       : DeviceStageChain::make(*filter_, *segmenter_, *renderer_);
+    auto device =
+        detector_ != nullptr ? nullptr : DeviceStageChain::make(*filter_, *segmenter_, *renderer_);
     std::lock_guard lock(mutex_);
     device_ = std::move(device);
     views_.set_timing(view_timing(config_, cpu_renderer));
@@ -287,9 +287,8 @@ bool VolumeStages::make_backends() {
                 std::string(filter_->backend_name()) + ", segmentation " +
                 std::string(segmenter_->backend_name()) + ", render " +
                 std::string(renderer_->backend_name()) +
-                (detector_ != nullptr
-                     ? ", instruments " + std::string(detector_->backend_name())
-                     : std::string());
+                (detector_ != nullptr ? ", instruments " + std::string(detector_->backend_name())
+                                      : std::string());
     return true;
   } catch (const std::exception& e) {
     fail(std::string("cannot start the stages: ") + e.what());
@@ -573,8 +572,8 @@ std::string VolumeStages::status() const {
 nlohmann::json VolumeStages::instruments() const {
   if (!config_.instruments.enabled) return {{"enabled", false}};
   std::lock_guard lock(mutex_);
-  nlohmann::json j = figures_.instruments_json.is_object() ? figures_.instruments_json
-                                                          : nlohmann::json::object();
+  nlohmann::json j =
+      figures_.instruments_json.is_object() ? figures_.instruments_json : nlohmann::json::object();
   j["enabled"] = true;
   j["warn_rpe_um"] = config_.instruments.warn_rpe_um;
   return j;
@@ -648,7 +647,8 @@ nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
   j["segment_ms"] = percentiles(f.segment);
   if (config_.instruments.enabled) {
     j["instruments_ms"] = percentiles(f.instruments);
-    j["instruments"] = f.instruments_json.is_object() ? f.instruments_json : nlohmann::json(nullptr);
+    j["instruments"] =
+        f.instruments_json.is_object() ? f.instruments_json : nlohmann::json(nullptr);
   }
   j["render_ms"] = percentiles(f.render);
   j["surfaces"] = surfaces_.bscans > 0 ? describe(surfaces_) : nlohmann::json(nullptr);

@@ -13,7 +13,8 @@
 //            scraper's paddle) above the tissue it half shadows;
 //   clear    anything else (tissue from the top, nothing at all, an object too deep to be a tool).
 // A metal tool's reflex is the object's last peak (from its last bright px upwards while the px
-// rise), refined by a parabola through it and its neighbours; a translucent tool's is the middle of the object.
+// rise), refined by a parabola through it and its neighbours; a translucent tool's is the middle of
+// the object.
 #pragma once
 
 #include <cstdint>
@@ -33,7 +34,8 @@ struct ColumnFinding {
 IOCT_HD float parabola_peak(int at, int v0, int v1, int v2) {
   const int curvature = v0 - 2 * v1 + v2;
   if (curvature >= 0) return static_cast<float>(at);
-  return static_cast<float>(at) + 0.5f * static_cast<float>(v0 - v2) / static_cast<float>(curvature);
+  return static_cast<float>(at) +
+         0.5f * static_cast<float>(v0 - v2) / static_cast<float>(curvature);
 }
 
 IOCT_HD ColumnFinding classify_column(const std::uint8_t* column, const ColumnParams& p,

@@ -14,9 +14,9 @@ struct ColumnParams {
   std::int32_t object_margin = 0;
   std::int32_t dark_margin = 0;
   std::int32_t partial_reflex_margin = 0;
-  std::int32_t gap = 1;         // px
-  std::int32_t max_reflex = 1;  // px
-  std::int32_t min_shadow = 1;  // px
+  std::int32_t gap = 1;          // px
+  std::int32_t max_reflex = 1;   // px
+  std::int32_t min_shadow = 1;   // px
   std::int32_t partial_gap = 1;  // px
 };
 

@@ -23,10 +23,10 @@ class CudaInstrumentDetector final : public InstrumentDetector {
                 InstrumentFindings& findings) override;
 
   cuda::Stream stream_;
-  cuda::DeviceArray<std::uint8_t> bscans_;    // the group's B-scans
-  cuda::DeviceArray<std::uint8_t> kinds_;     // [bscan of the group][ascan]
-  cuda::DeviceArray<float> reflexes_;         // [bscan of the group][ascan]
-  cuda::DeviceArray<std::uint8_t> floors_;    // [bscan of the group]
+  cuda::DeviceArray<std::uint8_t> bscans_;  // the group's B-scans
+  cuda::DeviceArray<std::uint8_t> kinds_;   // [bscan of the group][ascan]
+  cuda::DeviceArray<float> reflexes_;       // [bscan of the group][ascan]
+  cuda::DeviceArray<std::uint8_t> floors_;  // [bscan of the group]
   cuda::PinnedArray<std::uint8_t> host_kinds_;
 };
 

@@ -53,7 +53,7 @@ struct InstrumentFindings {
   static constexpr int kMinMaskedNeighbours = 3;
   std::vector<ColumnKind> columns;
   std::vector<ColumnKind> mask;
-  std::vector<float> reflex_px;    // [bscan][ascan]; 0 where clear
+  std::vector<float> reflex_px;     // [bscan][ascan]; 0 where clear
   std::vector<std::uint8_t> floor;  // [bscan]: the noise floor found (u8)
   std::vector<InstrumentTip> tips;  // largest footprint first, at most kMaxInstruments
   // The index in tips of the one nearest to the RPE (smallest to_rpe_um; without distances, the

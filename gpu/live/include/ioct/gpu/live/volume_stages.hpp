@@ -162,9 +162,9 @@ class VolumeStages final : public LiveStage, public ViewControl {
     std::uint64_t interactive_renders = 0;  // between passes: changes, rotation, private views
     std::uint64_t frames_published = 0;
     std::uint64_t frame_errors = 0;
-    LatencyHistogram pass;      // take -> rendered
-    LatencyHistogram filter;    // per pass
-    LatencyHistogram segment;   // per pass
+    LatencyHistogram pass;         // take -> rendered
+    LatencyHistogram filter;       // per pass
+    LatencyHistogram segment;      // per pass
     LatencyHistogram instruments;  // per pass, when enabled
     std::string instruments_line;  // describe() of the latest findings
     nlohmann::json instruments_json;
