@@ -203,12 +203,17 @@ InstrumentTip tip_of(const Footprint& fp, const InstrumentFindings& f,
   }
   double s_max = -1e300;
   for (const std::uint32_t k : fp.ascans) s_max = std::max(s_max, along(k));
+  // Everything below looks at the end only: the A-scans within the largest radius of it.
+  std::vector<std::uint32_t> end;
+  for (const std::uint32_t k : fp.ascans) {
+    if (along(k) >= s_max - 2.0 * kMaxRadiusUm) end.push_back(k);
+  }
   // The end's rim: the A-scans within one lateral sample of the extreme, and their offset
   // across the axis.
   const double rim = std::min(sx, sy);
   double rim_across = 0.0;
   std::size_t rim_count = 0;
-  for (const std::uint32_t k : fp.ascans) {
+  for (const std::uint32_t k : end) {
     if (along(k) >= s_max - rim) {
       rim_across += across(k);
       ++rim_count;
@@ -217,7 +222,7 @@ InstrumentTip tip_of(const Footprint& fp, const InstrumentFindings& f,
   rim_across /= static_cast<double>(rim_count);
   const bool translucent = [&] {
     std::size_t partial = 0, shadow = 0;
-    for (const std::uint32_t k : fp.ascans) {
+    for (const std::uint32_t k : end) {
       if (along(k) < s_max - 2.0 * rim) continue;
       (f.mask[k] == ColumnKind::partial ? partial : shadow) += 1;
     }
@@ -236,7 +241,7 @@ InstrumentTip tip_of(const Footprint& fp, const InstrumentFindings& f,
       const double cs = s_max + 0.5 * rim - r;
       double sum = 0.0, sum2 = 0.0;
       std::size_t count = 0;
-      for (const std::uint32_t k : fp.ascans) {
+      for (const std::uint32_t k : end) {
         if (f.mask[k] != ColumnKind::shadow) continue;
         const double s = along(k);
         if (s < cs) continue;
@@ -297,7 +302,7 @@ InstrumentTip tip_of(const Footprint& fp, const InstrumentFindings& f,
     // A flat (translucent) end, or too few reflexes for a sphere: the reflex nearest to the tip
     // (a translucent tool's is the middle of its front and back surface).
     double nearest = 1e300;
-    for (const std::uint32_t k : fp.ascans) {
+    for (const std::uint32_t k : end) {
       if (f.mask[k] == ColumnKind::clear) continue;
       const double dx = static_cast<double>(k % f.ascans) * sx - tip_x;
       const double dy = static_cast<double>(k / f.ascans) * sy - tip_y;
