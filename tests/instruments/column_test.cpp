@@ -58,6 +58,27 @@ TEST(ColumnClassification, TheReflexBelowTissueIsTheToolsNotTheTissues) {
   EXPECT_FLOAT_EQ(f.reflex_px, 230.0f);
 }
 
+TEST(ColumnClassification, ADarkBandInTheTissueAboveTheToolDoesNotHideIt) {
+  // Tissue from 200 with a dark band (the outer nuclear layer) longer than the gap, the metal at
+  // 232, nothing beneath.
+  std::vector<std::uint8_t> column(kDepth, 0);
+  for (int z = 200; z < 231; ++z) column[z] = (z >= 210 && z < 220) ? 2 : 90;
+  column[231] = 100;
+  column[232] = 220;
+  column[233] = 100;
+  const ColumnFinding f = classify_column(column.data(), params(), 0);
+  EXPECT_EQ(f.kind, ColumnKind::shadow);
+  EXPECT_FLOAT_EQ(f.reflex_px, 232.0f);
+}
+
+TEST(ColumnClassification, WeakSignalBeneathIsNoShadow) {
+  // A reflex with tissue beneath it that stays below object_margin but well above the floor.
+  std::vector<std::uint8_t> column(kDepth, 0);
+  column[150] = 250;
+  for (int z = 160; z < 300; ++z) column[z] = 25;
+  EXPECT_EQ(classify_column(column.data(), params(), 0).kind, ColumnKind::clear);
+}
+
 TEST(ColumnClassification, AReflexNearTheBottomCastsNoShadowToSee) {
   std::vector<std::uint8_t> column(kDepth, 0);
   column[kDepth - 10] = 250;

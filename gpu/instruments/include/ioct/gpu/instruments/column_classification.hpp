@@ -2,19 +2,20 @@
 // integer arithmetic on the host and on the device (IOCT_HD), so both backends agree bit for bit.
 //
 // From the top (below skip_top), the first px at least object_margin above the B-scan's floor
-// starts an object; the object ends at the first run of `gap` px at most dark_margin above the
-// floor. Then:
-//   shadow   the object is at most max_reflex deep and nothing bright follows it down to the
-//            bottom, which is at least min_shadow below it: a metal tool (a bright reflex, and
-//            the signal beneath falls to the noise floor);
-//   partial  the object is at most max_reflex deep, its peak at least partial_reflex_margin above
-//            the floor, and more signal follows below a gap of at least partial_gap px whose
-//            mean is at most half the dark margin above the floor: a translucent tool (the
-//            scraper's paddle) above the tissue it half shadows;
+// starts an object; the first object ends at the first run of `gap` px at most dark_margin above
+// the floor. Then:
+//   shadow   from the object's top to the column's last bright px is at most max_reflex deep,
+//            and beneath that px, down to the bottom (at least min_shadow), the mean is at most
+//            half the dark margin above the floor: a metal tool (a bright reflex, and the signal
+//            beneath falls to the noise floor), also inside the retina with tissue above it;
+//   partial  the first object is at most max_reflex deep, its peak at least
+//            partial_reflex_margin above the floor, and more signal follows below a gap of at
+//            least partial_gap px whose mean is at most half the dark margin above the floor: a
+//            translucent tool (the scraper's paddle) above the tissue it half shadows;
 //   clear    anything else (tissue from the top, nothing at all, an object too deep to be a tool).
-// A metal tool's reflex is the object's last peak (from its last bright px upwards while the px
-// rise), refined by a parabola through it and its neighbours; a translucent tool's is the middle of
-// the object.
+// A metal tool's reflex is its last peak (from the last bright px upwards while the px rise),
+// refined by a parabola through it and its neighbours; a translucent tool's is the middle of the
+// object.
 #pragma once
 
 #include <cstdint>
@@ -51,25 +52,40 @@ IOCT_HD ColumnFinding classify_column(const std::uint8_t* column, const ColumnPa
     }
   }
   if (top < 0) return out;
-  // The object's end: the first px of a run of `gap` dark px; and its last bright px.
+  // The first object's end: the first px of a run of `gap` dark px.
   int end = -1;
   int dark_run = 0;
-  int last_bright = top;
   for (int z = top; z < p.depth; ++z) {
-    if (column[z] <= dark_level) {
-      if (++dark_run == p.gap) {
-        end = z - p.gap + 1;
-        break;
-      }
-    } else {
+    if (column[z] > dark_level) {
       dark_run = 0;
-      if (column[z] >= object_level) last_bright = z;
+    } else if (++dark_run == p.gap) {
+      end = z - p.gap + 1;
+      break;
     }
   }
-  // A metal tool ends the object (nothing beneath it is seen): its reflex is the object's last
-  // peak (climbing up from its last bright px while the px rise), also where tissue lies above.
-  int peak = last_bright;
-  while (peak > top && column[peak - 1] > column[peak]) --peak;
+  // A metal tool: bright px from the top of the object (the tool's reflex, or tissue above a tool
+  // inside the retina, with dark bands of its own) down to the column's last bright px, at most
+  // max_reflex deep, and beneath it nothing down to the bottom (at least min_shadow): its mean
+  // at most half the dark margin above the floor. The reflex is the last peak (climbing up from
+  // the last bright px while the px rise).
+  int last = p.depth - 1;
+  while (last > top && column[last] < object_level) --last;
+  if (p.depth - 1 - last >= p.min_shadow && last - top <= p.max_reflex) {
+    int below_sum = 0;
+    for (int z = last + 1; z < p.depth; ++z) below_sum += column[z] - floor_level;
+    if (2 * below_sum <= p.dark_margin * (p.depth - 1 - last)) {
+      int peak = last;
+      while (peak > top && column[peak - 1] > column[peak]) --peak;
+      const int v0 = peak > 0 ? column[peak - 1] : column[peak];
+      const int v2 = peak + 1 < p.depth ? column[peak + 1] : column[peak];
+      out.kind = ColumnKind::shadow;
+      out.reflex_px = parabola_peak(peak, v0, column[peak], v2);
+      return out;
+    }
+  }
+  // A translucent tool floats in the vitreous: an object at most max_reflex deep whose peak is
+  // partial_reflex_margin above the floor, then a long gap, nearly empty (inside the retina,
+  // speckle leaves short dark runs between brighter px), then more signal.
   if (end < 0 || end - top > p.max_reflex) return out;
   int next = -1;
   for (int z = end; z < p.depth; ++z) {
@@ -78,28 +94,18 @@ IOCT_HD ColumnFinding classify_column(const std::uint8_t* column, const ColumnPa
       break;
     }
   }
-  if (next < 0) {
-    if (p.depth - end < p.min_shadow) return out;
-    out.kind = ColumnKind::shadow;
-  } else {
-    // A translucent tool floats in the vitreous: the gap beneath it is long and nearly empty
-    // (inside the retina, speckle leaves short dark runs between brighter px).
-    if (column[peak] < floor_level + p.partial_reflex_margin || next - end < p.partial_gap) {
-      return out;
-    }
-    int gap_sum = 0;
-    for (int z = end; z < next; ++z) gap_sum += column[z] - floor_level;
-    if (2 * gap_sum > p.dark_margin * (next - end)) return out;
-    out.kind = ColumnKind::partial;
+  if (next < 0 || next - end < p.partial_gap) return out;
+  int peak = top;
+  for (int z = top; z < end; ++z) {
+    if (column[z] > column[peak]) peak = z;
   }
-  if (out.kind == ColumnKind::partial) {
-    // A translucent tool's front and back surfaces bound it: its middle is its axis.
-    out.reflex_px = 0.5f * static_cast<float>(top + end - 1);
-    return out;
-  }
-  const int v0 = peak > 0 ? column[peak - 1] : column[peak];
-  const int v2 = peak + 1 < p.depth ? column[peak + 1] : column[peak];
-  out.reflex_px = parabola_peak(peak, v0, column[peak], v2);
+  if (column[peak] < floor_level + p.partial_reflex_margin) return out;
+  int gap_sum = 0;
+  for (int z = end; z < next; ++z) gap_sum += column[z] - floor_level;
+  if (2 * gap_sum > p.dark_margin * (next - end)) return out;
+  out.kind = ColumnKind::partial;
+  // Its front and back surfaces bound it: its middle is its axis.
+  out.reflex_px = 0.5f * static_cast<float>(top + end - 1);
   return out;
 }
 
