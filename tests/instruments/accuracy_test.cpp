@@ -101,5 +101,45 @@ TEST(InstrumentAccuracy, TipAndDistancesAgainstTheSimulatorsPose) {
   EXPECT_LE(p95(metal.rpe), kMetalDistanceP95Um);
 }
 
+// No tool, and what might pass for one: a lifted epiretinal membrane (a thin bright line above the
+// retina, over a gap) and a macular hole (the retina missing, its cuff's cysts dark). Nothing is
+// reported.
+TEST(InstrumentAccuracy, RetinasWithoutToolsHaveNone) {
+  for (const bool membrane : {false, true}) {
+    seg_test::SimulatedVolumeSpec spec;
+    spec.ascans = 256;
+    spec.bscans = 32;
+    spec.filter = false;
+    spec.simulation.scan.extent_x = 255.0f / 511.0f;
+    spec.simulation.scan.extent_y = 31.0f / 127.0f;
+    if (membrane) {
+      spec.simulation.retina.membrane.enabled = true;
+      spec.simulation.scan.center_x = -0.35f;
+      spec.simulation.scan.center_y = 0.2f;
+    } else {
+      spec.simulation.retina.macular_hole.enabled = true;
+    }
+    const seg_test::SimulatedVolume v = seg_test::make_simulated_volume(spec);
+    gpu::segmentation::VolumeSampling sampling;
+    sampling.axial_um_per_px = v.axial_um_per_px;
+    InstrumentFindings findings;
+    gpu::instruments::make_instrument_detector(gpu::Backend::cpu, {}, sampling, 2)
+        ->detect_volume(v.volume, {}, findings);
+    std::size_t masked = 0;
+    std::size_t classified = 0;
+    for (std::size_t k = 0; k < findings.size(); ++k) {
+      masked += findings.mask[k] != gpu::instruments::ColumnKind::clear ? 1 : 0;
+      classified += findings.columns[k] != gpu::instruments::ColumnKind::clear ? 1 : 0;
+    }
+    std::printf(
+        "[ figures  ] %s: %zu of %zu A-scans classified as a tool's on their own, %zu "
+        "masked, %zu instruments\n",
+        membrane ? "membrane" : "macular hole", classified, findings.size(), masked,
+        findings.tips.size());
+    EXPECT_TRUE(findings.tips.empty())
+        << (membrane ? "membrane: " : "macular hole: ") << describe(findings);
+  }
+}
+
 }  // namespace
 }  // namespace ioct::instruments_test

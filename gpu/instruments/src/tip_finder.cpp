@@ -50,14 +50,18 @@ std::vector<Footprint> footprints(const InstrumentFindings& f, std::uint32_t min
         }
       }
     }
-    if (fp.ascans.size() >= min_ascans) out.push_back(std::move(fp));
+    // Every tool has metal (the scraper's paddle sits on a metal shaft): a footprint only
+    // partly shadowed is a membrane or a floater lifted off the retina.
+    const auto metal = std::count_if(fp.ascans.begin(), fp.ascans.end(), [&](std::uint32_t k) {
+      return f.mask[k] == ColumnKind::shadow;
+    });
+    if (fp.ascans.size() >= min_ascans && static_cast<std::size_t>(metal) >= min_ascans) {
+      out.push_back(std::move(fp));
+    }
   }
   std::stable_sort(out.begin(), out.end(), [](const Footprint& x, const Footprint& y) {
     return x.ascans.size() > y.ascans.size();
   });
-  if (out.size() > InstrumentFindings::kMaxInstruments) {
-    out.resize(InstrumentFindings::kMaxInstruments);
-  }
   return out;
 }
 
@@ -349,7 +353,16 @@ void find_tips(InstrumentFindings& findings, const Surfaces& surfaces,
   findings.tips.clear();
   findings.nearest = -1;
   findings.warning = false;
-  for (const Footprint& fp : footprints(findings, config.min_ascans)) {
+  std::vector<Footprint> found = footprints(findings, config.min_ascans);
+  // The mask keeps the instruments' A-scans only (not a membrane's, a floater's, speckle's).
+  std::fill(findings.mask.begin(), findings.mask.end(), ColumnKind::clear);
+  for (const Footprint& fp : found) {
+    for (const std::uint32_t k : fp.ascans) findings.mask[k] = findings.columns[k];
+  }
+  if (found.size() > InstrumentFindings::kMaxInstruments) {
+    found.resize(InstrumentFindings::kMaxInstruments);
+  }
+  for (const Footprint& fp : found) {
     InstrumentTip tip = tip_of(fp, findings, config, sampling);
     const SurfaceAt at = surfaces_at(findings, surfaces, tip.bscan, tip.ascan, sampling);
     tip.source = at.source;

@@ -49,7 +49,7 @@ struct InstrumentFindings {
   std::uint32_t ascans = 0;
   // [bscan][ascan]: each A-scan as classified on its own, and the shadow mask: those of them
   // with at least kMinMaskedNeighbours of their 8 neighbours classified so too (a lone A-scan
-  // is speckle, not a tool).
+  // is speckle, not a tool) that belong to an instrument's footprint (tip_finder.hpp).
   static constexpr int kMinMaskedNeighbours = 3;
   std::vector<ColumnKind> columns;
   std::vector<ColumnKind> mask;

@@ -2,8 +2,10 @@
 // hundred kB, the work per volume a few passes over it).
 //
 // 1. The shadow mask: A-scans classified as shadowed with at least 3 of their 8 neighbours so
-//    too (speckle leaves lone ones); footprints: its 8-connected regions, those smaller than
-//    min_ascans dropped, the largest kMaxInstruments kept.
+//    too (speckle leaves lone ones); footprints: its 8-connected regions, those with fewer than
+//    min_ascans A-scans, or fewer than min_ascans fully shadowed ones (every tool has metal: a
+//    partly shadowing region alone is a lifted membrane), dropped; the largest kMaxInstruments
+//    kept.
 // 2. Axis: the principal direction of a footprint's A-scans in um. The shaft leaves the field,
 //    so the tip is the end away from the footprint's A-scans on the volume's border (without
 //    any, the end where the reflex lies deeper: the shaft rises towards the viewer).
