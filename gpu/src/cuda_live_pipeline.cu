@@ -242,11 +242,11 @@ struct CudaLivePipeline::Impl {
     bool any = false;
     while (!landing.empty() && landing.front().landed.done()) {
       Landing& l = landing.front();
-      for (const Snapshot& s : l.snapshots) deliver(s, events);
       buffers[l.buffer].busy = false;
-      const shm::SlotHeader& header = l.header;
-      const PlacementResult placed = l.placed;
-      events.on_group(header, placed);
+      // The group first, then the volume it completed: the stages take the group before the
+      // volume's host copy is turned into images (tens of ms on the CPU, 1 group in 8).
+      events.on_group(l.header, l.placed);
+      for (const Snapshot& s : l.snapshots) deliver(s, events);
       landing.pop_front();
       any = true;
     }

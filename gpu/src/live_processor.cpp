@@ -121,6 +121,7 @@ class LiveProcessor::Session final : public LiveEvents {
   // then keeps running across the gap and reads the next attachment's volume.
   RunSummary finish(StopReason reason, bool finish_stage) {
     pipeline_->drain(*this);
+    write_pending_images();  // a volume the device pipeline reported after its last group
     const std::uint64_t now = shm::monotonic_ns();
     if (!images_) {
       // No volume completed (a short run, or the stream ended mid-volume): show what arrived,
@@ -153,7 +154,9 @@ class LiveProcessor::Session final : public LiveEvents {
     ++counters_.volumes_completed;
     if (!info.complete()) {
       ++counters_.volumes_with_gaps;
-      stage_needs_whole_volume_ = true;  // its gaps were zeroed
+      // Its gaps were zeroed: the stage takes the whole volume with the next group handed to
+      // it (on the device pipeline the group that completed it was handed already).
+      stage_needs_whole_volume_ = true;
     }
     if (owner_.observer_) owner_.observer_(volume, info);
     prepare_images(volume, info);
@@ -174,7 +177,8 @@ class LiveProcessor::Session final : public LiveEvents {
     counters_.bscans_rejected += placed.bscans_rejected;
     counters_.volumes_abandoned += placed.volumes_abandoned;
     // The viewers first: the stages take the group before the completed volume's files are
-    // encoded and written, which would otherwise delay that group's frame by their time.
+    // encoded and written, which would otherwise delay that group's frame by their time. (The
+    // device pipeline reports a volume after its group: its files are written with the next.)
     hand_to_stage(header, placed);
     write_pending_images();
   }

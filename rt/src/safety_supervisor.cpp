@@ -121,6 +121,8 @@ void SafetySupervisor::poll_once() noexcept {
   working_.state = after;
   working_.record = machine_.record();
   working_.inputs = in.lines;
+  footswitch_.observe(in.lines.footswitch, in.now_ns);
+  working_.footswitch_presses = footswitch_.presses();
   working_.emission_commanded = emission_commanded_;
   working_.emission_readback = in.emission_readback;
   ++working_.polls;

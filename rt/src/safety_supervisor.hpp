@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "acquisition_loop.hpp"
+#include "footswitch_presses.hpp"
 #include "ioct/hal/lines.hpp"
 #include "realtime_setup.hpp"
 #include "safety_state_machine.hpp"
@@ -37,6 +38,7 @@ struct SafetyStatus {
   std::uint64_t polls = 0;
   std::uint64_t watchdog_toggles = 0;
   std::uint64_t input_edges = 0;
+  std::uint64_t footswitch_presses = 0;  // FootswitchPresses, since start
   std::uint64_t start_requests_handled = 0;
   std::uint64_t stop_requests_handled = 0;
   std::string_view last_refusal;           // static text; empty when the last start was not refused
@@ -99,6 +101,7 @@ class SafetySupervisor {
   bool emission_commanded_ = false;
   std::uint64_t last_toggle_ns_ = 0;
   SafetyStatus working_;
+  FootswitchPresses footswitch_;
 
   // The status the housekeeping side reads: copied under a mutex the safety thread only ever
   // try-locks (it skips a copy rather than wait).

@@ -4,10 +4,12 @@
 // CLOCK_MONOTONIC (the frame carries the publish time) for the first frame of each group, and
 // reports "drawn" back as a page does.
 // Printed beside the anchor from the same frames: group published → frame rendered by ioct-gpu,
-// so the view's own share reads as the difference.
+// so the view's own share reads as the difference; and where the time goes, hop by hop, from the
+// stamps each frame carries (processed, rendered, written to the frame ring, message made).
 //
 //   ioct-bench-view --port 8080 --viewers 1,8 --seconds 10 [--json FILE]
 #include <CLI/CLI.hpp>
+#include <array>
 #include <atomic>
 #include <cstdio>
 #include <fstream>
@@ -24,11 +26,21 @@ namespace {
 
 using ioct::view::testing::WsViewer;
 
+// The stamps a frame carries after the group's publish time, in order, and the hops between them.
+constexpr std::size_t kHops = 5;
+constexpr std::array<const char*, kHops - 1> kStampKeys = {"processed_ns", "rendered_ns",
+                                                           "written_ns", "made_ns"};
+constexpr std::array<const char*, kHops> kHopNames = {
+    "published->processed", "processed->rendered", "rendered->written (encode)",
+    "written->made (ioct-view)", "made->received (WebSocket)"};
+
 // The latency of a group is that of the first frame showing it; later frames of the same group
 // (the view turning between groups) count towards the frame rate only.
 struct ViewerFigures {
   std::vector<std::uint64_t> received_ns;  // group published → its first frame received
   std::vector<std::uint64_t> rendered_ns;  // group published → that frame rendered (anchor)
+  // The same frames' hops: published → processed → rendered → written → made → received.
+  std::array<std::vector<std::uint64_t>, kHops> hops;
   std::uint64_t frames = 0;
   std::uint64_t bytes = 0;
 };
@@ -65,6 +77,16 @@ ViewerFigures watch(std::uint16_t port, double seconds, int own_view) {
     f.received_ns.push_back(now - published);
     const double rendered_ms = frame->description.value("published_to_rendered_ms", 0.0);
     f.rendered_ns.push_back(static_cast<std::uint64_t>(rendered_ms * 1e6));
+    std::array<std::uint64_t, kHops + 1> stamps{published};
+    for (std::size_t i = 1; i < kHops; ++i) {
+      stamps[i] = frame->description.value(kStampKeys[i - 1], std::uint64_t{0});
+    }
+    stamps[kHops] = now;
+    for (std::size_t i = 0; i < kHops; ++i) {
+      if (stamps[i] != 0 && stamps[i + 1] >= stamps[i]) {
+        f.hops[i].push_back(stamps[i + 1] - stamps[i]);
+      }
+    }
   }
   return f;
 }
@@ -122,11 +144,15 @@ int main(int argc, char** argv) {
     const double renders_per_s = (gpu_renders(port) - renders_before) / seconds;
     std::vector<std::uint64_t> received;
     std::vector<std::uint64_t> rendered;
+    std::array<std::vector<std::uint64_t>, kHops> hops;
     std::uint64_t frames = 0;
     std::uint64_t bytes = 0;
     for (const auto& f : figures) {
       received.insert(received.end(), f.received_ns.begin(), f.received_ns.end());
       rendered.insert(rendered.end(), f.rendered_ns.begin(), f.rendered_ns.end());
+      for (std::size_t i = 0; i < kHops; ++i) {
+        hops[i].insert(hops[i].end(), f.hops[i].begin(), f.hops[i].end());
+      }
       frames += f.frames;
       bytes += f.bytes;
     }
@@ -143,7 +169,16 @@ int main(int argc, char** argv) {
                 ms(r.p99_ns).c_str(), ms(r.max_ns).c_str(),
                 static_cast<double>(bytes) / seconds * 1e-6, ms(a.p50_ns).c_str(),
                 ms(a.p99_ns).c_str());
+    nlohmann::json hop_figures = nlohmann::json::object();
+    for (std::size_t i = 0; i < kHops; ++i) {
+      if (hops[i].empty()) continue;
+      const auto h = ioct::bench::summarize(hops[i]);
+      std::printf("    %-28s p50 %7s  p99 %7s  max %7s ms\n", kHopNames[i], ms(h.p50_ns).c_str(),
+                  ms(h.p99_ns).c_str(), ms(h.max_ns).c_str());
+      hop_figures[kHopNames[i]] = ioct::bench::to_json(h);
+    }
     runs.push_back({{"viewers", n},
+                    {"hops", hop_figures},
                     {"own_views", own_views},
                     {"gpu_renders_per_s", renders_per_s},
                     {"frames_per_s_per_viewer", fps},

@@ -81,8 +81,9 @@ void publishes_the_simulators_groups_in_order(std::uint32_t workers) {
         // With workers the box runs more threads than the test's reader can count on (2 slow
         // cores under ThreadSanitizer): there a lapped reader skips groups, and the reference
         // skips them too, so every group read is still compared byte for byte.
-        if (workers == 0)
+        if (workers == 0) {
           EXPECT_EQ(h.group_index, index) << "a reader that keeps up sees every group";
+        }
         EXPECT_EQ(h.first_sweep_counter, h.group_index * geometry.sweeps_per_group());
         const GroupTimes times = group_times(rig.loop->clock(), geometry, h.first_sweep_counter);
         EXPECT_EQ(h.t_first_sweep_ns, times.first_sweep_ns);
@@ -116,7 +117,9 @@ void publishes_the_simulators_groups_in_order(std::uint32_t workers) {
   EXPECT_EQ(c.parks, 1u) << "stop() parks";
   EXPECT_GT(rig.loop->wake_latency().samples, 0u);
   EXPECT_FALSE(rig.loop->failed());
-  if (workers == 0) EXPECT_EQ(reader.counters().dropped(), 0u);
+  if (workers == 0) {
+    EXPECT_EQ(reader.counters().dropped(), 0u);
+  }
   EXPECT_EQ(digitizer.state(), hal::Digitizer::State::prepared);
   EXPECT_EQ(c.simulator_late_groups, digitizer.simulator_late_groups())
       << "every group the simulator flags late is counted, and only those";

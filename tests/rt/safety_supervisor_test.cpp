@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <functional>
 #include <string>
+#include <thread>
 
 #include "rig.hpp"
 
@@ -209,6 +210,61 @@ INSTANTIATE_TEST_SUITE_P(
                     return injected;
                   }}),
     [](const testing::TestParamInfo<Injection>& i) { return std::string(i.param.name); });
+
+// A tap of a few ms, far shorter than ioct-view's status poll (100 ms), is counted once where the
+// line is read; holding the pedal is one press.
+TEST(SafetySupervisor, CountsEachFootswitchPressHoweverShort) {
+  Rig rig("rt-safe-footswitch");
+  rig.start_supervised();
+  const auto polls_after = [&](std::uint64_t polls, std::uint64_t more) {
+    return eventually([&] { return rig.supervisor->status().polls >= polls + more; }, 5s);
+  };
+  const auto seen = [&](bool down) {
+    return eventually([&] { return rig.supervisor->status().inputs.footswitch == down; }, 5s);
+  };
+  rig.lines.set_input(hal::InputLine::footswitch, false);  // the fake starts with it down
+  ASSERT_TRUE(seen(false));
+  EXPECT_EQ(rig.supervisor->status().footswitch_presses, 0u) << "held at start is no press";
+  // Released for longer than the debounce before each press (from the first reading on).
+  const auto released_long_enough = [] {
+    std::this_thread::sleep_for(std::chrono::nanoseconds(2 * FootswitchPresses::kDebounceNs));
+  };
+  released_long_enough();
+  for (std::uint64_t press = 1; press <= 2; ++press) {
+    rig.lines.set_input(hal::InputLine::footswitch, true);
+    ASSERT_TRUE(seen(true)) << "press " << press;
+    rig.lines.set_input(hal::InputLine::footswitch, false);
+    ASSERT_TRUE(seen(false));
+    EXPECT_EQ(rig.supervisor->status().footswitch_presses, press);
+    released_long_enough();
+  }
+  rig.lines.set_input(hal::InputLine::footswitch, true);
+  ASSERT_TRUE(seen(true));
+  ASSERT_TRUE(polls_after(rig.supervisor->status().polls, 20));  // held for 20 polls
+  EXPECT_EQ(rig.supervisor->status().footswitch_presses, 3u) << "held down is one press";
+}
+
+// The count itself (pure): a bouncing switch, a pedal held at start-up.
+TEST(FootswitchPresses, ABouncingPressCountsOnceAndAPedalHeldAtStartNotAtAll) {
+  constexpr std::uint64_t ms = 1'000'000;
+  FootswitchPresses f;
+  f.observe(true, 0);  // held when the count starts
+  f.observe(true, 5 * ms);
+  EXPECT_EQ(f.presses(), 0u);
+  f.observe(false, 10 * ms);
+  f.observe(true, 100 * ms);  // pressed; then it bounces for 4 ms
+  f.observe(false, 101 * ms);
+  f.observe(true, 102 * ms);
+  f.observe(false, 103 * ms);
+  f.observe(true, 104 * ms);
+  EXPECT_EQ(f.presses(), 1u);
+  f.observe(false, 300 * ms);  // released, bouncing
+  f.observe(true, 301 * ms);
+  f.observe(false, 302 * ms);
+  EXPECT_EQ(f.presses(), 1u);
+  f.observe(true, 302 * ms + FootswitchPresses::kDebounceNs);  // a new press
+  EXPECT_EQ(f.presses(), 2u);
+}
 
 TEST(SafetySupervisor, AStopParksAndEndsIdleWithoutAFault) {
   Rig rig("rt-safe-stop");

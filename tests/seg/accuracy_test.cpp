@@ -2,8 +2,9 @@
 // chain and the volume filters, as the live system sees them, segmented on the CPU. For every
 // case the ILM and the RPE (centre of the RPE band, where the simulator draws its RPE line) must
 // lie within a mean absolute error of 1 px and a 99th percentile of 3 px of the truth, over every
-// A-scan where the truth exists, shadowed A-scans included; and scans without a retina must say
-// so. The figures are printed ("[ figures ]") for docs/segmentation.md.
+// A-scan where the truth exists, shadowed A-scans included, and the RPE nowhere more than 8 px
+// off; and scans without a retina must say so. The figures are printed ("[ figures ]") for
+// docs/segmentation.md.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -26,6 +27,9 @@ using gpu::segmentation::VolumeSampling;
 
 constexpr double kMaxMeanError = 1.0;
 constexpr double kMaxP99 = 3.0;
+// The RPE nowhere further off, shadowed A-scans next to an instrument included: a fit there is
+// either right or bridged from fits that are.
+constexpr double kMaxRpeError = 8.0;
 
 // 32 B-scans of 512 A-scans spaced like the default 128 x 512 raster of the +-3 mm field: a
 // quarter of its height, about the scan centre.
@@ -103,6 +107,7 @@ TEST_P(RetinaAccuracy, IlmAndRpeWithinOnePxMeanAndThreePxP99) {
   EXPECT_LE(ilm.p99, kMaxP99);
   EXPECT_LE(rpe.mean_absolute, kMaxMeanError);
   EXPECT_LE(rpe.p99, kMaxP99);
+  EXPECT_LE(rpe.max, kMaxRpeError);
 }
 
 sim::InstrumentConfig instrument(sim::InstrumentKind kind, float x, float y, float depth, float yaw,
@@ -134,6 +139,15 @@ INSTANTIATE_TEST_SUITE_P(
                    [](SimulatedVolumeSpec& s) {
                      s.simulation.instruments.push_back(instrument(
                          sim::InstrumentKind::forceps, -0.3f, 0.05f, 0.47f, 160.0f, 20.0f));
+                   }},
+        // Open forceps low over the retina, pitched flat (the render gallery's scene without its
+        // membrane): the jaws' shadow crosses the middle B-scans.
+        RetinaCase{"forceps_low_flat",
+                   [](SimulatedVolumeSpec& s) {
+                     sim::InstrumentConfig t =
+                         instrument(sim::InstrumentKind::forceps, 0.3f, 0.0f, 0.5f, 150.0f, 30.0f);
+                     t.pose.pitch_deg = 10.0f;
+                     s.simulation.instruments.push_back(t);
                    }},
         // A needle and a translucent scraper in the vitreous.
         RetinaCase{"needle_and_scraper",

@@ -160,7 +160,7 @@ TEST_F(SegmentCommand, BadInputAndBadOptionsFailWithAMessage) {
   expect_failure({(dir_ / "missing.vol").string()}, 1, "missing.vol");
   {
     std::ofstream(dir_ / "notes.txt") << "not a volume\n";
-    expect_failure({(dir_ / "notes.txt").string()}, 1, "use .nrrd or .vol");
+    expect_failure({(dir_ / "notes.txt").string()}, 1, "use .nrrd, .vol or a Bioptigen .OCT");
   }
   {
     std::ofstream(dir_ / "short.vol", std::ios::binary) << std::string(1000, 'x');

@@ -8,10 +8,11 @@
 namespace ioct::seg_test {
 
 std::string SurfaceErrors::describe() const {
-  char text[192];
+  char text[224];
   std::snprintf(text, sizeof text,
-                "%zu A-scans: mean |error| %.3f px, median %.3f, p99 %.2f, max %.2f, %zu missing",
-                compared, mean_absolute, median, p99, max, missing);
+                "%zu A-scans: mean |error| %.3f px, median %.3f, p99 %.2f, max %.2f (A-scan %zu), "
+                "%zu missing",
+                compared, mean_absolute, median, p99, max, worst, missing);
   return text;
 }
 
@@ -28,7 +29,12 @@ SurfaceErrors surface_errors(std::span<const float> surface, std::span<const flo
       ++e.missing;
       continue;
     }
-    errors.push_back(std::fabs(static_cast<double>(surface[i]) - reference[i]));
+    const double error = std::fabs(static_cast<double>(surface[i]) - reference[i]);
+    if (errors.empty() || error > e.max) {
+      e.max = error;
+      e.worst = i;
+    }
+    errors.push_back(error);
   }
   e.compared = errors.size();
   if (errors.empty()) return e;
@@ -42,7 +48,6 @@ SurfaceErrors surface_errors(std::span<const float> surface, std::span<const flo
   };
   e.p99 = at(0.99);
   e.median = at(0.5);
-  e.max = errors.back();
   return e;
 }
 

@@ -16,6 +16,7 @@ struct SurfaceErrors {
   double p99 = 0.0;
   double max = 0.0;
   double median = 0.0;
+  std::size_t worst = 0;  // index of the largest error (surface order)
 
   std::string describe() const;
 };

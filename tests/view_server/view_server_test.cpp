@@ -49,12 +49,11 @@ class ViewServerTest : public ::testing::Test {
     rt_ =
         std::make_unique<LineService>((dir_ / "rt.sock").string(), [this](const nlohmann::json& r) {
           if (r.value("cmd", "") == "status") {
-            return nlohmann::json{
-                {"ok", true},
-                {"status",
-                 {{"state", "scanning"},
-                  {"acquisition", {{"groups_published", 5}}},
-                  {"safety", {{"inputs", {{"footswitch", footswitch_.load()}}}}}}}};
+            return nlohmann::json{{"ok", true},
+                                  {"status",
+                                   {{"state", "scanning"},
+                                    {"acquisition", {{"groups_published", 5}}},
+                                    {"safety", safety_status()}}}};
           }
           return nlohmann::json{{"ok", true}, {"cmd", r.value("cmd", "")}};
         });
@@ -165,6 +164,13 @@ class ViewServerTest : public ::testing::Test {
   nlohmann::json params_;
   std::atomic<std::uint64_t> generation_{1};
   std::atomic<bool> footswitch_{false};
+  // ioct-rt's own count of presses; negative: an ioct-rt that does not report one.
+  std::atomic<long> footswitch_presses_{-1};
+  nlohmann::json safety_status() const {
+    nlohmann::json safety = {{"inputs", {{"footswitch", footswitch_.load()}}}};
+    if (footswitch_presses_ >= 0) safety["footswitch_presses"] = footswitch_presses_.load();
+    return safety;
+  }
   std::unique_ptr<LineService> gpu_;
   std::unique_ptr<LineService> rt_;
   std::unique_ptr<shm::FrameRingWriter> writer_;
@@ -467,6 +473,33 @@ TEST_F(ViewServerTest, EachFootswitchPressTakesASnapshotAndTellsThePages) {
   }
   std::this_thread::sleep_for(300ms);
   EXPECT_EQ(snapshots(), 2u) << "holding the pedal down is one press, not one per poll";
+}
+
+// ioct-rt counts the presses where it reads the line: taps between two status polls (the line
+// never seen down by the view) each still act, and a restarted ioct-rt's count starts afresh.
+TEST_F(ViewServerTest, FootswitchTapsBetweenStatusPollsAreNotLost) {
+  footswitch_presses_ = 4;
+  start();
+  WsViewer viewer(port_);
+  state_when([](const nlohmann::json& s) { return s["rt"].is_object(); });
+  const auto snapshots = [&] { return count_cmd(gpu_->requests(), "snapshot"); };
+  std::this_thread::sleep_for(300ms);  // a few polls at the first count
+  EXPECT_EQ(snapshots(), 0u) << "the count ioct-rt had before is no press";
+  footswitch_presses_ = 6;  // two taps, the line never down at a poll
+  for (int press = 1; press <= 2; ++press) {
+    auto event = viewer.next_text("footswitch", 3s);
+    ASSERT_TRUE(event) << "tap " << press;
+    EXPECT_EQ((*event)["action"], "snapshot");
+  }
+  for (int i = 0; i < 100 && snapshots() < 2; ++i) std::this_thread::sleep_for(20ms);
+  EXPECT_EQ(snapshots(), 2u);
+  footswitch_presses_ = 0;  // ioct-rt restarted
+  std::this_thread::sleep_for(300ms);
+  footswitch_presses_ = 1;
+  auto event = viewer.next_text("footswitch", 3s);
+  ASSERT_TRUE(event) << "the restarted ioct-rt's first press";
+  for (int i = 0; i < 100 && snapshots() < 3; ++i) std::this_thread::sleep_for(20ms);
+  EXPECT_EQ(snapshots(), 3u);
 }
 
 }  // namespace

@@ -77,20 +77,37 @@ void Backends::poll_rt(LineClient& client, BackendsSnapshot& snap) {
   if (reply.value("ok", false) && reply.contains("status")) {
     snap.rt_status = reply["status"];
     snap.rt_error.clear();
-    // The footswitch line as ioct-rt reads it: a press is a rising edge between two polls.
-    const nlohmann::json* inputs = nullptr;
-    if (snap.rt_status.contains("safety") && snap.rt_status["safety"].is_object() &&
-        snap.rt_status["safety"].contains("inputs")) {
-      inputs = &snap.rt_status["safety"]["inputs"];
-    }
-    const bool down =
-        inputs != nullptr && inputs->is_object() && inputs->value("footswitch", false) == true;
-    if (down && !footswitch_down_) ++snap.footswitch_presses;
-    footswitch_down_ = down;
+    count_footswitch_presses(snap);
   } else {
     snap.rt_status = nullptr;
     snap.rt_error = reply.value("error", std::string("no status"));
   }
+}
+
+void Backends::count_footswitch_presses(BackendsSnapshot& snap) {
+  const nlohmann::json* safety = nullptr;
+  if (snap.rt_status.contains("safety") && snap.rt_status["safety"].is_object()) {
+    safety = &snap.rt_status["safety"];
+  }
+  // ioct-rt counts the presses where it reads the line (every ms): their difference between two
+  // polls loses no tap shorter than a poll. A count that went back is a restarted ioct-rt.
+  if (safety != nullptr && safety->contains("footswitch_presses") &&
+      (*safety)["footswitch_presses"].is_number_unsigned()) {
+    const auto count = (*safety)["footswitch_presses"].get<std::uint64_t>();
+    if (footswitch_count_ && count >= *footswitch_count_) {
+      snap.footswitch_presses += count - *footswitch_count_;
+    }
+    footswitch_count_ = count;
+    return;
+  }
+  // An ioct-rt without the count: a press is the line seen up, then down, by two polls.
+  footswitch_count_.reset();
+  const nlohmann::json* inputs =
+      safety != nullptr && safety->contains("inputs") ? &(*safety)["inputs"] : nullptr;
+  const bool down =
+      inputs != nullptr && inputs->is_object() && inputs->value("footswitch", false) == true;
+  if (down && !footswitch_down_) ++snap.footswitch_presses;
+  footswitch_down_ = down;
 }
 
 void Backends::poll_gpu(LineClient& client, BackendsSnapshot& snap) {

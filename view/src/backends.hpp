@@ -13,6 +13,7 @@
 #include <functional>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <thread>
 
@@ -32,7 +33,7 @@ struct BackendsSnapshot {
   nlohmann::json params;     // ioct-gpu's shared-view parameters, or null
   std::uint64_t generation = 0;
   std::string gpu_error;
-  std::uint64_t footswitch_presses = 0;  // rising edges of ioct-rt's footswitch input seen
+  std::uint64_t footswitch_presses = 0;  // footswitch presses so far (ioct-rt counts them)
 };
 
 class Backends {
@@ -65,6 +66,7 @@ class Backends {
   bool enqueue(Job job);
   void run();
   void poll_rt(LineClient& client, BackendsSnapshot& snap);
+  void count_footswitch_presses(BackendsSnapshot& snap);
   void poll_gpu(LineClient& client, BackendsSnapshot& snap);
 
   const ViewConfig config_;
@@ -77,6 +79,7 @@ class Backends {
   bool stop_ = false;
   bool gpu_was_connected_ = false;
   bool footswitch_down_ = false;
+  std::optional<std::uint64_t> footswitch_count_;  // ioct-rt's press count at the last poll
   std::thread thread_;
 };
 

@@ -30,7 +30,14 @@ FrameMessage make_frame_message(const shm::Frame& frame, std::uint64_t now_ns) {
       {"bscans", m.bscans},
       {"bscan_width", m.bscan_width},
       {"bscan_height", m.bscan_height},
-      {"published_ns", m.t_group_published_ns},  // CLOCK_MONOTONIC: for clients on this machine
+      // CLOCK_MONOTONIC, for clients on this machine: the group published by ioct-rt, placed in
+      // the live volume, its frame rendered and written to the frame ring by ioct-gpu, and this
+      // message made by ioct-view (so a client can tell where a frame's age comes from).
+      {"published_ns", m.t_group_published_ns},
+      {"processed_ns", m.t_group_processed_ns},
+      {"rendered_ns", m.t_rendered_ns},
+      {"written_ns", m.t_written_ns},
+      {"made_ns", now_ns},
       {"age_ms", ms_between(m.t_group_published_ns, now_ns)},
       {"published_to_rendered_ms", ms_between(m.t_group_published_ns, m.t_rendered_ns)},
       {"published_to_sent_ms", ms_between(m.t_group_published_ns, now_ns)}};

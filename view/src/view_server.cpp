@@ -73,6 +73,9 @@ void ViewServer::accept() {
         boost::system::error_code ignored;
         socket.close(ignored);  // at the limit: refused, the others keep their share
       } else {
+        // Frames go out as soon as they are written, not when the previous segment is acked.
+        boost::system::error_code ignored;
+        socket.set_option(tcp::no_delay(true), ignored);
         std::make_shared<HttpSession>(std::move(socket), hub_, *api_, files_, config_)->start();
       }
     }

@@ -30,6 +30,9 @@ void WebSocketSession::start(beast::http::request<beast::http::string_body> upgr
   timeouts.keep_alive_pings = true;
   ws_.set_option(timeouts);
   ws_.read_message_max(config_.max_message_bytes);
+  // A frame goes out in one write: fragmented (4 KiB pieces by default), a 100 KB frame took a
+  // round of the io loop per piece, interleaved with every other viewer's pieces.
+  ws_.auto_fragment(false);
   ws_.async_accept(upgrade, [self = shared_from_this()](beast::error_code ec) {
     if (ec) return;
     self->hub_.join(self);

@@ -11,9 +11,21 @@ namespace {
 // Well inside the view's bound for a silent writer (1 s) and the 100 ms the contract asks for.
 constexpr auto kHeartbeatPeriod = std::chrono::milliseconds(50);
 
+// Bands a frame is encoded in, and the threads (the publishing one included) that encode them:
+// four bands of a 768-row render are 192 rows each; more threads than cores would only queue.
+constexpr unsigned kEncodeBands = 4;
+unsigned encode_threads() {
+  return std::clamp(std::thread::hardware_concurrency(), 1u, kEncodeBands);
+}
+
 }  // namespace
 
-FramePublisher::FramePublisher(const shm::FrameRingConfig& ring) : name_(ring.name), writer_(ring) {
+FramePublisher::FramePublisher(const shm::FrameRingConfig& ring)
+    : name_(ring.name),
+      writer_(ring),
+      encode_pool_(encode_threads()),
+      render_encoder_(85, kEncodeBands, encode_pool_),
+      bscan_encoder_(90, kEncodeBands, encode_pool_) {
   status_.source_state = static_cast<std::uint64_t>(shm::SourceState::waiting);
   {
     std::lock_guard lock(mutex_);

@@ -28,6 +28,12 @@ Format format_of(PixelLayout layout) {
 
 }  // namespace
 
+McuSize mcu_size(PixelLayout layout) {
+  const int sampling = format_of(layout).subsampling;
+  return {static_cast<std::uint32_t>(tjMCUWidth[sampling]),
+          static_cast<std::uint32_t>(tjMCUHeight[sampling])};
+}
+
 JpegEncoder::JpegEncoder(int quality) : quality_(quality) {
   if (quality < 1 || quality > 100) {
     throw std::invalid_argument("JPEG quality " + std::to_string(quality) + " must be in [1, 100]");

@@ -4,8 +4,10 @@
 #include <cmath>
 #include <string_view>
 
+#include "ioct/gpu/offline/bioptigen_oct.hpp"
 #include "ioct/gpu/offline/heidelberg_vol.hpp"
 #include "ioct/gpu/offline/input_file_error.hpp"
+#include "ioct/gpu/offline/input_format.hpp"
 #include "ioct/gpu/offline/nrrd_file.hpp"
 
 namespace ioct::gpu::offline {
@@ -27,6 +29,19 @@ double micrometres_per_unit(const std::string& unit) {
 
 VolumeFile read_volume_file(const std::filesystem::path& path) {
   VolumeFile file;
+  // A Bioptigen export is told by its magic: its ".OCT" is shared with other vendors.
+  if (detect_input_format(path) == InputFormat::bioptigen_oct) {
+    const BioptigenOct oct = read_bioptigen_oct(path);
+    file.volume = to_volume(oct).volume;
+    const BioptigenSpacingMm mm = spacing_mm(oct);
+    if (mm.depth > 0.0 && mm.ascan > 0.0) {
+      file.spacing = VoxelSpacingUm{mm.depth * 1000.0, mm.ascan * 1000.0,
+                                    (mm.bscan > 0.0 ? mm.bscan : mm.ascan) * 1000.0};
+    }
+    file.kind =
+        "Bioptigen .OCT (" + std::string(bioptigen_scan_type_name(oct.header.scan_type)) + ")";
+    return file;
+  }
   if (has_extension(path, ".vol")) {
     HeidelbergVol vol = read_heidelberg_vol(path);
     file.volume = to_volume(vol);
@@ -56,7 +71,8 @@ VolumeFile read_volume_file(const std::filesystem::path& path) {
     file.kind = "NRRD";
     return file;
   }
-  throw InputFileError(path, "not a volume file this command reads: use .nrrd or .vol");
+  throw InputFileError(path,
+                       "not a volume file this command reads: use .nrrd, .vol or a Bioptigen .OCT");
 }
 
 }  // namespace ioct::gpu::offline

@@ -1,17 +1,21 @@
 // ioct-vol-import: a Heidelberg Spectralis .vol export -> NRRD volume, CSV of the device's
-// segmentation lines, PNG of a B-scan and of the SLO image.
+// segmentation lines, PNG of a B-scan and of the SLO image; a Bioptigen .OCT export -> NRRD volume
+// (each position's frames averaged) and PNG of a B-scan. The format is told by the file's magic.
 #include <CLI/CLI.hpp>
 
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "ioct/common/atomic_file.hpp"
+#include "ioct/gpu/offline/bioptigen_oct.hpp"
 #include "ioct/gpu/offline/heidelberg_vol.hpp"
 #include "ioct/gpu/offline/input_file_error.hpp"
+#include "ioct/gpu/offline/input_format.hpp"
 #include "ioct/gpu/offline/layer_csv.hpp"
 #include "ioct/gpu/offline/nrrd_file.hpp"
 #include "ioct/gpu/offline/progress_bar.hpp"
@@ -22,19 +26,122 @@ namespace fs = std::filesystem;
 using namespace ioct::gpu;
 using namespace ioct::gpu::offline;
 
-int main(int argc, char** argv) {
+namespace {
+
+struct Options {
   std::string input, out_dir = ".", name;
   int bscan = -1;
-  CLI::App app{"ioct-vol-import: Heidelberg .vol -> NRRD volume, layer CSV and PNG images"};
+  std::optional<std::uint32_t> repeat;
+};
+
+// Bioptigen .OCT: the NRRD (spacings in mm where the file states the lengths) and a B-scan PNG.
+int import_bioptigen(const Options& o, std::vector<fs::path>& committed) {
+  const BioptigenOct oct = read_bioptigen_oct(o.input);
+  const BioptigenHeader& h = oct.header;
+  if (o.repeat && *o.repeat >= oct.repeats) {
+    std::cerr << "ioct-vol-import: invalid option: --repeat " << *o.repeat << " (the file has "
+              << oct.repeats << " frame(s) per position)\n";
+    return 2;
+  }
+  const int bscan = o.bscan < 0 ? static_cast<int>(oct.positions / 2) : o.bscan;
+  if (bscan >= static_cast<int>(oct.positions)) {
+    std::cerr << "ioct-vol-import: invalid option: --bscan " << bscan << " (the file has "
+              << oct.positions << " B-scan positions)\n";
+    return 2;
+  }
+  if (!fs::is_directory(o.out_dir)) {
+    std::cerr << "ioct-vol-import: output directory '" << o.out_dir << "' does not exist\n";
+    return 1;
+  }
+  const std::string name = o.name.empty() ? fs::path(o.input).stem().string() : o.name;
+  const fs::path base = fs::path(o.out_dir) / name;
+  const fs::path nrrd_path = base.string() + ".nrrd";
+  const fs::path bscan_path = base.string() + "_bscan.png";
+
+  const BioptigenVolume imported = to_volume(oct, o.repeat);
+  const BioptigenSpacingMm mm = spacing_mm(oct);
+  const std::string frames =
+      o.repeat ? "frame " + std::to_string(*o.repeat) + " of " + std::to_string(oct.repeats)
+               : "mean of " + std::to_string(oct.repeats) + " frame(s)";
+  NrrdMetadata metadata;
+  const bool lengths = mm.depth > 0 && mm.ascan > 0;
+  const bool known_bscan = lengths && mm.bscan > 0;
+  if (lengths) {
+    metadata.spacings = {mm.depth, mm.ascan, known_bscan ? mm.bscan : mm.ascan};
+    metadata.unit = "mm";
+  }
+  metadata.content = "Bioptigen .OCT " + std::string(bioptigen_scan_type_name(h.scan_type)) +
+                     " scan, " + frames + " per position, u16 window " +
+                     std::to_string(imported.window_low) + ".." +
+                     std::to_string(imported.window_high) + " -> 0..255";
+  metadata.key_values = {
+      {"ioct_source", fs::path(o.input).filename().string()},
+      {"ioct_bioptigen_scan_type", std::to_string(h.scan_type)},
+      {"ioct_bioptigen_frames", frames},
+      {"ioct_bioptigen_window",
+       std::to_string(imported.window_low) + " " + std::to_string(imported.window_high)},
+      {"ioct_spacing", !lengths      ? "unknown (the file states no SCANDEPTH or scan length)"
+                       : known_bscan ? "from the file"
+                                     : "B-scan spacing unknown (A-scan spacing written)"}};
+
+  // Everything is written before anything is committed: on any failure no output is left.
+  ioct::AtomicFile nrrd(nrrd_path);
+  write_nrrd(nrrd.stream(), imported.volume, metadata);
+  write_png_gray8(bscan_path, bscan_image(imported.volume, static_cast<std::uint32_t>(bscan)));
+  committed.push_back(bscan_path);
+  nrrd.commit();
+  committed.clear();
+
+  std::cout << o.input << ": Bioptigen .OCT version 0x" << std::hex << h.version << std::dec << ", "
+            << bioptigen_scan_type_name(h.scan_type) << " scan, " << oct.positions
+            << " B-scan position(s) x " << oct.repeats << " frame(s) of " << h.ascans
+            << " A-scans x " << h.depth << " px";
+  if (mm.ascan > 0) std::cout << ", " << mm.ascan * 1000 << " um between A-scans";
+  if (mm.depth > 0) std::cout << ", " << mm.depth * 1000 << " um/px";
+  if (mm.bscan > 0) std::cout << ", " << mm.bscan * 1000 << " um between B-scans";
+  if (!h.description.empty()) std::cout << ", \"" << h.description << "\"";
+  std::cout << "\n  " << frames << " per position, u16 window " << imported.window_low << ".."
+            << imported.window_high << "\nvolume: " << nrrd_path.string()
+            << "\nbscan:  " << bscan_path.string() << "\n";
+  return EXIT_SUCCESS;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app{
+      "ioct-vol-import: Heidelberg .vol -> NRRD volume, layer CSV and PNG images; Bioptigen .OCT "
+      "-> NRRD volume and PNG. The format is detected by the file's magic number (HSF-OCT- or "
+      "0x0C7DA7A5), not by its extension."};
   app.option_defaults()->always_capture_default();
-  app.add_option("input", input, "the .vol file")->required();
-  app.add_option("--out", out_dir, "directory for the outputs (must exist)");
-  app.add_option("--name", name, "file name stem of the outputs (default: the input's)");
-  app.add_option("--bscan", bscan, "B-scan shown in the PNG (default: the centre one)");
+  app.add_option("input", o.input, "the .vol or .OCT file")->required();
+  app.add_option("--out", o.out_dir, "directory for the outputs (must exist)");
+  app.add_option("--name", o.name, "file name stem of the outputs (default: the input's)");
+  app.add_option("--bscan", o.bscan, "B-scan shown in the PNG (default: the centre one)");
+  app.add_option("--repeat", o.repeat,
+                 "Bioptigen only: take frame N of each position instead of the mean of all");
   CLI11_PARSE(app, argc, argv);
+  // The Heidelberg import below works on these.
+  const std::string input = o.input;
+  const std::string out_dir = o.out_dir;
+  std::string name = o.name;
+  int bscan = o.bscan;
 
   std::vector<fs::path> committed;  // removed again if a later output fails
   try {
+    const InputFormat format = detect_input_format(input);
+    if (format == InputFormat::bioptigen_oct) return import_bioptigen(o, committed);
+    if (format != InputFormat::heidelberg_vol) {
+      throw InputFileError(input,
+                           "neither a Heidelberg .vol (it does not start with HSF-OCT-) nor a "
+                           "Bioptigen .OCT (magic number 0x0C7DA7A5) file");
+    }
+    if (o.repeat) {
+      std::cerr << "ioct-vol-import: invalid option: --repeat applies to Bioptigen .OCT files "
+                   "only\n";
+      return 2;
+    }
     const HeidelbergVol vol = read_heidelberg_vol(input);
     const VolHeader& h = vol.header;
     if (bscan < 0) bscan = static_cast<int>(h.bscans / 2);

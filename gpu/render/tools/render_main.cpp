@@ -85,8 +85,12 @@ int main(int argc, char** argv) {
   std::optional<double> bscan_spacing_um;
   RenderConfig config;
 
-  CLI::App app{"ioct-render: a volume file (.nrrd or Heidelberg .vol) rendered to PNG"};
-  app.add_option("input", input, "volume file: .nrrd (ioct-process, ioct-vol-import) or .vol")
+  CLI::App app{
+      "ioct-render: a volume file (.nrrd, Heidelberg .vol or Bioptigen .OCT) rendered to PNG"};
+  app.add_option(
+         "input", input,
+         "volume file: .nrrd (ioct-process, ioct-vol-import), Heidelberg .vol or Bioptigen .OCT "
+         "(told apart by their contents)")
       ->required();
   app.add_option("--out", out, "directory for <mode>.png and summary.json");
   app.add_option("--mode", modes_text,

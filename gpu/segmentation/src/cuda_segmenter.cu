@@ -500,9 +500,11 @@ __global__ void finish_kernel(FinishJob job) {
   const int a = blockIdx.x * blockDim.x + threadIdx.x;
   if (a == 0) job.verdict[b] = static_cast<BscanVerdict>(job.raw.verdict[b]);
   if (a >= job.raw.ascans) return;
-  // A measured A-scan is smoothed over the B-scans beside it only: beyond those of the group
-  // and their neighbours it cannot have changed (only bridges reach further).
-  if ((b < job.group_first - 1 || b > job.group_end) &&
+  // A measured A-scan is smoothed over the B-scans beside it, which count as measured by the
+  // fits kAcrossCheckBscans beyond them: further from the group it cannot have changed (only
+  // bridges reach further).
+  constexpr int kReach = 1 + detail::kAcrossCheckBscans;
+  if ((b < job.group_first - kReach || b > job.group_end - 1 + kReach) &&
       detail::is_measured(job.raw, job.settings, b, a)) {
     return;
   }

@@ -7,6 +7,7 @@
 #include "ioct/gpu/segmentation/cpu_segmenter.hpp"
 #if IOCT_SEGMENTATION_HAVE_CUDA
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"
+#include "ioct/gpu/segmentation/finishing.hpp"
 #endif
 
 namespace ioct::gpu::segmentation {
@@ -21,9 +22,13 @@ void Segmenter::segment_volume(const Volume& volume, Surfaces& surfaces) {
 }
 
 BscanSpan Segmenter::outputs_affected(BscanSpan group, std::uint32_t bscans) const {
-  const std::uint32_t reach = std::max<std::uint32_t>(1, config().bridge_bscans);
+  // Bridges reach bridge_bscans B-scans, and whether a fit there counts as measured depends on
+  // the fits kAcrossCheckBscans beyond it.
+  const std::uint32_t reach = std::max<std::uint32_t>(1, config().bridge_bscans) +
+                              static_cast<std::uint32_t>(detail::kAcrossCheckBscans);
   const std::uint32_t first = group.first > reach ? group.first - reach : 0;
-  const std::uint32_t end = std::min<std::uint64_t>(std::uint64_t{group.end()} + reach, bscans);
+  const auto end = static_cast<std::uint32_t>(
+      std::min<std::uint64_t>(std::uint64_t{group.end()} + reach, bscans));
   return {first, end - first};
 }
 

@@ -1,6 +1,6 @@
 // ioct-segment: the ILM and RPE of a volume file (NRRD as ioct-process and ioct-vol-import write
-// it, or a Heidelberg .vol export), with the same segmentation as the live system. Writes the
-// surfaces as CSV (one row per A-scan, px and um) and overlay PNGs of B-scans.
+// it, a Heidelberg .vol export or a Bioptigen .OCT file), with the same segmentation as the live
+// system. Writes the surfaces as CSV (one row per A-scan, px and um) and overlay PNGs of B-scans.
 #include <CLI/CLI.hpp>
 
 #include <chrono>
@@ -63,9 +63,12 @@ int main(int argc, char** argv) {
   SegmentationConfig config;
 
   CLI::App app{
-      "ioct-segment: ILM and RPE of a volume file (.nrrd or Heidelberg .vol) as CSV and "
-      "overlay PNGs"};
-  app.add_option("input", input, "volume file: .nrrd (ioct-process, ioct-vol-import) or .vol")
+      "ioct-segment: ILM and RPE of a volume file (.nrrd, Heidelberg .vol or Bioptigen .OCT) as "
+      "CSV and overlay PNGs"};
+  app.add_option(
+         "input", input,
+         "volume file: .nrrd (ioct-process, ioct-vol-import), Heidelberg .vol or Bioptigen .OCT "
+         "(told apart by their contents)")
       ->required();
   app.add_option("--out", out, "directory for surfaces.csv, overlay_bscan<N>.png, summary.json");
   app.add_option("--backend", backend_text, "cpu, cuda or auto (cuda when a device is usable)");

@@ -16,7 +16,8 @@
 // on the processing stream (placement by VolumeBook, the same rules as the CPU path; gaps zeroed
 // at completion). Each completed volume is copied, on the same stream, straight into a host
 // Volume whose memory is registered with CUDA (when host volumes are wanted, e.g. for PNG files)
-// and handed to on_volume() once the group that completed it has landed. When one group
+// and handed to on_volume() once the group that completed it has landed, after that group's
+// on_group() (the stages take the group first). When one group
 // completes several volumes (volumes shorter than a group), each is copied and handed out.
 //
 // Readers of the device volume (renderers) see it only as of a whole number of groups

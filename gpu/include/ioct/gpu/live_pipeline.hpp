@@ -26,8 +26,10 @@ namespace ioct::gpu {
 class LiveEvents {
  public:
   virtual ~LiveEvents() = default;
-  // A completed volume, as a host copy (the pipeline keeps it). Called before on_group() of the
-  // group that completed it.
+  // A completed volume, as a host copy (the pipeline keeps it). Called beside on_group() of the
+  // group that completed it: before it on the host pipeline (the volume is overwritten by the
+  // group's later B-scans), after it on the device pipeline (the copy is the pipeline's own, so
+  // the group is not held up by what is done with the volume).
   virtual void on_volume(const Volume& volume, const VolumeInfo& info) = 0;
   // The group's B-scans are in the live volume (`placed` says how they fared).
   virtual void on_group(const shm::SlotHeader& header, const PlacementResult& placed) = 0;

@@ -12,6 +12,14 @@ namespace ioct::gpu::live {
 
 enum class PixelLayout { rgba, rgb, gray };
 
+// The block the encoder codes a layout in (px): 16 x 16 with the chroma halved both ways (colour),
+// 8 x 8 (grey).
+struct McuSize {
+  std::uint32_t width;
+  std::uint32_t height;
+};
+McuSize mcu_size(PixelLayout layout);
+
 class JpegEncoder {
  public:
   // quality: 1..100 (std::invalid_argument otherwise). Throws std::runtime_error when the library

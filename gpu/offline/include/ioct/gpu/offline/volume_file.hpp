@@ -1,6 +1,6 @@
 // A volume file as the offline commands (ioct-segment, ioct-render) read it: a NRRD as
-// ioct-process and ioct-vol-import write it, or a Heidelberg .vol export, with the voxel spacing
-// when the file states it.
+// ioct-process and ioct-vol-import write it, a Heidelberg .vol export or a Bioptigen .OCT export
+// (each position's frames averaged), with the voxel spacing when the file states it.
 #pragma once
 
 #include <filesystem>
@@ -28,8 +28,9 @@ struct VolumeFile {
   std::vector<std::vector<std::vector<float>>> vol_layers;
 };
 
-// By the extension (.nrrd, .nhdr, .vol; any case). Throws InputFileError naming the file and the
-// problem, also for another extension.
+// A Bioptigen .OCT by its magic number (whatever its extension), the others by the extension
+// (.nrrd, .nhdr, .vol; any case). Throws InputFileError naming the file and the problem, also
+// for another extension.
 VolumeFile read_volume_file(const std::filesystem::path& path);
 
 }  // namespace ioct::gpu::offline

@@ -11,6 +11,11 @@
 // direction with one side only extrapolates along the slope between that side's nearest measured
 // A-scan and one kSlopeBaseline further on (constant when there is none), and weighs as if both
 // sides were twice as far, 1 / (4 d^2). Distances are lateral micrometres.
+//
+// A confident fit counts as measured only if the B-scans beside it agree (`agrees_across`): next
+// to an instrument's shadow the partly shadowed RPE can lose to a brighter inner band with full
+// confidence, since the search along a B-scan must come out of the shadow continuously; its
+// neighbours across, outside the shadow, see the RPE where it is. Such a fit is bridged instead.
 #pragma once
 
 #include <cmath>
@@ -58,8 +63,50 @@ IOCT_HD bool has_retina(const RawFits& raw, int b) {
   return raw.verdict[b] == static_cast<std::uint8_t>(BscanVerdict::retina);
 }
 
-IOCT_HD bool is_measured(const RawFits& raw, const FinishSettings& s, int b, int a) {
+// The B-scans on each side of a fit that `agrees_across` consults; surfaces a B-scan finishes
+// depend on fits this much further away than the bridges reach (Segmenter::outputs_affected).
+inline constexpr int kAcrossCheckBscans = 2;
+// How far (px) the RPE may lie from what its neighbours across predict: twice the smoothing's
+// step (a straight line through them allows for a tilt; this for the curvature and the noise).
+inline constexpr float kAcrossTolerancePx = 6.0f;
+
+IOCT_HD bool confident(const RawFits& raw, const FinishSettings& s, int b, int a) {
   return has_retina(raw, b) && raw.confidence[b * raw.ascans + a] >= s.min_confidence;
+}
+
+IOCT_HD bool near_prediction(float value, float predicted) {
+  return fabsf(value - predicted) <= kAcrossTolerancePx;
+}
+
+// Whether the RPE at (b, a) agrees with the confident fits at the same A-scan in the B-scans
+// beside it: with the mean of the two on either side, or the line through the two on one side,
+// or the single one on a side that has only one. True when no neighbour is confident (nothing to
+// disagree with: a single B-scan, a wide shadow).
+IOCT_HD bool agrees_across(const RawFits& raw, const FinishSettings& s, int b, int a) {
+  const float* rpe = raw.rpe;
+  const int n = raw.ascans;
+  const float r = rpe[b * n + a];
+  const bool before1 = b >= 1 && confident(raw, s, b - 1, a);
+  const bool before2 = before1 && b >= 2 && confident(raw, s, b - 2, a);
+  const bool after1 = b + 1 < raw.bscans && confident(raw, s, b + 1, a);
+  const bool after2 = after1 && b + 2 < raw.bscans && confident(raw, s, b + 2, a);
+  if (!before1 && !after1) return true;
+  if (before1 && after1 &&
+      near_prediction(r, 0.5f * (rpe[(b - 1) * n + a] + rpe[(b + 1) * n + a]))) {
+    return true;
+  }
+  if (before2 && near_prediction(r, 2.0f * rpe[(b - 1) * n + a] - rpe[(b - 2) * n + a])) {
+    return true;
+  }
+  if (after2 && near_prediction(r, 2.0f * rpe[(b + 1) * n + a] - rpe[(b + 2) * n + a])) {
+    return true;
+  }
+  if (before1 && !before2 && near_prediction(r, rpe[(b - 1) * n + a])) return true;
+  return after1 && !after2 && near_prediction(r, rpe[(b + 1) * n + a]);
+}
+
+IOCT_HD bool is_measured(const RawFits& raw, const FinishSettings& s, int b, int a) {
+  return confident(raw, s, b, a) && agrees_across(raw, s, b, a);
 }
 
 // Weighted mean of one surface over the measured 3 x 3 neighbourhood of (b, a), in a fixed order.
@@ -159,7 +206,7 @@ IOCT_HD FinishedAscan finish_ascan(const RawFits& raw, const FinishSettings& s, 
   const int i = b * raw.ascans + a;
   if (!has_retina(raw, b)) return {nan, nan, nan, 0.0f, SurfaceState::none};
   const float confidence = raw.confidence[i];
-  if (confidence >= s.min_confidence) {
+  if (is_measured(raw, s, b, a)) {
     if (!s.smooth) return {raw.ilm[i], raw.rpe[i], raw.bm[i], confidence, SurfaceState::measured};
     return {smoothed(raw.ilm, raw, s, b, a), smoothed(raw.rpe, raw, s, b, a),
             smoothed(raw.bm, raw, s, b, a), confidence, SurfaceState::measured};

@@ -1,0 +1,139 @@
+// JPEG encoding in bands on several threads: the joined file decodes to exactly the pixels of the
+// same image encoded whole, for colour and grey, sizes that do and do not fill the last band, and
+// a cut the size of the live renders; bands that cannot be joined are refused by name.
+#include <gtest/gtest.h>
+
+#include <turbojpeg.h>
+
+#include <cstdint>
+#include <random>
+#include <stdexcept>
+#include <vector>
+
+#include "ioct/gpu/live/banded_jpeg_encoder.hpp"
+
+namespace ioct::gpu::live {
+namespace {
+
+struct Decoded {
+  int width = 0, height = 0;
+  std::vector<unsigned char> pixels;  // RGB, or grey for a grey JPEG
+};
+
+Decoded decode(std::span<const std::byte> jpeg) {
+  Decoded out;
+  tjhandle handle = tjInitDecompress();
+  int subsampling = 0, colorspace = 0;
+  const auto* data = reinterpret_cast<const unsigned char*>(jpeg.data());
+  const unsigned long size = jpeg.size();
+  if (tjDecompressHeader3(handle, data, size, &out.width, &out.height, &subsampling, &colorspace) ==
+      0) {
+    const int format = colorspace == TJCS_GRAY ? TJPF_GRAY : TJPF_RGB;
+    out.pixels.resize(static_cast<std::size_t>(out.width) * out.height * tjPixelSize[format]);
+    if (tjDecompress2(handle, data, size, out.pixels.data(), out.width, 0, out.height, format, 0) !=
+        0) {
+      ADD_FAILURE() << "decoding failed: " << tjGetErrorStr2(handle);
+      out = {};
+    }
+  }
+  tjDestroy(handle);
+  return out;
+}
+
+// A picture with smooth gradients, edges and noise, so every band codes something different.
+std::vector<std::uint8_t> picture(std::uint32_t width, std::uint32_t height, unsigned channels,
+                                  unsigned seed) {
+  std::mt19937 random(seed);
+  std::uniform_int_distribution<int> noise(-20, 20);
+  std::vector<std::uint8_t> p(std::size_t{width} * height * channels);
+  for (std::uint32_t y = 0; y < height; ++y) {
+    for (std::uint32_t x = 0; x < width; ++x) {
+      for (unsigned c = 0; c < channels; ++c) {
+        int v = static_cast<int>((x * (c + 1) + y * 2) % 256);
+        if ((x / 37 + y / 23) % 2 == 0) v = 255 - v;
+        v += noise(random);
+        p[(std::size_t{y} * width + x) * channels + c] =
+            static_cast<std::uint8_t>(c == 3 ? 255 : std::clamp(v, 0, 255));
+      }
+    }
+  }
+  return p;
+}
+
+struct Case {
+  std::uint32_t width, height;
+  PixelLayout layout;
+  unsigned channels;
+  unsigned bands;
+};
+
+TEST(BandedJpeg, DecodesToTheSamePixelsAsOneEncodedWhole) {
+  const Case cases[] = {
+      {1024, 768, PixelLayout::rgba, 4, 4},  // the live render: 4 bands of 192 rows
+      {333, 250, PixelLayout::rgb, 3, 4},    // the last band shorter, the width no MCU multiple
+      {100, 77, PixelLayout::gray, 1, 3},    // grey: 8 x 8 blocks
+      {640, 40, PixelLayout::rgb, 3, 8},     // fewer MCU rows than bands: 3 bands
+      {64, 16, PixelLayout::rgba, 4, 4},     // one MCU row: encoded whole
+  };
+  unsigned seed = 1;
+  for (const Case& c : cases) {
+    SCOPED_TRACE(testing::Message() << c.width << "x" << c.height << ", " << c.bands << " bands");
+    const std::vector<std::uint8_t> p = picture(c.width, c.height, c.channels, seed++);
+    JpegEncoder whole(85);
+    const std::span<const std::byte> reference = whole.encode(p, c.width, c.height, c.layout);
+    const Decoded expected = decode(reference);
+    WorkerPool pool(2);
+    BandedJpegEncoder banded(85, c.bands, pool);
+    const std::span<const std::byte> joined = banded.encode(p, c.width, c.height, c.layout);
+    const Decoded got = decode(joined);
+    ASSERT_EQ(got.width, static_cast<int>(c.width));
+    ASSERT_EQ(got.height, static_cast<int>(c.height));
+    ASSERT_FALSE(got.pixels.empty());
+    EXPECT_TRUE(got.pixels == expected.pixels) << "the banded JPEG decodes differently";
+    // Again with the same encoder: its buffers are reused, the result the same.
+    const std::vector<std::byte> first(joined.begin(), joined.end());
+    const std::span<const std::byte> again = banded.encode(p, c.width, c.height, c.layout);
+    EXPECT_TRUE(std::equal(again.begin(), again.end(), first.begin(), first.end()));
+  }
+}
+
+TEST(BandedJpeg, OneBandIsThePlainEncoding) {
+  const std::vector<std::uint8_t> p = picture(256, 128, 3, 7);
+  JpegEncoder whole(85);
+  const std::span<const std::byte> plain = whole.encode(p, 256, 128, PixelLayout::rgb);
+  WorkerPool pool(1);
+  BandedJpegEncoder banded(85, 1, pool);
+  const std::span<const std::byte> one = banded.encode(p, 256, 128, PixelLayout::rgb);
+  EXPECT_TRUE(std::equal(plain.begin(), plain.end(), one.begin(), one.end()));
+}
+
+TEST(BandedJpeg, BandsThatCannotBeJoinedAreRefused) {
+  const std::vector<std::uint8_t> p = picture(128, 64, 3, 3);
+  JpegEncoder q85(85);
+  JpegEncoder q50(50);
+  const std::size_t half = std::size_t{128} * 32 * 3;
+  const std::span<const std::byte> a =
+      q85.encode(std::span(p).first(half), 128, 32, PixelLayout::rgb);
+  const std::span<const std::byte> b =
+      q50.encode(std::span(p).subspan(std::size_t{128} * 32 * 3), 128, 32, PixelLayout::rgb);
+  std::vector<std::byte> out;
+  const std::span<const std::byte> mixed[] = {a, b};
+  try {
+    join_jpeg_bands(mixed, 64, 16, out);
+    ADD_FAILURE() << "bands of two qualities were joined";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("band 1"), std::string::npos) << e.what();
+  }
+  const std::vector<std::byte> garbage(100, std::byte{0x42});
+  const std::span<const std::byte> bad[] = {a, garbage};
+  EXPECT_THROW(join_jpeg_bands(bad, 64, 16, out), std::invalid_argument);
+  const std::span<const std::byte> cut[] = {a.first(a.size() - 3), a};
+  EXPECT_THROW(join_jpeg_bands(cut, 64, 16, out), std::invalid_argument);
+  const std::span<const std::byte> fine[] = {a, a};
+  EXPECT_THROW(join_jpeg_bands(fine, 64, 0, out), std::invalid_argument);
+  WorkerPool pool(1);
+  EXPECT_THROW(BandedJpegEncoder(85, 0, pool), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace ioct::gpu::live
