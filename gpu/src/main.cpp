@@ -121,6 +121,11 @@ int main(int argc, char** argv) {
                  "distance between neighbouring A-scans, um");
   app.add_option("--bscan-spacing-um", stages.sampling.bscan_spacing_um,
                  "distance between neighbouring B-scans, um");
+  app.add_flag("--instruments", stages.instruments.enabled,
+               "find instruments each pass: tip position, tip-to-ILM/RPE distances (the status "
+               "line, summary.json, the view socket's \"instruments\" request)");
+  app.add_option("--instruments-warn-rpe-um", stages.instruments.warn_rpe_um,
+                 "warn when an instrument's tip is within this distance of the RPE, um");
   CLI11_PARSE(app, argc, argv);
 
   try {

@@ -50,6 +50,13 @@ TEST_F(ViewRequestsTest, GetGivesTheParametersAndTheirGeneration) {
   EXPECT_EQ(reply.at("params"), render::to_json(render::RenderConfig{}));
 }
 
+TEST_F(ViewRequestsTest, InstrumentsGivesTheControlsFindingsAndTakesNoFields) {
+  // RecordingControl keeps ViewControl's default: the detection does not run.
+  EXPECT_EQ(ask(R"({"cmd":"instruments"})"),
+            json({{"ok", true}, {"instruments", {{"enabled", false}}}}));
+  expect_refused(R"({"cmd":"instruments","view":1})", "view");
+}
+
 TEST_F(ViewRequestsTest, SetChangesTheParameters) {
   const json reply =
       ask(R"({"cmd":"set","changes":{"enhanced":{"threshold":0.5},"mode":"basic"}})");

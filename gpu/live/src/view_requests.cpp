@@ -146,6 +146,10 @@ json ViewRequests::dispatch(const json& request, std::uint64_t client) {
     const ViewParams p = control_.params();
     return {{"ok", true}, {"generation", p.generation}, {"params", p.params}};
   }
+  if (cmd == "instruments") {
+    only_fields(request, {"cmd"});
+    return {{"ok", true}, {"instruments", control_.instruments()}};
+  }
   if (cmd == "set") {
     only_fields(request, {"cmd", "view", "changes"});
     const json& changes = changes_of(request, true);

@@ -12,6 +12,8 @@
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/device_memory.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
+#include "ioct/gpu/instruments/findings_json.hpp"
+#include "ioct/gpu/instruments/instrument_detector.hpp"
 #include "ioct/gpu/live/frame_publisher.hpp"
 #include "ioct/gpu/render/png_rgba.hpp"
 #include "ioct/gpu/render/render_params_json.hpp"
@@ -95,6 +97,7 @@ void VolumeStagesConfig::validate() const {
   filter.validate();
   segmentation.validate();
   sampling.validate();
+  instruments.validate();
   render.validate();
   require_real_in_range("stages.cpu_render_interval", cpu_render_interval_s, 0.0, 3600.0);
   require_real_in_range("stages.image_interval", image_interval_s, 0.0, 3600.0);
@@ -271,17 +274,26 @@ bool VolumeStages::make_backends() {
     segmenter_ = segmentation::make_segmenter(backend, config_.segmentation, config_.sampling,
                                               config_.cpu_threads);
     renderer_ = render::make_renderer(backend, config_.cpu_threads);
+    if (config_.instruments.enabled) {
+      detector_ = instruments::make_instrument_detector(backend, config_.instruments,
+                                                        config_.sampling, config_.cpu_threads);
+    }
     const bool cpu_renderer = renderer_->backend_name() == "cpu";
     uses_device_ = filter_->backend_name() == "cuda" || segmenter_->backend_name() == "cuda" ||
                    renderer_->backend_name() == "cuda";
-    auto device = DeviceStageChain::make(*filter_, *segmenter_, *renderer_);
+    // With instruments, the stages run on host volumes (the detector reads the unfiltered
+    // B-scans there); the device chain keeps its volume on the GPU only without them.
+    auto device =
+        detector_ != nullptr ? nullptr : DeviceStageChain::make(*filter_, *segmenter_, *renderer_);
     std::lock_guard lock(mutex_);
     device_ = std::move(device);
     views_.set_timing(view_timing(config_, cpu_renderer));
     backends_ = "filter " + std::string(filters::filter_name(config_.filter)) + " " +
                 std::string(filter_->backend_name()) + ", segmentation " +
                 std::string(segmenter_->backend_name()) + ", render " +
-                std::string(renderer_->backend_name());
+                std::string(renderer_->backend_name()) +
+                (detector_ != nullptr ? ", instruments " + std::string(detector_->backend_name())
+                                      : std::string());
     return true;
   } catch (const std::exception& e) {
     fail(std::string("cannot start the stages: ") + e.what());
@@ -399,12 +411,24 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
   const segmentation::BscanSpan affected =
       segmenter_->segment_group(filtered_, {outputs.first, outputs.count}, surfaces_);
   const std::uint64_t t2 = shm::monotonic_ns();
+  std::uint64_t t2_detected = t2;
+  if (detector_ != nullptr) {
+    // On the processed B-scans: the median filter erases a tool's thin, tilted reflex.
+    detector_->detect_group(input_, {first, count}, surfaces_, findings_);
+    t2_detected = shm::monotonic_ns();
+    std::string line = instruments::describe(findings_);
+    nlohmann::json json = instruments::to_json(findings_);
+    std::lock_guard lock(mutex_);
+    figures_.instruments.record(t2_detected - t2);
+    figures_.instruments_line = std::move(line);
+    figures_.instruments_json = std::move(json);
+  }
   renderer_->update_bscans(filtered_, affected.first, affected.count, &surfaces_);
   note_bscans_changed(affected.first, affected.count);  // contains the filter's outputs
   const bool render_now =
       renderer_->backend_name() != "cpu" || last_render_ns_ == 0 ||
-      static_cast<double>(t2 - last_render_ns_) * 1e-9 >= config_.cpu_render_interval_s;
-  std::uint64_t t3 = t2;
+      static_cast<double>(t2_detected - last_render_ns_) * 1e-9 >= config_.cpu_render_interval_s;
+  std::uint64_t t3 = t2_detected;
   DueRender shared;
   SnapshotWaiters waiters;
   if (render_now) {
@@ -415,7 +439,7 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
   }
 
   record_pass(StagesPass{groups, first, count, false, render_now, t0, t1, t2, t3}, t1 - t0, t2 - t1,
-              t3 - t2);
+              t3 - t2_detected);
   if (render_now) deliver(shared, t3, waiters);
 }
 
@@ -563,7 +587,21 @@ std::string VolumeStages::status() const {
                 static_cast<unsigned long long>(f.passes),
                 static_cast<unsigned long long>(f.groups_folded),
                 f.pass.count() > 0 ? ms(f.pass.quantile(0.5)) : 0.0);
+  if (config_.instruments.enabled) {
+    return std::string(text) + "; instruments: " +
+           (f.instruments_line.empty() ? std::string("not run yet") : f.instruments_line);
+  }
   return text;
+}
+
+nlohmann::json VolumeStages::instruments() const {
+  if (!config_.instruments.enabled) return {{"enabled", false}};
+  std::lock_guard lock(mutex_);
+  nlohmann::json j =
+      figures_.instruments_json.is_object() ? figures_.instruments_json : nlohmann::json::object();
+  j["enabled"] = true;
+  j["warn_rpe_um"] = config_.instruments.warn_rpe_um;
+  return j;
 }
 
 nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
@@ -632,6 +670,11 @@ nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
   j["pass_ms"] = percentiles(f.pass);
   j["filter_ms"] = percentiles(f.filter);
   j["segment_ms"] = percentiles(f.segment);
+  if (config_.instruments.enabled) {
+    j["instruments_ms"] = percentiles(f.instruments);
+    j["instruments"] =
+        f.instruments_json.is_object() ? f.instruments_json : nlohmann::json(nullptr);
+  }
   j["render_ms"] = percentiles(f.render);
   j["surfaces"] = surfaces_.bscans > 0 ? describe(surfaces_) : nlohmann::json(nullptr);
   j["files"] = files;

@@ -40,6 +40,9 @@ class ViewControl {
   // The shared view's next frame, rendered after this call. Throws std::runtime_error when there
   // is nothing to render yet, the stages stopped, or no frame came within `timeout`.
   virtual ViewSnapshot snapshot(std::chrono::milliseconds timeout) = 0;
+  // The instruments found in the live volume (gpu/instruments' findings JSON with "enabled"),
+  // or {"enabled": false} where the detection does not run.
+  virtual nlohmann::json instruments() const { return {{"enabled", false}}; }
 };
 
 }  // namespace ioct::gpu::live

@@ -36,6 +36,8 @@
 #include <vector>
 
 #include "ioct/gpu/filters/filter_config.hpp"
+#include "ioct/gpu/instruments/instrument_config.hpp"
+#include "ioct/gpu/instruments/instrument_findings.hpp"
 #include "ioct/gpu/latency_histogram.hpp"
 #include "ioct/gpu/live/view_control.hpp"
 #include "ioct/gpu/live/view_set.hpp"
@@ -55,6 +57,9 @@ class Segmenter;
 }
 namespace ioct::gpu::render {
 class Renderer;
+}
+namespace ioct::gpu::instruments {
+class InstrumentDetector;
 }
 
 namespace ioct::gpu::live {
@@ -79,6 +84,10 @@ struct VolumeStagesConfig {
   filters::VolumeFilterConfig filter;
   segmentation::SegmentationConfig segmentation;
   segmentation::VolumeSampling sampling;  // also the renderer's voxel spacing
+  // Instrument detection after the segmentation of every pass (instruments.enabled), on the
+  // processed (unfiltered) B-scans of the pass. With CUDA stages it keeps the volume on the host
+  // (the device-resident chain does not carry the detection): the CUDA stages upload each pass.
+  instruments::InstrumentConfig instruments;
   render::RenderConfig render;  // the shared view at the start; auto_rotate turns its azimuth
   // Modes rendered once more at the end, each to render-<mode>.png, at the live view.
   std::vector<render::RenderMode> final_modes{render::RenderMode::enhanced,
@@ -133,10 +142,12 @@ class VolumeStages final : public LiveStage, public ViewControl {
   std::uint64_t set_view(std::uint64_t view, const nlohmann::json& changes) override;
   void close_view(std::uint64_t view) override;
   ViewSnapshot snapshot(std::chrono::milliseconds timeout) override;
+  nlohmann::json instruments() const override;
 
   // The state after finish() (tests).
   const Volume& filtered() const noexcept { return filtered_; }
   const segmentation::Surfaces& surfaces() const noexcept { return surfaces_; }
+  const instruments::InstrumentFindings& findings() const noexcept { return findings_; }
   // The last frame read back to the host (after finish(): the last one it rendered).
   const render::RgbaImage& frame() const noexcept { return image_; }
 
@@ -151,9 +162,12 @@ class VolumeStages final : public LiveStage, public ViewControl {
     std::uint64_t interactive_renders = 0;  // between passes: changes, rotation, private views
     std::uint64_t frames_published = 0;
     std::uint64_t frame_errors = 0;
-    LatencyHistogram pass;      // take -> rendered
-    LatencyHistogram filter;    // per pass
-    LatencyHistogram segment;   // per pass
+    LatencyHistogram pass;         // take -> rendered
+    LatencyHistogram filter;       // per pass
+    LatencyHistogram segment;      // per pass
+    LatencyHistogram instruments;  // per pass, when enabled
+    std::string instruments_line;  // describe() of the latest findings
+    nlohmann::json instruments_json;
     LatencyHistogram render;    // per render
     std::string problem;        // the first failure; the stages stop at it
     std::string frame_problem;  // the last frame that could not be published (not fatal)
@@ -215,6 +229,8 @@ class VolumeStages final : public LiveStage, public ViewControl {
   std::unique_ptr<DeviceStageChain> device_;
   std::unique_ptr<filters::VolumeFilter> filter_;
   std::unique_ptr<segmentation::Segmenter> segmenter_;
+  std::unique_ptr<instruments::InstrumentDetector> detector_;  // null unless enabled
+  instruments::InstrumentFindings findings_;
   std::unique_ptr<render::Renderer> renderer_;
   std::unique_ptr<LiveImageWriter> image_writer_;  // render.png, off the stages' thread
   Volume input_;

@@ -1,0 +1,33 @@
+// The CUDA implementation of the instrument detection (built only with CUDA): per group, one
+// thread block per B-scan builds the B-scan's histogram in shared memory, takes its median as the
+// floor, and classifies its A-scans, one thread each, with the same column code as the CPU
+// reference (column_classification.hpp); the mask and the reflexes come back (a few bytes per
+// A-scan) and the tips are found on the host, as for the CPU.
+#pragma once
+
+#include <cstdint>
+
+#include "ioct/gpu/cuda_support.hpp"
+#include "ioct/gpu/instruments/instrument_detector.hpp"
+
+namespace ioct::gpu::instruments {
+
+class CudaInstrumentDetector final : public InstrumentDetector {
+ public:
+  // Throws BackendUnavailable when there is no usable CUDA device (with CUDA's reason).
+  CudaInstrumentDetector(const InstrumentConfig& config, const VolumeSampling& sampling);
+  std::string_view backend_name() const noexcept override { return "cuda"; }
+
+ private:
+  void classify(const Volume& volume, BscanSpan group, const ColumnParams& params,
+                InstrumentFindings& findings) override;
+
+  cuda::Stream stream_;
+  cuda::DeviceArray<std::uint8_t> bscans_;  // the group's B-scans
+  cuda::DeviceArray<std::uint8_t> kinds_;   // [bscan of the group][ascan]
+  cuda::DeviceArray<float> reflexes_;       // [bscan of the group][ascan]
+  cuda::DeviceArray<std::uint8_t> floors_;  // [bscan of the group]
+  cuda::PinnedArray<std::uint8_t> host_kinds_;
+};
+
+}  // namespace ioct::gpu::instruments

@@ -1,0 +1,62 @@
+// Instrument detection: one interface with a CPU reference and a CUDA implementation that give
+// the same shadow mask and reflexes (the column classification is the same integer code on both);
+// the tips and distances are then found on the host from the mask (tip_finder.hpp).
+//
+// Per group of new B-scans: each B-scan's noise floor (the median of its px), then every A-scan
+// classified (column_classification.hpp); then, over the whole volume's mask, the instruments'
+// tips and their distances to the segmented ILM and RPE.
+#pragma once
+
+#include <memory>
+#include <string_view>
+
+#include "ioct/gpu/instruments/instrument_config.hpp"
+#include "ioct/gpu/instruments/instrument_findings.hpp"
+#include "ioct/gpu/oct_processor.hpp"           // Backend, BackendUnavailable
+#include "ioct/gpu/segmentation/segmenter.hpp"  // BscanSpan
+#include "ioct/gpu/segmentation/surfaces.hpp"
+#include "ioct/gpu/volume.hpp"
+
+namespace ioct::gpu::instruments {
+
+using segmentation::BscanSpan;
+
+class InstrumentDetector {
+ public:
+  virtual ~InstrumentDetector() = default;
+
+  // B-scans `group` of `volume` are new: classifies their A-scans into `findings` (reset first
+  // when its dimensions differ from the volume's), then finds the tips over the whole mask with
+  // `surfaces` (the segmentation of the same volume; empty or of other dimensions: no distances).
+  // Throws std::out_of_range for a group outside the volume, std::invalid_argument for a volume
+  // of no depth.
+  void detect_group(const Volume& volume, BscanSpan group, const segmentation::Surfaces& surfaces,
+                    InstrumentFindings& findings);
+
+  // Every B-scan of `volume`.
+  void detect_volume(const Volume& volume, const segmentation::Surfaces& surfaces,
+                     InstrumentFindings& findings);
+
+  const InstrumentConfig& config() const noexcept { return config_; }
+  const VolumeSampling& sampling() const noexcept { return sampling_; }
+  virtual std::string_view backend_name() const noexcept = 0;
+
+ protected:
+  InstrumentDetector(const InstrumentConfig& config, const VolumeSampling& sampling);
+  // The classification of B-scans `group` into findings.mask, reflex_px and floor (sized).
+  virtual void classify(const Volume& volume, BscanSpan group, const ColumnParams& params,
+                        InstrumentFindings& findings) = 0;
+
+ private:
+  InstrumentConfig config_;
+  VolumeSampling sampling_;
+};
+
+// Validates both. Backend::automatic takes CUDA where the build and the machine have it;
+// Backend::cuda throws BackendUnavailable without it.
+std::unique_ptr<InstrumentDetector> make_instrument_detector(Backend backend,
+                                                             const InstrumentConfig& config,
+                                                             const VolumeSampling& sampling,
+                                                             unsigned cpu_threads);
+
+}  // namespace ioct::gpu::instruments

@@ -1,0 +1,38 @@
+// From the shadow mask to tips and distances, on the host for both backends (the mask is a few
+// hundred kB, the work per volume a few passes over it).
+//
+// 1. The shadow mask: A-scans classified as shadowed with at least 3 of their 8 neighbours so
+//    too (speckle leaves lone ones); footprints: its 8-connected regions, those with fewer than
+//    min_ascans A-scans, or fewer than min_ascans fully shadowed ones (every tool has metal: a
+//    partly shadowing region alone is a lifted membrane), dropped; the largest kMaxInstruments
+//    kept.
+// 2. Axis: the principal direction of a footprint's A-scans in um. The shaft leaves the field,
+//    so the tip is the end away from the footprint's A-scans on the volume's border (without
+//    any, the end where the reflex lies deeper: the shaft rises towards the viewer).
+// 3. Tip: the footprint's extreme along the axis is the rim of the tool's rounded end (a capsule's
+//    cap: a sphere of radius r). For every r, the sphere whose rim is that extreme: its reflexes
+//    in front of its centre give the centre's depth (reflex + sqrt(r^2 - d^2) in px of the
+//    medium), and its disc should match the footprint there; the r with the least spread of
+//    those depths and the least disagreement of the footprint wins, and its centre is the tip.
+//    A translucent end (mostly partly shadowed A-scans) is flat: the tip is the rim, at the
+//    depth of the middle of the tool there.
+// 4. Distances: the ILM and RPE at the tip's lateral position. The tip's own A-scan is under the
+//    tool; the surfaces come from the nearest measured A-scans at least 2 A-scans and 1 B-scan
+//    away from the mask (the filtered volume smears the shadow's edge), along the B-scan and
+//    across B-scans, interpolated linearly where both sides exist, each axis weighted by the
+//    inverse of its span (inferred); or from the A-scan itself when it is clear of the mask and
+//    measured (measured).
+#pragma once
+
+#include "ioct/gpu/instruments/instrument_config.hpp"
+#include "ioct/gpu/instruments/instrument_findings.hpp"
+#include "ioct/gpu/segmentation/surfaces.hpp"
+
+namespace ioct::gpu::instruments {
+
+// Fills findings.tips, nearest and warning from findings.mask and reflex_px. `surfaces` of other
+// dimensions than the mask (or empty) give tips without distances.
+void find_tips(InstrumentFindings& findings, const segmentation::Surfaces& surfaces,
+               const InstrumentConfig& config, const VolumeSampling& sampling);
+
+}  // namespace ioct::gpu::instruments

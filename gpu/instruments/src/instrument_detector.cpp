@@ -1,0 +1,72 @@
+#include "ioct/gpu/instruments/instrument_detector.hpp"
+
+#include <stdexcept>
+#include <string>
+
+#include "ioct/gpu/instruments/cpu_instrument_detector.hpp"
+#include "ioct/gpu/instruments/tip_finder.hpp"
+#if IOCT_INSTRUMENTS_HAVE_CUDA
+#include "ioct/gpu/instruments/cuda_instrument_detector.hpp"
+#endif
+
+namespace ioct::gpu::instruments {
+
+InstrumentDetector::InstrumentDetector(const InstrumentConfig& config,
+                                       const VolumeSampling& sampling)
+    : config_(config), sampling_(sampling) {
+  config_.validate();
+  sampling_.validate();
+}
+
+void InstrumentDetector::detect_group(const Volume& volume, BscanSpan group,
+                                      const segmentation::Surfaces& surfaces,
+                                      InstrumentFindings& findings) {
+  if (group.end() > volume.bscans() || group.end() < group.first) {
+    throw std::out_of_range("instruments: B-scans [" + std::to_string(group.first) + ", " +
+                            std::to_string(group.first + group.count) + ") outside a volume of " +
+                            std::to_string(volume.bscans()) + " B-scans");
+  }
+  if (volume.depth() == 0 && volume.bscans() > 0) {
+    throw std::invalid_argument("instruments: a volume of no depth");
+  }
+  if (findings.bscans != volume.bscans() || findings.ascans != volume.ascans()) {
+    findings.reset(volume.bscans(), volume.ascans());
+  }
+  if (group.count > 0) {
+    classify(volume, group, make_column_params(config_, sampling_, volume.depth()), findings);
+  }
+  find_tips(findings, surfaces, config_, sampling_);
+}
+
+void InstrumentDetector::detect_volume(const Volume& volume, const segmentation::Surfaces& surfaces,
+                                       InstrumentFindings& findings) {
+  findings.reset(volume.bscans(), volume.ascans());
+  detect_group(volume, {0, volume.bscans()}, surfaces, findings);
+}
+
+std::unique_ptr<InstrumentDetector> make_instrument_detector(Backend backend,
+                                                             const InstrumentConfig& config,
+                                                             const VolumeSampling& sampling,
+                                                             unsigned cpu_threads) {
+  config.validate();
+  sampling.validate();
+  if (backend == Backend::cpu) {
+    return std::make_unique<CpuInstrumentDetector>(config, sampling, cpu_threads);
+  }
+#if IOCT_INSTRUMENTS_HAVE_CUDA
+  if (backend == Backend::cuda) return std::make_unique<CudaInstrumentDetector>(config, sampling);
+  try {
+    return std::make_unique<CudaInstrumentDetector>(config, sampling);
+  } catch (const BackendUnavailable&) {
+    return std::make_unique<CpuInstrumentDetector>(config, sampling, cpu_threads);
+  }
+#else
+  if (backend == Backend::cuda) {
+    throw BackendUnavailable(
+        "backend cuda: this build has no CUDA instrument detection; use the cpu backend");
+  }
+  return std::make_unique<CpuInstrumentDetector>(config, sampling, cpu_threads);
+#endif
+}
+
+}  // namespace ioct::gpu::instruments

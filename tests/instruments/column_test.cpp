@@ -1,0 +1,191 @@
+// The column classification and the tips on hand-made volumes: what each kind of A-scan looks
+// like, where the reflex is, and a tool drawn into a flat "retina" found with its tip where it
+// was drawn and its distance to the surfaces given.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "ioct/gpu/instruments/column_classification.hpp"
+#include "ioct/gpu/instruments/instrument_detector.hpp"
+
+namespace ioct::gpu::instruments {
+namespace {
+
+constexpr std::uint32_t kDepth = 400;
+
+ColumnParams params() {
+  VolumeSampling sampling;
+  sampling.axial_um_per_px = 5.0;
+  return make_column_params(InstrumentConfig{}, sampling, kDepth);
+}
+
+// A retina: bright from 200 to 320 px with a darker band inside, nothing below 330.
+void draw_retina(std::uint8_t* column) {
+  for (int z = 200; z < 320; ++z) column[z] = (z >= 240 && z < 260) ? 20 : 120;
+}
+
+TEST(ColumnClassification, RetinaAloneIsClear) {
+  std::vector<std::uint8_t> column(kDepth, 0);
+  draw_retina(column.data());
+  EXPECT_EQ(classify_column(column.data(), params(), 0).kind, ColumnKind::clear);
+}
+
+TEST(ColumnClassification, NothingAtAllIsClear) {
+  const std::vector<std::uint8_t> column(kDepth, 3);
+  EXPECT_EQ(classify_column(column.data(), params(), 3).kind, ColumnKind::clear);
+}
+
+TEST(ColumnClassification, MetalReflexOverAShadowIsShadowWithItsPeak) {
+  std::vector<std::uint8_t> column(kDepth, 0);
+  column[149] = 150;
+  column[150] = 250;
+  column[151] = 150;
+  const ColumnFinding f = classify_column(column.data(), params(), 0);
+  EXPECT_EQ(f.kind, ColumnKind::shadow);
+  EXPECT_FLOAT_EQ(f.reflex_px, 150.0f);
+}
+
+TEST(ColumnClassification, TheReflexBelowTissueIsTheToolsNotTheTissues) {
+  // The tool inside the retina: tissue from 200, the metal at 230, nothing beneath.
+  std::vector<std::uint8_t> column(kDepth, 0);
+  for (int z = 200; z < 229; ++z) column[z] = 250;  // brighter tissue above the tool
+  column[229] = 100;
+  column[230] = 200;
+  column[231] = 100;
+  const ColumnFinding f = classify_column(column.data(), params(), 0);
+  EXPECT_EQ(f.kind, ColumnKind::shadow);
+  EXPECT_FLOAT_EQ(f.reflex_px, 230.0f);
+}
+
+TEST(ColumnClassification, ADarkBandInTheTissueAboveTheToolDoesNotHideIt) {
+  // Tissue from 200 with a dark band (the outer nuclear layer) longer than the gap, the metal at
+  // 232, nothing beneath.
+  std::vector<std::uint8_t> column(kDepth, 0);
+  for (int z = 200; z < 231; ++z) column[z] = (z >= 210 && z < 220) ? 2 : 90;
+  column[231] = 100;
+  column[232] = 220;
+  column[233] = 100;
+  const ColumnFinding f = classify_column(column.data(), params(), 0);
+  EXPECT_EQ(f.kind, ColumnKind::shadow);
+  EXPECT_FLOAT_EQ(f.reflex_px, 232.0f);
+}
+
+TEST(ColumnClassification, WeakSignalBeneathIsNoShadow) {
+  // A reflex with tissue beneath it that stays below object_margin but well above the floor.
+  std::vector<std::uint8_t> column(kDepth, 0);
+  column[150] = 250;
+  for (int z = 160; z < 300; ++z) column[z] = 25;
+  EXPECT_EQ(classify_column(column.data(), params(), 0).kind, ColumnKind::clear);
+}
+
+TEST(ColumnClassification, AReflexNearTheBottomCastsNoShadowToSee) {
+  std::vector<std::uint8_t> column(kDepth, 0);
+  column[kDepth - 10] = 250;
+  EXPECT_EQ(classify_column(column.data(), params(), 0).kind, ColumnKind::clear);
+}
+
+TEST(ColumnClassification, TranslucentToolAboveTheRetinaIsPartialAtItsMiddle) {
+  std::vector<std::uint8_t> column(kDepth, 0);
+  for (int z = 100; z < 130; ++z) column[z] = 180;
+  draw_retina(column.data());
+  const ColumnFinding f = classify_column(column.data(), params(), 0);
+  EXPECT_EQ(f.kind, ColumnKind::partial);
+  EXPECT_FLOAT_EQ(f.reflex_px, 114.5f);
+}
+
+TEST(ColumnClassification, ADimFloaterAboveTheRetinaIsClear) {
+  std::vector<std::uint8_t> column(kDepth, 0);
+  for (int z = 100; z < 105; ++z) column[z] = 50;  // above object_margin, below the partial's
+  draw_retina(column.data());
+  EXPECT_EQ(classify_column(column.data(), params(), 0).kind, ColumnKind::clear);
+}
+
+TEST(ColumnClassification, TheFloorRaisesEveryLevel) {
+  std::vector<std::uint8_t> column(kDepth, 30);
+  column[150] = 60;  // 30 above a floor of 30: below object_margin
+  EXPECT_EQ(classify_column(column.data(), params(), 30).kind, ColumnKind::clear);
+  column[150] = 250;
+  EXPECT_EQ(classify_column(column.data(), params(), 30).kind, ColumnKind::shadow);
+}
+
+// A flat retina (ILM 200 px, RPE 300 px) and a needle along +x whose end is a sphere of 20 A-scans'
+// radius centred at A-scan 40, B-scan 20: its reflexes on the sphere in front of the centre, a
+// straight top behind it; everything beneath it black.
+TEST(Tips, AToolDrawnIntoAFlatRetinaIsFoundWhereItWasDrawn) {
+  VolumeSampling sampling;
+  sampling.axial_um_per_px = 5.0;
+  sampling.ascan_spacing_um = 10.0;
+  sampling.bscan_spacing_um = 10.0;
+  InstrumentConfig config;
+  config.medium_group_index = 1.0;
+  const std::uint32_t bscans = 41, ascans = 120;
+  Volume volume(bscans, ascans, kDepth);
+  segmentation::Surfaces surfaces;
+  surfaces.reset(bscans, ascans, kDepth);
+  const double radius_um = 100.0, center_px = 150.0;
+  for (std::uint32_t b = 0; b < bscans; ++b) {
+    for (std::uint32_t a = 0; a < ascans; ++a) {
+      auto column = volume.bscan(b).subspan(std::size_t{a} * kDepth, kDepth);
+      std::fill(column.begin(), column.end(), std::uint8_t{0});
+      const std::size_t k = surfaces.index(b, a);
+      surfaces.state[k] = segmentation::SurfaceState::measured;
+      surfaces.ilm[k] = 200.0f;
+      surfaces.rpe[k] = 300.0f;
+      const double dx = (static_cast<double>(a) - 40.0) * 10.0;
+      const double dy = (static_cast<double>(b) - 20.0) * 10.0;
+      const double across2 = dy * dy;
+      const double d2 = dx <= 0.0 ? dx * dx + across2 : across2;  // the shaft runs to +x
+      if (d2 < radius_um * radius_um) {
+        const double top = center_px - std::sqrt(radius_um * radius_um - d2) / 5.0;
+        column[static_cast<std::size_t>(std::lround(top))] = 250;
+      } else {
+        for (std::uint32_t z = 200; z < 320; ++z) column[z] = 120;
+      }
+    }
+  }
+  InstrumentFindings findings;
+  make_instrument_detector(Backend::cpu, config, sampling, 1)
+      ->detect_volume(volume, surfaces, findings);
+  ASSERT_EQ(findings.tips.size(), 1u);
+  const InstrumentTip& tip = findings.tips[0];
+  EXPECT_NEAR(tip.ascan, 40.0, 1.0);
+  EXPECT_NEAR(tip.bscan, 20.0, 1.0);
+  EXPECT_NEAR(tip.depth_px, center_px, 1.5);
+  EXPECT_EQ(tip.source, DistanceSource::inferred);
+  EXPECT_NEAR(tip.to_ilm_um, (200.0 - tip.depth_px) * 5.0, 1e-6);
+  EXPECT_NEAR(tip.to_rpe_um, (300.0 - tip.depth_px) * 5.0, 1e-6);
+  EXPECT_NEAR(tip.x_um, tip.ascan * 10.0, 1e-9);
+  EXPECT_FALSE(findings.warning);  // 750 um above the RPE
+
+  // Within the warning distance of the RPE, the warning is raised.
+  config.warn_rpe_um = 1000.0;
+  make_instrument_detector(Backend::cpu, config, sampling, 1)
+      ->detect_volume(volume, surfaces, findings);
+  EXPECT_TRUE(findings.warning);
+  EXPECT_NE(describe(findings).find("WARNING"), std::string::npos);
+}
+
+TEST(Tips, AVolumeWithoutToolsHasNone) {
+  Volume volume(8, 64, kDepth);
+  for (std::uint32_t b = 0; b < 8; ++b) {
+    for (std::uint32_t a = 0; a < 64; ++a) {
+      draw_retina(volume.bscan(b).data() + std::size_t{a} * kDepth);
+    }
+  }
+  InstrumentFindings findings;
+  make_instrument_detector(Backend::cpu, {}, {}, 2)->detect_volume(volume, {}, findings);
+  EXPECT_TRUE(findings.tips.empty());
+  EXPECT_EQ(findings.nearest_tip(), nullptr);
+  EXPECT_EQ(describe(findings), "no instrument");
+}
+
+TEST(Tips, GroupsOutsideTheVolumeAreRefused) {
+  Volume volume(8, 64, kDepth);
+  InstrumentFindings findings;
+  const auto detector = make_instrument_detector(Backend::cpu, {}, {}, 1);
+  EXPECT_THROW(detector->detect_group(volume, {6, 4}, {}, findings), std::out_of_range);
+}
+
+}  // namespace
+}  // namespace ioct::gpu::instruments
