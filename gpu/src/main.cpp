@@ -3,6 +3,7 @@
 // projection, surfaces and renders as files.
 #include <CLI/CLI.hpp>
 
+#include <atomic>
 #include <cstdlib>
 #include <iostream>
 #include <memory>
@@ -19,10 +20,11 @@
 
 namespace {
 
-ioct::gpu::LiveProcessor* g_processor = nullptr;
+// Atomic: the stop signal may be handled on any thread (a lock-free atomic is signal-safe).
+std::atomic<ioct::gpu::LiveProcessor*> g_processor{nullptr};
 
 extern "C" void on_stop_signal(int) {
-  if (g_processor != nullptr) g_processor->request_stop();
+  if (ioct::gpu::LiveProcessor* p = g_processor.load()) p->request_stop();
 }
 
 }  // namespace
