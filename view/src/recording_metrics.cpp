@@ -3,23 +3,15 @@
 #include <optional>
 
 #include "prometheus_text.hpp"
+#include "status_number.hpp"
 
 namespace ioct::view {
 namespace {
 
-// A number (or boolean, as 0/1) of the status; nullopt when absent or of another type (left out,
-// as the other processes' figures are, rather than shown as 0).
-std::optional<double> number_at(const nlohmann::json& j, const char* key) {
-  const auto it = j.find(key);
-  if (it == j.end()) return std::nullopt;
-  if (it->is_boolean()) return it->get<bool>() ? 1.0 : 0.0;
-  if (it->is_number()) return it->get<double>();
-  return std::nullopt;
-}
-
 void figure(std::string& out, const nlohmann::json& j, const char* key, const char* name,
             const char* type, const char* help) {
-  if (const std::optional<double> v = number_at(j, key)) prom::single(out, name, type, help, *v);
+  if (const std::optional<double> v = status_number(j, key))
+    prom::single(out, name, type, help, *v);
 }
 
 }  // namespace
@@ -43,7 +35,7 @@ void write_recording_metrics(const nlohmann::json& s, std::string& out) {
                  "groups the recording under way lost, by cause (lapped, behind: the ring; "
                  "queue_full: the disk too slow; disk_full: no room or past --max-mb)");
     for (const char* cause : {"lapped", "behind", "queue_full", "disk_full"}) {
-      if (const std::optional<double> n = number_at(*dropped, cause)) {
+      if (const std::optional<double> n = status_number(*dropped, cause)) {
         prom::sample(out, "ioct_record_dropped_total", {{"cause", cause}}, *n);
       }
     }

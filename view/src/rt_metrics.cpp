@@ -5,20 +5,16 @@
 #include <vector>
 
 #include "prometheus_text.hpp"
+#include "status_number.hpp"
 
 namespace ioct::view {
 namespace {
 
-// A number (or boolean, as 0/1) at status[section][key]; nullopt when absent or of another type.
+// status[section][key] as status_number reads it.
 std::optional<double> number_at(const nlohmann::json& status, const char* section,
                                 const char* key) {
-  if (!status.contains(section) || !status[section].is_object()) return std::nullopt;
-  const nlohmann::json& s = status[section];
-  if (!s.contains(key)) return std::nullopt;
-  const nlohmann::json& v = s[key];
-  if (v.is_boolean()) return v.get<bool>() ? 1.0 : 0.0;
-  if (v.is_number()) return v.get<double>();
-  return std::nullopt;
+  const auto it = status.find(section);
+  return it == status.end() ? std::nullopt : status_number(*it, key);
 }
 
 // A non-negative integer (a count, a pid): unsigned as parsed from text, or signed and >= 0.

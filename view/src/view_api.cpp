@@ -7,6 +7,7 @@
 #include <set>
 
 #include "gpu_metrics.hpp"
+#include "prometheus_text.hpp"
 #include "recording_metrics.hpp"
 #include "rt_metrics.hpp"
 #include "strict_json.hpp"
@@ -36,25 +37,16 @@ std::string snapshot_name_now() {
   return text;
 }
 
+// A latency record as a Prometheus summary: p50, p99, sum and count.
 void summary(std::string& out, const std::string& name, const std::string& help,
              const LatencyRecord& r) {
-  char line[160];
-  out += "# HELP " + name + " " + help + "\n# TYPE " + name + " summary\n";
-  for (const double q : {0.5, 0.99}) {
-    std::snprintf(line, sizeof line, "%s{quantile=\"%g\"} %.9f\n", name.c_str(), q,
-                  static_cast<double>(r.quantile(q)) * 1e-9);
-    out += line;
+  prom::family(out, name, "summary", help);
+  const std::pair<double, const char*> quantiles[] = {{0.5, "0.5"}, {0.99, "0.99"}};
+  for (const auto& [q, label] : quantiles) {
+    prom::sample(out, name, {{"quantile", label}}, static_cast<double>(r.quantile(q)) * 1e-9);
   }
-  std::snprintf(line, sizeof line, "%s_sum %.9f\n%s_count %llu\n", name.c_str(), r.sum_seconds(),
-                name.c_str(), static_cast<unsigned long long>(r.count()));
-  out += line;
-}
-
-void counter(std::string& out, const std::string& name, const std::string& type,
-             const std::string& help, double value) {
-  char line[64];
-  std::snprintf(line, sizeof line, " %.17g\n", value);
-  out += "# HELP " + name + " " + help + "\n# TYPE " + name + " " + type + "\n" + name + line;
+  prom::sample(out, name + "_sum", {}, r.sum_seconds());
+  prom::sample(out, name + "_count", {}, static_cast<double>(r.count()));
 }
 
 }  // namespace
@@ -277,27 +269,27 @@ std::string ViewApi::metrics() const {
   std::string out;
   const FollowerSnapshot& f = hub_.follower();
   auto& hub = const_cast<Hub&>(hub_);
-  counter(out, "ioct_view_signal_live", "gauge", "1 while the page shows live data",
-          f.verdict.signal == Signal::live ? 1 : 0);
-  counter(out, "ioct_view_group_age_seconds", "gauge", "age of the newest group",
-          static_cast<double>(f.verdict.age_ns) * 1e-9);
-  counter(out, "ioct_view_viewers", "gauge", "connected WebSocket viewers",
-          static_cast<double>(hub_.viewers()));
+  prom::single(out, "ioct_view_signal_live", "gauge", "1 while the page shows live data",
+               f.verdict.signal == Signal::live ? 1 : 0);
+  prom::single(out, "ioct_view_group_age_seconds", "gauge", "age of the newest group",
+               static_cast<double>(f.verdict.age_ns) * 1e-9);
+  prom::single(out, "ioct_view_viewers", "gauge", "connected WebSocket viewers",
+               static_cast<double>(hub_.viewers()));
   const HubCounters& c = hub.counters();
-  counter(out, "ioct_view_frames_in_total", "counter", "frames read from the frame ring",
-          static_cast<double>(c.frames_in));
-  counter(out, "ioct_view_frames_sent_total", "counter", "frames sent to viewers",
-          static_cast<double>(c.frames_sent));
-  counter(out, "ioct_view_frames_replaced_total", "counter",
-          "frames a slow viewer never got because a newer one replaced them",
-          static_cast<double>(c.frames_replaced));
-  counter(out, "ioct_view_frames_skipped_total", "counter",
-          "frames overwritten in the frame ring before ioct-view read them",
-          static_cast<double>(f.frames_skipped));
-  counter(out, "ioct_view_messages_refused_total", "counter", "browser messages refused",
-          static_cast<double>(c.messages_refused));
-  counter(out, "ioct_view_connections_refused_total", "counter", "connections refused at the limit",
-          static_cast<double>(c.connections_refused));
+  prom::single(out, "ioct_view_frames_in_total", "counter", "frames read from the frame ring",
+               static_cast<double>(c.frames_in));
+  prom::single(out, "ioct_view_frames_sent_total", "counter", "frames sent to viewers",
+               static_cast<double>(c.frames_sent));
+  prom::single(out, "ioct_view_frames_replaced_total", "counter",
+               "frames a slow viewer never got because a newer one replaced them",
+               static_cast<double>(c.frames_replaced));
+  prom::single(out, "ioct_view_frames_skipped_total", "counter",
+               "frames overwritten in the frame ring before ioct-view read them",
+               static_cast<double>(f.frames_skipped));
+  prom::single(out, "ioct_view_messages_refused_total", "counter", "browser messages refused",
+               static_cast<double>(c.messages_refused));
+  prom::single(out, "ioct_view_connections_refused_total", "counter",
+               "connections refused at the limit", static_cast<double>(c.connections_refused));
   summary(out, "ioct_view_published_to_sent_seconds",
           "group published by ioct-rt to its frame sent on the WebSocket", hub.published_to_sent());
   summary(out, "ioct_view_published_to_drawn_seconds",
