@@ -292,25 +292,36 @@ TEST(IoctRecord, FollowsARestartedProducerIntoTheSameFile) {
   EXPECT_NE(first.producer_epoch, last.producer_epoch) << "no group of the second producer";
 }
 
-TEST(IoctRecord, ReplayThroughIoctRtPublishesTheRecordedGroupsBitForBit) {
-  const test_support::ScopedShmName ring("record-live");
-  const test_support::ScopedShmName replay_ring("record-replay");
-  const TempPath out("replay");
-  {
-    ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
-    ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
-    std::string lines;
-    ASSERT_TRUE(wait_for_groups_written(recorder, 60, lines)) << lines;
-    recorder.send_signal(SIGTERM);
-    ASSERT_EQ(exit_code(recorder.wait_for(30s)), 0);
-  }
-  const RingRecordingReader recorded(out.path);
-  std::map<std::uint64_t, std::uint64_t> by_sweep;  // first sweep counter -> file group
+// Records a simulated ioct-rt run on `ring` into `path` until `groups` are written (then
+// SIGTERM, a clean finish).
+void record_simulated_run(const std::string& ring, const fs::path& path, std::uint64_t groups) {
+  ChildProcess rt = start("ioct-rt", small_rt(ring));
+  ChildProcess recorder = start("ioct-record", record_args(ring, path));
+  std::string lines;
+  ASSERT_TRUE(wait_for_groups_written(recorder, groups, lines)) << lines;
+  recorder.send_signal(SIGTERM);
+  ASSERT_EQ(exit_code(recorder.wait_for(30s)), 0);
+}
+
+// The recording's groups by their first sweep counter (a replay's groups are found by it).
+std::map<std::uint64_t, std::uint64_t> groups_by_first_sweep(const RingRecordingReader& recorded) {
+  std::map<std::uint64_t, std::uint64_t> by_sweep;
   shm::SlotHeader header{};
   for (std::uint64_t i = 0; i < recorded.group_count(); ++i) {
     recorded.read_header(i, header);
     by_sweep[header.first_sweep_counter] = i;
   }
+  return by_sweep;
+}
+
+TEST(IoctRecord, ReplayThroughIoctRtPublishesTheRecordedGroupsBitForBit) {
+  const test_support::ScopedShmName ring("record-live");
+  const test_support::ScopedShmName replay_ring("record-replay");
+  const TempPath out("replay");
+  ASSERT_NO_FATAL_FAILURE(record_simulated_run(ring.str(), out.path, 60));
+  const RingRecordingReader recorded(out.path);
+  const std::map<std::uint64_t, std::uint64_t> by_sweep = groups_by_first_sweep(recorded);
+  shm::SlotHeader header{};
 
   std::vector<std::string> arguments = small_rt(replay_ring.str());
   // Played at a fifth of the recorded rate (the ring recording leaves the timing to the
@@ -371,21 +382,10 @@ TEST(IoctRecord, ReplaySpeedPacesTheGroupsFasterAndKeepsThemBitForBit) {
   const test_support::ScopedShmName ring("record-speed-live");
   const test_support::ScopedShmName replay_ring("record-speed");
   const TempPath out("speed");
-  {
-    ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
-    ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
-    std::string lines;
-    ASSERT_TRUE(wait_for_groups_written(recorder, 40, lines)) << lines;
-    recorder.send_signal(SIGTERM);
-    ASSERT_EQ(exit_code(recorder.wait_for(30s)), 0);
-  }
+  ASSERT_NO_FATAL_FAILURE(record_simulated_run(ring.str(), out.path, 40));
   const RingRecordingReader recorded(out.path);
-  std::map<std::uint64_t, std::uint64_t> by_sweep;  // first sweep counter -> file group
+  const std::map<std::uint64_t, std::uint64_t> by_sweep = groups_by_first_sweep(recorded);
   shm::SlotHeader header{};
-  for (std::uint64_t i = 0; i < recorded.group_count(); ++i) {
-    recorded.read_header(i, header);
-    by_sweep[header.first_sweep_counter] = i;
-  }
 
   constexpr double kSpeed = 4.0;
   constexpr double kAscanRateHz = 10000.0;  // recorded rate: 1 group per 64 ms or more
