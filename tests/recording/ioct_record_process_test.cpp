@@ -26,6 +26,7 @@
 #include "ioct/shm/ring_reader.hpp"
 #include "ioct/test_support/child_process.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"
+#include "recording_processes.hpp"
 
 namespace ioct::ringrec {
 namespace {
@@ -34,26 +35,8 @@ namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 using test_support::ChildProcess;
 
-std::vector<std::string> small_rt(const std::string& ring) {
-  return {"--ring",
-          ring,
-          "--samples",
-          "256",
-          "--ascans",
-          "128",
-          "--bscans-per-group",
-          "4",
-          "--bscans-per-volume",
-          "8",
-          "--rt-priority",
-          "0",
-          "--status-interval",
-          "5"};
-}
-
-ChildProcess start(const std::string& program, const std::vector<std::string>& arguments) {
-  return ChildProcess::spawn(test_support::sibling_executable(program), arguments);
-}
+using test::small_rt;
+using test::start;
 
 std::vector<std::string> record_args(const std::string& ring, const fs::path& out,
                                      std::vector<std::string> extra = {}) {

@@ -23,6 +23,7 @@
 #include "ioct/shm/reader_status.hpp"
 #include "ioct/test_support/child_process.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"
+#include "recording_processes.hpp"
 
 namespace ioct::ringrec {
 namespace {
@@ -31,9 +32,8 @@ namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 using test_support::ChildProcess;
 
-ChildProcess start(const std::string& program, const std::vector<std::string>& arguments) {
-  return ChildProcess::spawn(test_support::sibling_executable(program), arguments);
-}
+using test::small_rt;
+using test::start;
 
 int exit_code(const std::optional<int>& status) {
   if (!status.has_value()) return -1000;  // still running
@@ -120,9 +120,7 @@ TEST(IoctRecordStandby, StartStopAndStartAgainIntoASecondFileWhileIoctRtRuns) {
   const test_support::ScopedShmName ring("standby");
   const TempDirectory dir;
   const fs::path socket = dir.path / "record.sock";
-  ChildProcess rt = start(
-      "ioct-rt", {"--ring", ring.str(), "--samples", "256", "--ascans", "128", "--bscans-per-group",
-                  "4", "--bscans-per-volume", "8", "--rt-priority", "0", "--status-interval", "5"});
+  ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
   ChildProcess recorder =
       start("ioct-record",
             {"--ring", ring.str(), "--standby", "--out", dir.path.string(), "--control-socket",
@@ -214,9 +212,7 @@ TEST(IoctRecordStandby, ARecordingsSecondsEndItAndTheRecorderStaysInStandby) {
   const test_support::ScopedShmName ring("standby-timed");
   const TempDirectory dir;
   const fs::path socket = dir.path / "record.sock";
-  ChildProcess rt = start(
-      "ioct-rt", {"--ring", ring.str(), "--samples", "256", "--ascans", "128", "--bscans-per-group",
-                  "4", "--bscans-per-volume", "8", "--rt-priority", "0", "--status-interval", "5"});
+  ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
   ChildProcess recorder =
       start("ioct-record", {"--ring", ring.str(), "--standby", "--out", dir.path.string(),
                             "--control-socket", socket.string(), "--wait", "30"});
