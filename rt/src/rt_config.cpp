@@ -122,6 +122,27 @@ class Section {
     out = value->get();
   }
 
+  // An array of at most `max_items` strings.
+  void text_list(std::string_view key, std::vector<std::string>& out, std::size_t max_items) {
+    const toml::node* node = find(key);
+    if (node == nullptr) return;
+    const auto* array = node->as_array();
+    if (array == nullptr) wrong_type(key, *node, "an array of strings");
+    if (array->size() > max_items) {
+      fail(key, *node,
+           ConfigError(full(key), format_value(std::uint64_t{array->size()}) + " items",
+                       "must have at most " + format_value(std::uint64_t{max_items}))
+               .what());
+    }
+    std::vector<std::string> items;
+    for (const toml::node& item : *array) {
+      const auto* value = item.as_string();
+      if (value == nullptr) wrong_type(key, item, "an array of strings");
+      items.push_back(value->get());
+    }
+    out = std::move(items);
+  }
+
   void text(std::string_view key, std::string& out) {
     const toml::node* node = find(key);
     if (node == nullptr) return;
@@ -338,6 +359,8 @@ void read_tables(const toml::table& root, const std::string& origin, RtConfig& c
   simulation.real("mirror_damping", c.mirror_damping);
   simulation.integer("laser_watchdog_timeout_ms", c.laser_watchdog_timeout_ms, 0, 60'000);
   simulation.integer_or_auto("workers", c.simulation_workers, 0, RtConfig::kMaxSimulationWorkers);
+  simulation.text_list("instruments", c.simulation_instruments,
+                       RtConfig::kMaxSimulationInstruments);
   simulation.done();
 
   top.done();

@@ -96,6 +96,10 @@ struct RtConfig {
   // Threads synthesising the simulated digitizer's groups ahead; -1: "auto"
   // (sim::SimulationConfig::default_workers of this host), 0: on the acquisition thread.
   std::int64_t simulation_workers = -1;
+  // Instruments in the simulated scene, one line each (sim/instrument_spec.hpp), e.g.
+  // "forceps:x=0.1,depth=0.35,tremor-depth=0.08,tremor-hz=0.1".
+  std::vector<std::string> simulation_instruments;
+  static constexpr std::size_t kMaxSimulationInstruments = 4;
   static constexpr std::int64_t kMaxSimulationWorkers = 64;  // sim::SimulationConfig::kMaxWorkers
   // The worker count this host runs with (defined with the simulator's setup, rt_options.cpp).
   std::uint32_t resolved_simulation_workers() const noexcept;

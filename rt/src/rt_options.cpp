@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/sim/instrument_spec.hpp"
 #include "scan/scan_builder.hpp"
 #include "scan/scan_infeasible.hpp"
 
@@ -30,7 +31,7 @@ struct Override {
   void (*apply)(RtConfig&, const RtOptions&);
 };
 
-const std::array<Override, 15> kOverrides{{
+const std::array<Override, 16> kOverrides{{
     {"--ring", "ring.name", [](RtConfig& c, const RtOptions& o) { c.ring_name = o.ring; }},
     {"--slots", "ring.slots", [](RtConfig& c, const RtOptions& o) { c.ring_slots = o.slots; }},
     {"--group", "ring.group", [](RtConfig& c, const RtOptions& o) { c.ring_group = o.group; }},
@@ -57,6 +58,8 @@ const std::array<Override, 15> kOverrides{{
      }},
     {"--seed", "simulation.seed",
      [](RtConfig& c, const RtOptions& o) { c.simulation_seed = o.seed; }},
+    {"--sim-instrument", "simulation.instruments",
+     [](RtConfig& c, const RtOptions& o) { c.simulation_instruments = o.sim_instruments; }},
     {"--status-interval", "status.interval_s",
      [](RtConfig& c, const RtOptions& o) { c.status_interval_s = o.status_interval; }},
     {"--rt-priority", "realtime.priority",
@@ -74,11 +77,13 @@ bool given(const RtOptions& options, const char* option) {
 [[noreturn]] void rethrow_located(const RtOptions& options, const KeyPositions& positions,
                                   const std::string& key) {
   if (!options.config.empty()) {
+    // An item of a list ("simulation.instruments[1].x") is placed where the list is.
+    const std::string placed = key.substr(0, key.find('['));
     bool overridden = false;
     for (const Override& o : kOverrides) {
-      if (key == o.key && given(options, o.option)) overridden = true;
+      if (placed == o.key && given(options, o.option)) overridden = true;
     }
-    const auto at = positions.find(key);
+    const auto at = positions.find(placed);
     if (!overridden && at != positions.end()) {
       try {
         throw;
@@ -150,6 +155,10 @@ void add_rt_options(CLI::App& app, RtOptions& options) {
                  "ring.group: group that owns the ring (readers need it); default: this process's");
   app.add_option("--seed", options.seed, "simulation.seed: same seed, same bytes")
       ->capture_default_str();
+  app.add_option("--sim-instrument", options.sim_instruments,
+                 "simulation.instruments: an instrument in the simulated scene, "
+                 "KIND[:name=value,...] with KIND forceps, needle or scraper and names " +
+                     std::string(sim::kInstrumentSpecNames) + "; repeatable");
   app.add_option("--status-interval", options.status_interval,
                  "status.interval_s: seconds between status lines on stderr")
       ->capture_default_str();
@@ -228,6 +237,19 @@ RtSetup make_setup(const RtOptions& options) {
     simulation.bench.mirrors.damping = config.mirror_damping;
     simulation.bench.watchdog_timeout_ms = config.laser_watchdog_timeout_ms;
     simulation.workers = config.resolved_simulation_workers();
+    if (config.simulation_instruments.size() > RtConfig::kMaxSimulationInstruments) {
+      throw ConfigError(
+          "simulation.instruments",
+          format_value(std::uint64_t{config.simulation_instruments.size()}) + " items",
+          "must have at most " + format_value(std::uint64_t{RtConfig::kMaxSimulationInstruments}));
+    }
+    simulation.instruments.clear();
+    for (std::size_t i = 0; i < config.simulation_instruments.size(); ++i) {
+      const std::string key = "simulation.instruments[" + std::to_string(i) + "]";
+      simulation.instruments.push_back(
+          sim::parse_instrument_spec(config.simulation_instruments[i], key));
+      simulation.instruments.back().validate(key);
+    }
     // Under a real-time acquisition thread the simulator's workers run real-time too, below it.
     simulation.worker_priority = config.rt_priority > 0 ? 1 : 0;
     simulation.validate();

@@ -7,6 +7,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <vector>
 
 #include "ioct/hal/digitizer_config.hpp"
 #include "ioct/shm/ring_writer.hpp"
@@ -32,7 +33,8 @@ struct RtOptions {
   int rt_priority = 80;
   int cpu = -1;
   std::string pattern = "raster";
-  std::string control_socket;  // empty: none
+  std::string control_socket;                // empty: none
+  std::vector<std::string> sim_instruments;  // simulation.instruments
   // Run-time only (not configuration keys).
   std::string replay;         // play this recording (HDF5 ring or raw) instead of acquiring
   bool replay_once = false;   // stop at the recording's end instead of starting it again

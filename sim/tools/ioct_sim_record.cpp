@@ -9,7 +9,6 @@
 #include <CLI/CLI.hpp>
 
 #include <cstdio>
-#include <map>
 #include <memory>
 #include <optional>
 #include <string>
@@ -17,6 +16,7 @@
 
 #include "ioct/common/config_error.hpp"
 #include "ioct/recording/recording_writer.hpp"
+#include "ioct/sim/instrument_spec.hpp"
 #include "ioct/sim/raster_waveform.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "ioct/sim/simulated_galvo_output.hpp"
@@ -79,60 +79,6 @@ double number(const std::string& key, const std::string& text) {
   bad(key, "'" + text + "'", "must be a number");
 }
 
-// "forceps:x=0.1,y=0,depth=0.4,yaw=180,pitch=25,open=20,vx=0.05,tremor=0.01"
-sim::InstrumentConfig parse_tool(const std::string& spec, std::size_t index) {
-  const std::string key = "--tool[" + std::to_string(index) + "]";
-  const std::size_t colon = spec.find(':');
-  const std::string kind = spec.substr(0, colon);
-  sim::InstrumentConfig tool;
-  if (kind == "forceps") {
-    tool.kind = sim::InstrumentKind::forceps;
-  } else if (kind == "needle") {
-    tool.kind = sim::InstrumentKind::needle;
-  } else if (kind == "scraper") {
-    tool.kind = sim::InstrumentKind::scraper;
-  } else {
-    bad(key, "'" + kind + "'", "must start with forceps, needle or scraper");
-  }
-  if (colon == std::string::npos) return tool;
-  std::string rest = spec.substr(colon + 1);
-  std::size_t at = 0;
-  while (at <= rest.size()) {
-    const std::size_t comma = rest.find(',', at);
-    const std::string item =
-        rest.substr(at, comma == std::string::npos ? std::string::npos : comma - at);
-    at = comma == std::string::npos ? rest.size() + 1 : comma + 1;
-    if (item.empty()) continue;
-    const std::size_t eq = item.find('=');
-    if (eq == std::string::npos) bad(key, "'" + item + "'", "items are name=value");
-    const std::string name = item.substr(0, eq);
-    const auto value = static_cast<float>(number(key + "." + name, item.substr(eq + 1)));
-    const std::map<std::string, float*> fields{
-        {"x", &tool.pose.tip_x},
-        {"y", &tool.pose.tip_y},
-        {"depth", &tool.pose.tip_depth_fraction},
-        {"yaw", &tool.pose.yaw_deg},
-        {"pitch", &tool.pose.pitch_deg},
-        {"open", &tool.pose.jaw_opening_deg},
-        {"vx", &tool.motion.velocity_x},
-        {"vy", &tool.motion.velocity_y},
-        {"vdepth", &tool.motion.velocity_depth},
-        {"tremor", &tool.motion.tremor_x},
-        {"tremor-hz", &tool.motion.tremor_hz},
-        {"jaw-cycle", &tool.motion.jaw_cycle_deg},
-    };
-    const auto field = fields.find(name);
-    if (field == fields.end()) {
-      bad(key + "." + name, "'" + item + "'",
-          "known names: x, y, depth, yaw, pitch, open, vx, vy, vdepth, tremor, tremor-hz, "
-          "jaw-cycle");
-    }
-    *field->second = value;
-    if (name == "tremor") tool.motion.tremor_y = value;
-  }
-  return tool;
-}
-
 // "k_clock_dropout@3-5" or "usb_disconnect@7"
 FaultWindow parse_fault(const std::string& spec) {
   const std::size_t at = spec.find('@');
@@ -193,7 +139,8 @@ int run(const Options& o) {
   s.retina.macular_hole.enabled = o.macular_hole;
   s.retina.membrane.enabled = o.membrane;
   for (std::size_t i = 0; i < o.tools.size(); ++i)
-    s.instruments.push_back(parse_tool(o.tools[i], i));
+    s.instruments.push_back(
+        sim::parse_instrument_spec(o.tools[i], "--tool[" + std::to_string(i) + "]"));
   s.scan.ascans_per_bscan = o.ascans;
   s.scan.bscans_per_volume = o.bscans_per_volume;
   s.bench.mirrors.natural_hz = o.natural_hz;
@@ -304,7 +251,8 @@ int main(int argc, char** argv) {
   app.add_option("--tool", o.tools,
                  "instrument KIND[:name=value,...], KIND forceps|needle|scraper; names x, y "
                  "(scan units), depth (share of the axis), yaw, pitch, open (deg), vx, vy "
-                 "(scan units/s), vdepth, tremor, tremor-hz, jaw-cycle; repeatable");
+                 "(scan units/s), vdepth, tremor, tremor-depth, tremor-hz, jaw-cycle, jaw-hz; "
+                 "repeatable");
   app.add_flag("--galvo", o.galvo, "drive the beam through a simulated galvo with mirror dynamics");
   app.add_flag("--bidirectional", o.bidirectional, "bidirectional raster (implies --galvo)");
   app.add_option("--lead", o.lead, "galvo lead compensation, samples")->capture_default_str();

@@ -177,6 +177,62 @@ TEST(RtConfig, SemanticErrorsFromTheFileCarryItsLineAndFlagsOverrideTheFile) {
   EXPECT_EQ(make_setup(options).config.digitizer.samples_per_ascan, 1376u);
 }
 
+TEST(RtConfig, SimulatedInstrumentsComeFromTheFileOrTheFlagAndBadOnesAreLocated) {
+  const TempFile file(
+      "[simulation]\ninstruments = [\"forceps:x=0.1,depth=0.3,tremor-depth=0.05,tremor-hz=0.1\", "
+      "\"needle:y=-0.2\"]\n");
+  RtOptions options;
+  options.config = file.str();
+  options.given = std::set<std::string>{};
+  const RtSetup setup = make_setup(options);
+  ASSERT_EQ(setup.simulation.instruments.size(), 2u);
+  EXPECT_EQ(setup.simulation.instruments[0].kind, sim::InstrumentKind::forceps);
+  EXPECT_FLOAT_EQ(setup.simulation.instruments[0].pose.tip_x, 0.1f);
+  EXPECT_FLOAT_EQ(setup.simulation.instruments[0].pose.tip_depth_fraction, 0.3f);
+  EXPECT_FLOAT_EQ(setup.simulation.instruments[0].motion.tremor_depth, 0.05f);
+  EXPECT_FLOAT_EQ(setup.simulation.instruments[0].motion.tremor_hz, 0.1f);
+  EXPECT_EQ(setup.simulation.instruments[1].kind, sim::InstrumentKind::needle);
+  EXPECT_FLOAT_EQ(setup.simulation.instruments[1].pose.tip_y, -0.2f);
+
+  // --sim-instrument replaces the file's list.
+  options.sim_instruments = {"scraper:x=0.3"};
+  options.given = std::set<std::string>{"--sim-instrument"};
+  const RtSetup flagged = make_setup(options);
+  ASSERT_EQ(flagged.simulation.instruments.size(), 1u);
+  EXPECT_EQ(flagged.simulation.instruments[0].kind, sim::InstrumentKind::scraper);
+
+  // A bad item in the file is refused at the list's line, naming the item and what is allowed.
+  const TempFile bad("[simulation]\nseed = 3\ninstruments = [\"tweezers:x=0\"]\n");
+  options.config = bad.str();
+  options.given = std::set<std::string>{};
+  try {
+    make_setup(options);
+    FAIL() << "accepted";
+  } catch (const ConfigFileError& e) {
+    EXPECT_EQ(std::string(e.what()), bad.str() +
+                                         ":3:15: simulation.instruments[0] = 'tweezers': must "
+                                         "start with forceps, needle or scraper")
+        << e.what();
+  }
+  const TempFile range("[simulation]\ninstruments = [\"needle:pitch=120\"]\n");
+  options.config = range.str();
+  try {
+    make_setup(options);
+    FAIL() << "accepted";
+  } catch (const ConfigFileError& e) {
+    EXPECT_NE(std::string(e.what()).find("simulation.instruments[0].pose.pitch_deg = 120"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(error_for("[simulation]\ninstruments = \"needle\"\n"),
+            "bad.toml:2:15: simulation.instruments = \"needle\": must be an array of strings, not "
+            "a string");
+  EXPECT_NE(error_for("[simulation]\ninstruments = [\"needle\", \"needle\", \"needle\", "
+                      "\"needle\", \"needle\"]\n")
+                .find("simulation.instruments = 5 items: must have at most 4"),
+            std::string::npos);
+}
+
 TEST(RtConfig, AFlagsBadValueIsReportedAgainstTheFlag) {
   RtOptions options;
   options.samples = 7;

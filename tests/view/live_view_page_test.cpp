@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -51,7 +52,7 @@ class LiveViewPage : public ::testing::Test {
     ASSERT_TRUE(HeadlessChromium::find_executable().has_value())
         << "no Chromium: install the Debian package chromium (tools/setup.sh does)";
     name_ = ::testing::UnitTest::GetInstance()->current_test_info()->name();
-    appliance_ = std::make_unique<LiveAppliance>(ApplianceOptions{.tag = "page"});
+    appliance_ = std::make_unique<LiveAppliance>(appliance_options());
     appliance_->start_all();
     devtools::ChromiumOptions options;
     options.window_width = 1280;
@@ -78,6 +79,8 @@ class LiveViewPage : public ::testing::Test {
                 << appliance_->logs();
     }
   }
+
+  virtual ApplianceOptions appliance_options() const { return ApplianceOptions{.tag = "page"}; }
 
   void open(const std::string& url) { page_ = browser_->open_page(url, 20s); }
 
@@ -320,4 +323,53 @@ TEST_F(LiveViewPage, AViewerWhoDragsThePictureOrbitsItsOwnViewAndCanFollowAgain)
 }
 
 }  // namespace
+// Forceps above the retina, in the middle of the field (so the B-scan shown, the middle one,
+// passes through the tip), and ioct-gpu finding them.
+class LiveViewPageWithForceps : public LiveViewPage {
+ protected:
+  ApplianceOptions appliance_options() const override {
+    ApplianceOptions options{.tag = "tip"};
+    options.instruments = {"forceps:x=0.1,y=0,depth=0.3,yaw=180,pitch=20"};
+    return options;
+  }
+};
+
+TEST_F(LiveViewPageWithForceps, TipDistancesAreShownOverTheRenderAndTheTipMarkedOnTheBscan) {
+  open(appliance_->url("/"));
+  const std::string found =
+      live_with_frames(1) + " && ioctView.status.lastFrame.instrument?.state === 'found'";
+  ASSERT_FALSE(expect_within(found, 60s).is_null());
+  const nlohmann::json shown = page_->evaluate(R"((() => {
+    const e = document.getElementById('instrument-readout');
+    return { hidden: e.hidden, kind: e.className, text: e.textContent,
+             instrument: ioctView.status.lastFrame.instrument,
+             bscan: ioctView.status.lastFrame.bscan_index,
+             marked: ioctView.status.tipMarked };
+  })())",
+                                               5s);
+  const nlohmann::json& tip = shown.at("instrument");
+  EXPECT_FALSE(shown.at("hidden").get<bool>()) << shown;
+  // The forceps hang above the retina: both distances measured or inferred, the RPE farther
+  // below the tip than the ILM, and the page shows the RPE's as the frame carries it.
+  ASSERT_TRUE(tip.at("to_rpe_um").is_number()) << shown;
+  ASSERT_TRUE(tip.at("to_ilm_um").is_number()) << shown;
+  EXPECT_GT(tip.at("to_ilm_um").get<double>(), 0.0) << shown;
+  EXPECT_GT(tip.at("to_rpe_um").get<double>(), tip.at("to_ilm_um").get<double>()) << shown;
+  const std::string text = shown.at("text").get<std::string>();
+  const long rpe = std::lround(std::abs(tip.at("to_rpe_um").get<double>()));
+  EXPECT_NE(text.find("RPE"), std::string::npos) << text;
+  EXPECT_NE(text.find(std::to_string(rpe) + " µm"), std::string::npos) << text << " vs " << tip;
+  const std::string kind = shown.at("kind").get<std::string>();
+  EXPECT_TRUE(kind == "measured" || kind == "inferred") << kind;
+  // The tip lies in the field's middle: on or next to the B-scan shown, which marks it.
+  const double tip_bscan = tip.at("tip_voxel").at(0).get<double>();
+  EXPECT_NEAR(tip_bscan, shown.at("bscan").get<double>(), 1.5) << shown;
+  EXPECT_TRUE(shown.at("marked").get<bool>()) << shown;
+
+  const std::filesystem::path shot = kArtefacts / "surgeons-display-instrument.png";
+  page_->save_screenshot(shot, 10s);
+  EXPECT_GT(std::filesystem::file_size(shot), 10'000u) << shot;
+  EXPECT_TRUE(page_->take_page_errors().empty());
+}
+
 }  // namespace ioct::view_test

@@ -59,6 +59,57 @@ TEST_F(PageModules, FrameMessageIsParsedAsTheProtocolLaysItOut) {
   EXPECT_NE(parsed.at("truncated").get<std::string>().find("past the end"), std::string::npos);
 }
 
+TEST_F(PageModules, InstrumentReadoutTellsMeasuredInferredNoneAndWarningApart) {
+  const nlohmann::json r = with_module("instrument-readout.js", R"(
+    const tip = (extra) => Object.assign({state: 'found', instruments: 1, tip_voxel: [10, 64, 80],
+        tip_um: [1000, 500, 300], to_ilm_um: 84.6, to_rpe_um: 301.2, distance: 'measured',
+        translucent: false, warning: false, warn_rpe_um: 100}, extra);
+    const out = {};
+    out.off = m.describeInstrument({state: 'off'});
+    out.missing = m.describeInstrument(undefined);
+    out.none = m.describeInstrument({state: 'none'});
+    out.measured = m.describeInstrument(tip({}));
+    out.below = m.describeInstrument(tip({to_ilm_um: -35.4}));
+    out.inferred = m.describeInstrument(tip({distance: 'inferred'}));
+    out.unsegmented = m.describeInstrument(tip({distance: 'none', to_ilm_um: null, to_rpe_um: null}));
+    out.warning = m.describeInstrument(tip({to_rpe_um: 60, warning: true}));
+    // The marker: drawn on the B-scan through the tip, not on one 5 B-scans away; red pixels
+    // where the warning ring passes (right of the tip by its radius).
+    const canvas = document.createElement('canvas');
+    canvas.width = 128; canvas.height = 256;
+    const meta = {bscan_index: 10, bscans: 32, bscan_width: 128, bscan_height: 256,
+                  instrument: tip({warning: true})};
+    out.drawnHere = m.drawTipMarker(canvas, meta);
+    const r = Math.max(8, canvas.width / 40);
+    const px = canvas.getContext('2d').getImageData(Math.round(64.5 + r), 80, 1, 1).data;
+    out.ringPixel = [px[0], px[1], px[2], px[3]];
+    out.drawnElsewhere = m.drawTipMarker(canvas, Object.assign({}, meta, {bscan_index: 15}));
+    out.locator = m.tipOnLocator(meta);
+    out.locatorOff = m.tipOnLocator({bscans: 32, bscan_width: 128, instrument: {state: 'none'}});
+    return out;)");
+  EXPECT_FALSE(r.at("off").at("shown").get<bool>());
+  EXPECT_FALSE(r.at("missing").at("shown").get<bool>());
+  EXPECT_EQ(r.at("none").at("kind"), "none");
+  EXPECT_EQ(r.at("none").at("title"), "No instrument");
+  EXPECT_EQ(r.at("measured").at("kind"), "measured");
+  EXPECT_EQ(r.at("measured").at("lines"), (nlohmann::json{"RPE 301 µm above", "ILM 85 µm above"}));
+  EXPECT_EQ(r.at("below").at("lines").at(1), "ILM 35 µm below");
+  EXPECT_EQ(r.at("inferred").at("kind"), "inferred");
+  EXPECT_EQ(r.at("inferred").at("lines").at(0), "RPE ≈ 301 µm above");
+  EXPECT_EQ(r.at("unsegmented").at("kind"), "unknown");
+  EXPECT_EQ(r.at("warning").at("kind"), "warning");
+  EXPECT_EQ(r.at("warning").at("title"), "TIP WITHIN 100 µm OF THE RPE");
+  EXPECT_TRUE(r.at("drawnHere").get<bool>());
+  const nlohmann::json& ring = r.at("ringPixel");
+  EXPECT_GT(ring.at(0).get<int>(), 200) << ring;  // the warning's red
+  EXPECT_LT(ring.at(1).get<int>(), 150) << ring;
+  EXPECT_GT(ring.at(3).get<int>(), 50) << ring;  // drawn (antialiased at its edge)
+  EXPECT_FALSE(r.at("drawnElsewhere").get<bool>());
+  EXPECT_NEAR(r.at("locator").at("x").get<double>(), 64.5 / 128, 1e-9);
+  EXPECT_NEAR(r.at("locator").at("y").get<double>(), 10.5 / 32, 1e-9);
+  EXPECT_TRUE(r.at("locatorOff").is_null());
+}
+
 TEST_F(PageModules, SignalIsLiveOnlyWhileTheServerSaysSoRecentlyOverAnOpenConnection) {
   const nlohmann::json r = with_module("signal-watch.js", R"(
     let now = 0;

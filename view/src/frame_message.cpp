@@ -2,11 +2,48 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cmath>
+
 namespace ioct::view {
 namespace {
 
 double ms_between(std::uint64_t from, std::uint64_t to) {
   return from != 0 && to >= from ? static_cast<double>(to - from) * 1e-6 : 0.0;
+}
+
+nlohmann::json number(float v) {
+  return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
+}
+
+// The instrument the frame shows (docs/live-view.md, "Instrument"): state off / none / found;
+// for a tip its position and its signed distances to the ILM and the RPE, and where the surfaces
+// at the tip came from (measured / inferred / none).
+nlohmann::json instrument_json(const shm::FrameInstrument& in) {
+  const auto state = static_cast<shm::FrameInstrumentState>(in.state);
+  if (state == shm::FrameInstrumentState::none) return {{"state", "none"}};
+  if (state != shm::FrameInstrumentState::found) return {{"state", "off"}};
+  const char* source = "none";
+  switch (static_cast<shm::FrameDistanceSource>(in.distance_source)) {
+    case shm::FrameDistanceSource::measured:
+      source = "measured";
+      break;
+    case shm::FrameDistanceSource::inferred:
+      source = "inferred";
+      break;
+    default:
+      break;
+  }
+  return {
+      {"state", "found"},
+      {"instruments", in.instruments},
+      {"tip_voxel", {number(in.tip_voxel[0]), number(in.tip_voxel[1]), number(in.tip_voxel[2])}},
+      {"tip_um", {number(in.tip_um[0]), number(in.tip_um[1]), number(in.tip_um[2])}},
+      {"to_ilm_um", number(in.to_ilm_um)},
+      {"to_rpe_um", number(in.to_rpe_um)},
+      {"distance", source},
+      {"translucent", in.translucent != 0},
+      {"warning", in.warning != 0},
+      {"warn_rpe_um", number(in.warn_rpe_um)}};
 }
 
 }  // namespace
@@ -30,6 +67,7 @@ FrameMessage make_frame_message(const shm::Frame& frame, std::uint64_t now_ns) {
       {"bscans", m.bscans},
       {"bscan_width", m.bscan_width},
       {"bscan_height", m.bscan_height},
+      {"instrument", instrument_json(m.instrument)},
       // CLOCK_MONOTONIC, for clients on this machine: the group published by ioct-rt, placed in
       // the live volume, its frame rendered and written to the frame ring by ioct-gpu, and this
       // message made by ioct-view (so a client can tell where a frame's age comes from).

@@ -25,6 +25,7 @@
 #include "ioct/shm/shm_object.hpp"
 
 #include "device_stage_chain.hpp"
+#include "frame_instrument.hpp"
 #include "live_image_writer.hpp"
 
 namespace ioct::gpu::live {
@@ -386,6 +387,8 @@ void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered
     meta.stereo = render.config.view.stereo ? 1 : 0;
     const std::string_view mode = render::to_string(render.config.mode);
     std::copy_n(mode.data(), std::min(mode.size(), sizeof meta.mode - 1), meta.mode);
+    meta.instrument = frame_instrument(detector_ != nullptr ? &findings_ : nullptr,
+                                       config_.instruments.warn_rpe_um);
     publisher_->publish(meta, image_);
     publisher_->note_frame(shm::monotonic_ns() - started_ns);
     std::lock_guard lock(mutex_);

@@ -1,6 +1,7 @@
 // Where the current B-scan lies in the volume: the en face field as an outline, every B-scan
-// position as a faint line, the current one as a bright bar, and "B-scan i of n" beneath.
-export function drawBscanLocator(canvas, label, bscanIndex, bscans) {
+// position as a faint line, the current one as a bright bar, and "B-scan i of n" beneath; the
+// instrument's tip as a dot where it is (`tip`: fractions of the field, instrument-readout.js).
+export function drawBscanLocator(canvas, label, bscanIndex, bscans, tip = null) {
   const ctx = canvas.getContext('2d');
   const { width, height } = canvas;
   ctx.clearRect(0, 0, width, height);
@@ -31,5 +32,11 @@ export function drawBscanLocator(canvas, label, bscanIndex, bscans) {
   ctx.moveTo(pad, y);
   ctx.lineTo(pad + w, y);
   ctx.stroke();
+  if (tip) {
+    ctx.fillStyle = tip.colour;
+    ctx.beginPath();
+    ctx.arc(pad + tip.x * w, pad + tip.y * h, Math.max(4, Math.min(w, h) / 20), 0, 2 * Math.PI);
+    ctx.fill();
+  }
   label.textContent = `B-scan ${bscanIndex + 1} of ${bscans}`;
 }

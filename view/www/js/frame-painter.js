@@ -1,11 +1,14 @@
 // Draws frames onto the render and B-scan canvases as they come, newest first: while one frame
 // is being decoded, a newer one replaces any other waiting (a slow page drops frames, it never
 // falls behind). After drawing it calls onDrawn(meta), which tells the server (published → drawn).
+import { drawTipMarker } from './instrument-readout.js';
+
 export class FramePainter {
   constructor({ renderCanvas, bscanCanvas, onDrawn = () => {}, onProblem = () => {} }) {
     Object.assign(this, { renderCanvas, bscanCanvas, onDrawn, onProblem });
     this.busy = false;
     this.waiting = null;
+    this.tipMarked = false;  // the last B-scan drawn has the instrument's tip marked on it
   }
 
   paint(frame) {
@@ -34,7 +37,10 @@ export class FramePainter {
       bscan.byteLength > 0 ? createImageBitmap(new Blob([bscan], { type: 'image/jpeg' })) : null,
     ]);
     drawBitmap(this.renderCanvas, images[0]);
-    if (images[1]) drawBitmap(this.bscanCanvas, images[1]);
+    if (images[1]) {
+      drawBitmap(this.bscanCanvas, images[1]);
+      this.tipMarked = drawTipMarker(this.bscanCanvas, meta);
+    }
     for (const image of images) image?.close();
   }
 }

@@ -6,6 +6,7 @@ import { LiveSocket } from './live-socket.js';
 import { FramePainter } from './frame-painter.js';
 import { SignalWatch, formatAge } from './signal-watch.js';
 import { drawBscanLocator } from './bscan-locator.js';
+import { renderInstrumentReadout, tipOnLocator } from './instrument-readout.js';
 import { renderStateLine } from './state-line.js';
 
 const kBannerCheckMs = 100;
@@ -18,6 +19,7 @@ export function startLiveView({ token = '', onState = () => {}, onFrame = () => 
     bscan: $('bscan'),
     locator: $('bscan-locator'),
     locatorLabel: $('bscan-locator-label'),
+    instrument: $('instrument-readout'),
     stateLine: $('state-line'),
     banner: $('signal-banner'),
     bannerTitle: $('signal-banner-title'),
@@ -48,11 +50,14 @@ export function startLiveView({ token = '', onState = () => {}, onFrame = () => 
     onDrawn: (meta) => {
       status.framesDrawn += 1;
       status.lastFrame = meta;
+      status.tipMarked = painter.tipMarked;
       socket.send({ type: 'drawn', frame: meta.frame, view: meta.view });
       document.body.classList.toggle('stereo', Boolean(meta.stereo));
       if (elements.locator) {
-        drawBscanLocator(elements.locator, elements.locatorLabel, meta.bscan_index, meta.bscans);
+        drawBscanLocator(elements.locator, elements.locatorLabel, meta.bscan_index, meta.bscans,
+          tipOnLocator(meta));
       }
+      renderInstrumentReadout(elements.instrument, meta.instrument);
       onFrame(meta);
     },
   });

@@ -26,7 +26,8 @@ namespace ioct::shm {
 
 inline constexpr std::uint64_t kFrameRingMagic = 0x454D'4152'4654'4F49;  // "IOTFRAME" (LE)
 // 2: FrameRingStatus carries the stage times, latencies and device memory.
-inline constexpr std::uint32_t kFrameRingVersion = 2;
+// 3: FrameMeta carries the instrument finding of the volume state it shows.
+inline constexpr std::uint32_t kFrameRingVersion = 3;
 inline constexpr std::uint32_t kMaxFrameSlots = 64;
 inline constexpr std::uint64_t kMaxFramePayloadBytes = 64ull << 20;  // a 4K stereo JPEG is < 8 MiB
 inline constexpr std::size_t kFrameModeNameBytes = 24;
@@ -38,6 +39,36 @@ enum class SourceState : std::uint32_t {
   waiting = 0,        // no producer ring yet (ioct-rt not running), or not attached yet
   live = 1,           // attached, groups arriving
   producer_gone = 2,  // the producer closed or left its ring; the writer waits for it
+};
+
+// Instrument detection in the volume state a frame shows (FrameInstrument::state).
+enum class FrameInstrumentState : std::uint32_t {
+  off = 0,    // ioct-gpu runs without instrument detection
+  none = 1,   // detection runs and found no instrument
+  found = 2,  // the instrument nearest to the RPE is described
+};
+
+// Where the surfaces at the tip came from (FrameInstrument::distance_source).
+enum class FrameDistanceSource : std::uint32_t {
+  none = 0,      // no segmented surface near the tip: no distances
+  measured = 1,  // the tip's own A-scan, segmented
+  inferred = 2,  // under the tool: carried from the nearest measured A-scans
+};
+
+// The instrument a frame shows with its picture, so the distance and the picture always belong
+// to the same volume state. Distances in um of the depth axis, positive when the tip is above the
+// surface; NaN when unknown.
+struct FrameInstrument {
+  std::uint32_t state;            // FrameInstrumentState
+  std::uint32_t distance_source;  // FrameDistanceSource
+  std::uint32_t warning;          // 1: the tip is within warn_rpe_um of the RPE
+  std::uint32_t translucent;      // 1: a translucent tool (the tip's A-scans partly shadowed)
+  std::uint32_t instruments;      // instruments found; the one nearest to the RPE is described
+  float warn_rpe_um;              // the warning distance ioct-gpu was given
+  float tip_voxel[3];             // B-scan, A-scan, depth px (fractional)
+  float tip_um[3];                // x along a B-scan, y across B-scans, z in depth
+  float to_ilm_um;
+  float to_rpe_um;
 };
 
 // One frame's description. Trivially copyable; copied out whole by readers.
@@ -62,6 +93,7 @@ struct FrameMeta {
   std::uint32_t bscans;            // B-scans in the volume
   std::uint32_t stereo;            // 1: left | right eye side by side
   char mode[kFrameModeNameBytes];  // render mode name, NUL-terminated ("enhanced", ...)
+  FrameInstrument instrument;
 };
 
 // The pipeline's figures as the writer last reported them (FrameRingWriter::set_status).

@@ -60,39 +60,54 @@ LiveAppliance::LiveAppliance(ApplianceOptions options)
   }
 
   const std::string frames = ring_.str() + ".frames";
-  rt_ = std::make_unique<LoggedProcess>(
-      test_support::sibling_executable("ioct-rt"),
-      std::vector<std::string>{"--config",
-                               rt_config.string(),
-                               "--ring",
-                               ring_.str(),
-                               "--samples",
-                               std::to_string(options_.samples),
-                               "--ascans",
-                               std::to_string(options_.ascans),
-                               "--bscans-per-group",
-                               std::to_string(options_.bscans_per_group),
-                               "--bscans-per-volume",
-                               std::to_string(options_.bscans_per_volume),
-                               "--ascan-rate",
-                               std::to_string(options_.ascan_rate_hz),
-                               "--rt-priority",
-                               "0",  // CI runs unprivileged as often as not
-                               "--seed",
-                               "7",
-                               "--control-socket",
-                               control_socket_,
-                               "--seconds",
-                               "0"},
-      folder_ / "ioct-rt.log");
-  gpu_ = std::make_unique<LoggedProcess>(
-      test_support::sibling_executable("ioct-gpu"),
-      std::vector<std::string>{
-          "--ring", ring_.str(), "--out", (folder_ / "gpu").string(), "--wait", "20",
-          "--status-interval", "1", "--render-width", std::to_string(options_.render_width),
-          "--render-height", std::to_string(options_.render_height), "--frames", frames,
-          "--view-socket", view_socket_, "--snapshot-dir", (folder_ / "snapshots").string()},
-      folder_ / "ioct-gpu.log");
+  std::vector<std::string> rt_args{"--config",
+                                   rt_config.string(),
+                                   "--ring",
+                                   ring_.str(),
+                                   "--samples",
+                                   std::to_string(options_.samples),
+                                   "--ascans",
+                                   std::to_string(options_.ascans),
+                                   "--bscans-per-group",
+                                   std::to_string(options_.bscans_per_group),
+                                   "--bscans-per-volume",
+                                   std::to_string(options_.bscans_per_volume),
+                                   "--ascan-rate",
+                                   std::to_string(options_.ascan_rate_hz),
+                                   "--rt-priority",
+                                   "0",  // CI runs unprivileged as often as not
+                                   "--seed",
+                                   "7",
+                                   "--control-socket",
+                                   control_socket_,
+                                   "--seconds",
+                                   "0"};
+  for (const std::string& tool : options_.instruments) {
+    rt_args.insert(rt_args.end(), {"--sim-instrument", tool});
+  }
+  rt_ = std::make_unique<LoggedProcess>(test_support::sibling_executable("ioct-rt"),
+                                        std::move(rt_args), folder_ / "ioct-rt.log");
+  std::vector<std::string> gpu_args{"--ring",
+                                    ring_.str(),
+                                    "--out",
+                                    (folder_ / "gpu").string(),
+                                    "--wait",
+                                    "20",
+                                    "--status-interval",
+                                    "1",
+                                    "--render-width",
+                                    std::to_string(options_.render_width),
+                                    "--render-height",
+                                    std::to_string(options_.render_height),
+                                    "--frames",
+                                    frames,
+                                    "--view-socket",
+                                    view_socket_,
+                                    "--snapshot-dir",
+                                    (folder_ / "snapshots").string()};
+  if (!options_.instruments.empty()) gpu_args.emplace_back("--instruments");
+  gpu_ = std::make_unique<LoggedProcess>(test_support::sibling_executable("ioct-gpu"),
+                                         std::move(gpu_args), folder_ / "ioct-gpu.log");
   view_ = std::make_unique<LoggedProcess>(
       test_support::sibling_executable("ioct-view"),
       std::vector<std::string>{"--listen", "127.0.0.1:" + std::to_string(port_), "--frames", frames,

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "ioct/test_support/scoped_shm_name.hpp"
 #include "ioct/view_test/http_client.hpp"
@@ -30,6 +31,9 @@ struct ApplianceOptions {
   std::uint32_t render_height = 240;
   double stale_after_s = 1.0;  // ioct-view --stale-after (a loaded CI machine lags at times)
   std::string token = "operator-token-for-the-browser-tests";
+  // Instruments in the simulated scene (ioct-rt --sim-instrument); any turns on ioct-gpu's
+  // instrument detection (--instruments).
+  std::vector<std::string> instruments;
 };
 
 class LiveAppliance {
