@@ -6,7 +6,11 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include <cmath>
+#include <limits>
+
 #include "gpu_metrics.hpp"
+#include "instrument_metrics.hpp"
 #include "prometheus_exposition.hpp"
 #include "rt_metrics.hpp"
 
@@ -87,6 +91,40 @@ TEST(ViewMetrics, ASilentGpuShowsNoneOfItsLastFigures) {
   const Exposition e = gpu_text(f);
   EXPECT_EQ(e.families.size(), 1u);
   EXPECT_EQ(e.value("ioct_gpu_up"), 0.0);
+}
+
+TEST(ViewMetrics, TheTipsDistancesAreServedOnlyWhenKnownAndWhileTheGpuIsUp) {
+  shm::FrameInstrument in{};
+  const auto text = [&](bool up) {
+    std::string out;
+    view::write_instrument_metrics(in, up, out);
+    return parse_exposition(out);
+  };
+  EXPECT_TRUE(text(true).families.empty()) << "detection off: nothing";
+  in.state = static_cast<std::uint32_t>(shm::FrameInstrumentState::none);
+  EXPECT_EQ(text(true).value("ioct_instrument_found"), 0.0);
+  EXPECT_EQ(text(true).families.size(), 1u);
+
+  in.state = static_cast<std::uint32_t>(shm::FrameInstrumentState::found);
+  in.distance_source = static_cast<std::uint32_t>(shm::FrameDistanceSource::inferred);
+  in.warning = 1;
+  in.to_rpe_um = 80.0f;
+  in.to_ilm_um = -12.5f;
+  const Exposition e = text(true);
+  EXPECT_EQ(e.value("ioct_instrument_found"), 1.0);
+  EXPECT_EQ(e.value("ioct_instrument_warning"), 1.0);
+  EXPECT_EQ(e.value("ioct_instrument_distance_inferred"), 1.0);
+  EXPECT_NEAR(e.value("ioct_instrument_tip_to_rpe_meters"), 80e-6, 1e-12);
+  EXPECT_NEAR(e.value("ioct_instrument_tip_to_ilm_meters"), -12.5e-6, 1e-12);
+
+  // No surface near the tip: the distances are left out, not 0 (0 would read "touching").
+  in.to_rpe_um = std::numeric_limits<float>::quiet_NaN();
+  in.to_ilm_um = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_FALSE(text(true).has("ioct_instrument_tip_to_rpe_meters"));
+  EXPECT_FALSE(text(true).has("ioct_instrument_tip_to_ilm_meters"));
+  // A pipeline that stopped: its last tip is not served as current.
+  in.to_rpe_um = 80.0f;
+  EXPECT_TRUE(text(false).families.empty());
 }
 
 TEST(ViewMetrics, GpuStageTimesBecomeOneHistogramPerStageAndMemoryOnlyWhenKnown) {

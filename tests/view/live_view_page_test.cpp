@@ -366,6 +366,12 @@ TEST_F(LiveViewPageWithForceps, TipDistancesAreShownOverTheRenderAndTheTipMarked
   EXPECT_NEAR(tip_bscan, shown.at("bscan").get<double>(), 1.5) << shown;
   EXPECT_TRUE(shown.at("marked").get<bool>()) << shown;
 
+  // /metrics serves the same tip (the newest shared frame's; found, and its RPE distance).
+  const HttpReply metrics = appliance_->http("GET", "/metrics");
+  EXPECT_EQ(metrics.status, 200);
+  EXPECT_NE(metrics.body.find("\nioct_instrument_found 1\n"), std::string::npos) << metrics.body;
+  EXPECT_NE(metrics.body.find("\nioct_instrument_tip_to_rpe_meters "), std::string::npos);
+
   const std::filesystem::path shot = kArtefacts / "surgeons-display-instrument.png";
   page_->save_screenshot(shot, 10s);
   EXPECT_GT(std::filesystem::file_size(shot), 10'000u) << shot;

@@ -34,6 +34,7 @@ void Hub::leave(const Viewer* viewer) {
 
 void Hub::on_frame(const std::shared_ptr<const shm::Frame>& frame, std::uint64_t now_ns) {
   ++counters_.frames_in;
+  if (frame->meta.view_id == 0) instrument_ = frame->meta.instrument;
   FrameMessage message;  // made once, on first use, for every viewer of the frame's view
   std::vector<std::shared_ptr<Viewer>> to;
   for (auto it = viewers_.begin(); it != viewers_.end();) {

@@ -71,6 +71,8 @@ class Hub {
   LatencyRecord& published_to_sent() noexcept { return published_to_sent_; }
   LatencyRecord& published_to_drawn() noexcept { return published_to_drawn_; }
   HubCounters& counters() noexcept { return counters_; }
+  // The instrument of the newest frame of the shared view (state off until one came).
+  const shm::FrameInstrument& instrument() const noexcept { return instrument_; }
   // Open connections, HTTP and WebSocket (the listener's limit).
   int& connections() noexcept { return connections_; }
 
@@ -83,6 +85,7 @@ class Hub {
   LatencyRecord published_to_sent_;
   LatencyRecord published_to_drawn_;
   HubCounters counters_;
+  shm::FrameInstrument instrument_{};
   int connections_ = 0;
   std::function<void()> on_footswitch_;
 };

@@ -7,6 +7,7 @@
 #include <set>
 
 #include "gpu_metrics.hpp"
+#include "instrument_metrics.hpp"
 #include "prometheus_text.hpp"
 #include "recording_metrics.hpp"
 #include "rt_metrics.hpp"
@@ -295,6 +296,7 @@ std::string ViewApi::metrics() const {
   summary(out, "ioct_view_published_to_drawn_seconds",
           "group published by ioct-rt to its frame drawn by a page", hub.published_to_drawn());
   append_gpu_metrics(out, f);
+  write_instrument_metrics(hub_.instrument(), f.attached && f.writer_responding, out);
   append_rt_metrics(out, hub_.backends().rt_status);
   write_recording_metrics(hub_.backends().record_status, out);
   return out;
