@@ -186,10 +186,11 @@ FrameRingWriter::~FrameRingWriter() {
 }
 
 std::uint64_t FrameRingWriter::publish(FrameMeta meta, std::span<const std::byte> render,
-                                       std::span<const std::byte> bscan) {
+                                       std::span<const std::byte> bscan,
+                                       std::span<const std::byte> tip_bscans) {
   if (!object_) throw std::logic_error("frame ring: publish() after close()");
   FrameRingHeader& h = header_of(*object_);
-  const std::uint64_t bytes = std::uint64_t{render.size()} + bscan.size();
+  const std::uint64_t bytes = std::uint64_t{render.size()} + bscan.size() + tip_bscans.size();
   if (bytes > h.max_payload_bytes) {
     throw std::length_error("frame ring '" + object_->name() + "': a frame of " +
                             std::to_string(bytes) + " bytes does not fit its " +
@@ -206,11 +207,15 @@ std::uint64_t FrameRingWriter::publish(FrameMeta meta, std::span<const std::byte
   meta.t_written_ns = now;
   meta.render_bytes = static_cast<std::uint32_t>(render.size());
   meta.bscan_bytes = static_cast<std::uint32_t>(bscan.size());
+  meta.tip_bscans_bytes = static_cast<std::uint32_t>(tip_bscans.size());
   meta.mode[kFrameModeNameBytes - 1] = '\0';
   std::memcpy(&s.meta, &meta, sizeof meta);
   std::byte* payload = slot + kSlotHeaderBytes;
   if (!render.empty()) std::memcpy(payload, render.data(), render.size());
   if (!bscan.empty()) std::memcpy(payload + render.size(), bscan.data(), bscan.size());
+  if (!tip_bscans.empty()) {
+    std::memcpy(payload + render.size() + bscan.size(), tip_bscans.data(), tip_bscans.size());
+  }
 
   store_word(s.sequence, 2 * f + 2, std::memory_order_release);
   store_word(h.published, f + 1, std::memory_order_release);
@@ -299,7 +304,8 @@ bool FrameRingReader::read_next(Frame& out) {
       continue;
     }
     seqlock_copy(&out.meta, &s.meta, sizeof out.meta);
-    const std::uint64_t bytes = std::uint64_t{out.meta.render_bytes} + out.meta.bscan_bytes;
+    const std::uint64_t bytes =
+        std::uint64_t{out.meta.render_bytes} + out.meta.bscan_bytes + out.meta.tip_bscans_bytes;
     if (bytes <= h.max_payload_bytes) {
       out.payload.resize(bytes);
       seqlock_copy(out.payload.data(), slot + kSlotHeaderBytes, bytes);

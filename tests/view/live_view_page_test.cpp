@@ -344,7 +344,10 @@ TEST_F(LiveViewPageWithForceps, TipDistancesAreShownOverTheRenderAndTheTipMarked
     return { hidden: e.hidden, kind: e.className, text: e.textContent,
              instrument: ioctView.status.lastFrame.instrument,
              bscan: ioctView.status.lastFrame.bscan_index,
-             marked: ioctView.status.tipMarked };
+             marked: ioctView.status.tipMarked,
+             tipBscansBytes: ioctView.status.lastFrame.tip_bscans_bytes,
+             tipBscansShown: !document.getElementById('tip-bscans').hidden,
+             tipBscansWidth: document.getElementById('tip-bscans').width };
   })())",
                                                5s);
   const nlohmann::json& tip = shown.at("instrument");
@@ -365,6 +368,9 @@ TEST_F(LiveViewPageWithForceps, TipDistancesAreShownOverTheRenderAndTheTipMarked
   const double tip_bscan = tip.at("tip_voxel").at(0).get<double>();
   EXPECT_NEAR(tip_bscan, shown.at("bscan").get<double>(), 1.5) << shown;
   EXPECT_TRUE(shown.at("marked").get<bool>()) << shown;
+  // The B-scan pair through the tip (along | across the forceps) comes with the frame and shows.
+  EXPECT_GT(shown.at("tipBscansBytes").get<int>(), 1000) << shown;
+  EXPECT_TRUE(shown.at("tipBscansShown").get<bool>()) << shown;
 
   // /metrics serves the same tip (the newest shared frame's; found, and its RPE distance).
   const HttpReply metrics = appliance_->http("GET", "/metrics");

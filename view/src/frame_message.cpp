@@ -68,6 +68,9 @@ FrameMessage make_frame_message(const shm::Frame& frame, std::uint64_t now_ns) {
       {"bscan_width", m.bscan_width},
       {"bscan_height", m.bscan_height},
       {"instrument", instrument_json(m.instrument)},
+      {"tip_bscans_bytes", m.tip_bscans_bytes},
+      {"tip_bscan_width", m.tip_bscan_width},
+      {"tip_bscan_height", m.tip_bscan_height},
       // CLOCK_MONOTONIC, for clients on this machine: the group published by ioct-rt, placed in
       // the live volume, its frame rendered and written to the frame ring by ioct-gpu, and this
       // message made by ioct-view (so a client can tell where a frame's age comes from).

@@ -22,6 +22,7 @@ nlohmann::json to_json(const InstrumentFindings& findings) {
   for (const InstrumentTip& t : findings.tips) {
     tips.push_back({{"voxel", {number(t.bscan), number(t.ascan), number(t.depth_px)}},
                     {"um", {number(t.x_um), number(t.y_um), number(t.z_um)}},
+                    {"axis", {number(t.axis_x), number(t.axis_y)}},
                     {"to_ilm_um", number(t.to_ilm_um)},
                     {"to_rpe_um", number(t.to_rpe_um)},
                     {"distance", std::string(to_string(t.source))},

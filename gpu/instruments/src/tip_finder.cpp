@@ -318,6 +318,8 @@ InstrumentTip tip_of(const Footprint& fp, const InstrumentFindings& f,
   }
   tip.x_um = tip_x;
   tip.y_um = tip_y;
+  tip.axis_x = ux;
+  tip.axis_y = uy;
   tip.z_um = tip.depth_px * sampling.axial_um_per_px;
   return tip;
 }

@@ -25,7 +25,8 @@ FramePublisher::FramePublisher(const shm::FrameRingConfig& ring)
       writer_(ring),
       encode_pool_(encode_threads()),
       render_encoder_(85, kEncodeBands, encode_pool_),
-      bscan_encoder_(90, kEncodeBands, encode_pool_) {
+      bscan_encoder_(90, kEncodeBands, encode_pool_),
+      tip_bscans_encoder_(90, kEncodeBands, encode_pool_) {
   status_.source_state = static_cast<std::uint64_t>(shm::SourceState::waiting);
   {
     std::lock_guard lock(mutex_);
@@ -126,6 +127,19 @@ void FramePublisher::set_bscan(const segmentation::RgbImage& image, std::uint32_
   bscans_ = bscans;
 }
 
+void FramePublisher::set_tip_bscans(const instruments::TipBscans* pair) {
+  if (pair == nullptr || pair->width == 0 || pair->height == 0) {
+    tip_bscans_jpeg_.clear();
+    tip_bscan_width_ = tip_bscan_height_ = 0;
+    return;
+  }
+  const std::span<const std::byte> jpeg =
+      tip_bscans_encoder_.encode(pair->pixels, pair->stride(), pair->height, PixelLayout::gray);
+  tip_bscans_jpeg_.assign(jpeg.begin(), jpeg.end());
+  tip_bscan_width_ = pair->width;
+  tip_bscan_height_ = pair->height;
+}
+
 std::uint64_t FramePublisher::publish(shm::FrameMeta meta, const render::RgbaImage& render) {
   const std::span<const std::byte> jpeg =
       render_encoder_.encode(render.rgba, render.width, render.height, PixelLayout::rgba);
@@ -136,9 +150,11 @@ std::uint64_t FramePublisher::publish(shm::FrameMeta meta, const render::RgbaIma
   meta.bscan_height = bscan_height_;
   meta.bscan_index = bscan_index_;
   meta.bscans = bscans_;
+  meta.tip_bscan_width = tip_bscan_width_;
+  meta.tip_bscan_height = tip_bscan_height_;
   std::lock_guard lock(mutex_);
   if (closed_) return 0;
-  return writer_.publish(meta, jpeg, bscan_jpeg_);
+  return writer_.publish(meta, jpeg, bscan_jpeg_, tip_bscans_jpeg_);
 }
 
 }  // namespace ioct::gpu::live

@@ -376,6 +376,13 @@ void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered
       bscan_stale_ = false;
       bscan_shown_ = bscan;
     }
+    if (tip_bscans_stale_) {
+      // From the processed volume the detector read: the filters erase a tool's thin reflex.
+      const instruments::InstrumentTip* tip = findings_.nearest_tip();
+      if (tip != nullptr) instruments::cut_tip_bscans(input_, *tip, config_.sampling, tip_bscans_);
+      publisher_->set_tip_bscans(tip != nullptr ? &tip_bscans_ : nullptr);
+      tip_bscans_stale_ = false;
+    }
     shm::FrameMeta meta{};
     meta.view_id = render.view_id;
     meta.params_generation = render.generation;
@@ -418,6 +425,7 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
   if (detector_ != nullptr) {
     // On the processed B-scans: the median filter erases a tool's thin, tilted reflex.
     detector_->detect_group(input_, {first, count}, surfaces_, findings_);
+    tip_bscans_stale_ = true;
     t2_detected = shm::monotonic_ns();
     std::string line = instruments::describe(findings_);
     nlohmann::json json = instruments::to_json(findings_);

@@ -1,5 +1,6 @@
 // A binary WebSocket frame: u32 little-endian n, n bytes of JSON (the frame's description),
-// the render's JPEG (render_bytes), then the B-scan's JPEG (bscan_bytes).
+// the render's JPEG (render_bytes), the B-scan's JPEG (bscan_bytes), then the B-scan pair through
+// the instrument's tip (tip_bscans_bytes; 0 without an instrument).
 export function parseFrameMessage(buffer) {
   if (buffer.byteLength < 4) throw new Error(`frame message of ${buffer.byteLength} bytes`);
   const jsonBytes = new DataView(buffer).getUint32(0, true);
@@ -8,12 +9,14 @@ export function parseFrameMessage(buffer) {
   const renderStart = 4 + jsonBytes;
   const renderBytes = meta.render_bytes >>> 0;
   const bscanBytes = meta.bscan_bytes >>> 0;
-  if (renderStart + renderBytes + bscanBytes > buffer.byteLength) {
+  const tipBytes = meta.tip_bscans_bytes >>> 0;
+  if (renderStart + renderBytes + bscanBytes + tipBytes > buffer.byteLength) {
     throw new Error('frame message: images run past the end');
   }
   return {
     meta,
     render: new Uint8Array(buffer, renderStart, renderBytes),
     bscan: new Uint8Array(buffer, renderStart + renderBytes, bscanBytes),
+    tipBscans: new Uint8Array(buffer, renderStart + renderBytes + bscanBytes, tipBytes),
   };
 }

@@ -1,11 +1,11 @@
 // Draws frames onto the render and B-scan canvases as they come, newest first: while one frame
 // is being decoded, a newer one replaces any other waiting (a slow page drops frames, it never
 // falls behind). After drawing it calls onDrawn(meta), which tells the server (published → drawn).
-import { drawTipMarker } from './instrument-readout.js';
+import { drawTipMarker, drawTipBscanMarkers } from './instrument-readout.js';
 
 export class FramePainter {
-  constructor({ renderCanvas, bscanCanvas, onDrawn = () => {}, onProblem = () => {} }) {
-    Object.assign(this, { renderCanvas, bscanCanvas, onDrawn, onProblem });
+  constructor({ renderCanvas, bscanCanvas, tipCanvas = null, onDrawn = () => {}, onProblem = () => {} }) {
+    Object.assign(this, { renderCanvas, bscanCanvas, tipCanvas, onDrawn, onProblem });
     this.busy = false;
     this.waiting = null;
     this.tipMarked = false;  // the last B-scan drawn has the instrument's tip marked on it
@@ -31,15 +31,25 @@ export class FramePainter {
     this.busy = false;
   }
 
-  async draw({ meta, render, bscan }) {
+  async draw({ meta, render, bscan, tipBscans }) {
+    const jpeg = (bytes) => createImageBitmap(new Blob([bytes], { type: 'image/jpeg' }));
+    const tipShown = Boolean(this.tipCanvas && tipBscans && tipBscans.byteLength > 0);
     const images = await Promise.all([
-      createImageBitmap(new Blob([render], { type: 'image/jpeg' })),
-      bscan.byteLength > 0 ? createImageBitmap(new Blob([bscan], { type: 'image/jpeg' })) : null,
+      jpeg(render),
+      bscan.byteLength > 0 ? jpeg(bscan) : null,
+      tipShown ? jpeg(tipBscans) : null,
     ]);
     drawBitmap(this.renderCanvas, images[0]);
     if (images[1]) {
       drawBitmap(this.bscanCanvas, images[1]);
       this.tipMarked = drawTipMarker(this.bscanCanvas, meta);
+    }
+    if (this.tipCanvas) {
+      this.tipCanvas.hidden = !tipShown;
+      if (images[2]) {
+        drawBitmap(this.tipCanvas, images[2]);
+        drawTipBscanMarkers(this.tipCanvas, meta);
+      }
     }
     for (const image of images) image?.close();
   }

@@ -77,6 +77,37 @@ export function drawTipMarker(canvas, meta) {
   return true;
 }
 
+// The B-scan pair through the tip (along | across the instrument, side by side, the tip in each
+// half's centre column): a marker at the tip in each half.
+export function drawTipBscanMarkers(canvas, meta) {
+  const tip = tipOf(meta);
+  const w = meta.tip_bscan_width, h = meta.tip_bscan_height;
+  if (!tip || !(w > 0) || !(h > 0)) return false;
+  const sx = canvas.width / (2 * w), sy = canvas.height / h;
+  const r = Math.max(6, canvas.width / 60);
+  const ctx = canvas.getContext('2d');
+  ctx.save();
+  ctx.lineWidth = Math.max(2, r / 4);
+  ctx.strokeStyle = markerColour(meta.instrument);
+  ctx.setLineDash(meta.instrument.distance === 'inferred' ? [r / 2, r / 3] : []);
+  for (const half of [0, 1]) {
+    const x = (half * w + Math.floor(w / 2) + 0.5) * sx;
+    const y = (tip.depth + 0.5) * sy;
+    ctx.beginPath();
+    ctx.arc(x, y, r, 0, 2 * Math.PI);
+    ctx.stroke();
+  }
+  // The seam between the two B-scans.
+  ctx.setLineDash([]);
+  ctx.strokeStyle = 'rgba(140, 170, 170, 0.6)';
+  ctx.beginPath();
+  ctx.moveTo(canvas.width / 2, 0);
+  ctx.lineTo(canvas.width / 2, canvas.height);
+  ctx.stroke();
+  ctx.restore();
+  return true;
+}
+
 // Where the tip lies en face, for the B-scan locator: fractions of the field across the A-scans
 // (x) and the B-scans (y), or null.
 export function tipOnLocator(meta) {

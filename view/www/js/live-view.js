@@ -20,6 +20,7 @@ export function startLiveView({ token = '', onState = () => {}, onFrame = () => 
     locator: $('bscan-locator'),
     locatorLabel: $('bscan-locator-label'),
     instrument: $('instrument-readout'),
+    tipBscans: $('tip-bscans'),
     stateLine: $('state-line'),
     banner: $('signal-banner'),
     bannerTitle: $('signal-banner-title'),
@@ -46,6 +47,7 @@ export function startLiveView({ token = '', onState = () => {}, onFrame = () => 
   const painter = new FramePainter({
     renderCanvas: elements.render,
     bscanCanvas: elements.bscan,
+    tipCanvas: elements.tipBscans,
     onProblem: reportProblem,
     onDrawn: (meta) => {
       status.framesDrawn += 1;

@@ -26,7 +26,8 @@ namespace ioct::shm {
 
 inline constexpr std::uint64_t kFrameRingMagic = 0x454D'4152'4654'4F49;  // "IOTFRAME" (LE)
 // 2: FrameRingStatus carries the stage times, latencies and device memory.
-// 3: FrameMeta carries the instrument finding of the volume state it shows.
+// 3: FrameMeta carries the instrument finding of the volume state it shows, and the payload the
+//    B-scan pair through the instrument's tip.
 inline constexpr std::uint32_t kFrameRingVersion = 3;
 inline constexpr std::uint32_t kMaxFrameSlots = 64;
 inline constexpr std::uint64_t kMaxFramePayloadBytes = 64ull << 20;  // a 4K stereo JPEG is < 8 MiB
@@ -85,13 +86,20 @@ struct FrameMeta {
   std::uint32_t format;                // FrameFormat
   std::uint32_t width;                 // the render, px (stereo: both eyes side by side)
   std::uint32_t height;
-  std::uint32_t render_bytes;      // payload [0, render_bytes): the render, encoded
-  std::uint32_t bscan_bytes;       // payload [render_bytes, + bscan_bytes): the B-scan, or 0
-  std::uint32_t bscan_width;       // A-scans
-  std::uint32_t bscan_height;      // depth px
-  std::uint32_t bscan_index;       // which B-scan of the volume (its position, 0 = first)
-  std::uint32_t bscans;            // B-scans in the volume
-  std::uint32_t stereo;            // 1: left | right eye side by side
+  std::uint32_t render_bytes;  // payload [0, render_bytes): the render, encoded
+  std::uint32_t bscan_bytes;   // payload [render_bytes, + bscan_bytes): the B-scan, or 0
+  std::uint32_t bscan_width;   // A-scans
+  std::uint32_t bscan_height;  // depth px
+  std::uint32_t bscan_index;   // which B-scan of the volume (its position, 0 = first)
+  std::uint32_t bscans;        // B-scans in the volume
+  std::uint32_t stereo;        // 1: left | right eye side by side
+  // payload [render_bytes + bscan_bytes, + tip_bscans_bytes): the B-scan pair through the
+  // instrument's tip (along | across its axis, side by side, the tip in each half's centre
+  // column), encoded; 0 bytes without an instrument. Each half tip_bscan_width x tip_bscan_height.
+  std::uint32_t tip_bscans_bytes;
+  std::uint32_t tip_bscan_width;
+  std::uint32_t tip_bscan_height;
+  std::uint32_t reserved_meta;
   char mode[kFrameModeNameBytes];  // render mode name, NUL-terminated ("enhanced", ...)
   FrameInstrument instrument;
 };
@@ -167,11 +175,13 @@ class FrameRingWriter {
   FrameRingWriter& operator=(FrameRingWriter&&) noexcept;
   ~FrameRingWriter();  // close()
 
-  // Publishes one frame: `meta` (frame_index and t_written_ns are set here; render_bytes and
-  // bscan_bytes from the spans) and its payload. Returns the frame index. Throws
-  // std::length_error when the payload does not fit max_payload_bytes (nothing is published).
+  // Publishes one frame: `meta` (frame_index and t_written_ns are set here; render_bytes,
+  // bscan_bytes and tip_bscans_bytes from the spans) and its payload. Returns the frame index.
+  // Throws std::length_error when the payload does not fit max_payload_bytes (nothing is
+  // published).
   std::uint64_t publish(FrameMeta meta, std::span<const std::byte> render,
-                        std::span<const std::byte> bscan);
+                        std::span<const std::byte> bscan,
+                        std::span<const std::byte> tip_bscans = {});
   void heartbeat(std::uint64_t now_ns) noexcept;
   void set_status(const FrameRingStatus& status) noexcept;
   // Marks the ring closed and removes the name (readers keep their mapping and see closed).
@@ -192,6 +202,9 @@ struct Frame {
   std::span<const std::byte> render() const { return {payload.data(), meta.render_bytes}; }
   std::span<const std::byte> bscan() const {
     return {payload.data() + meta.render_bytes, meta.bscan_bytes};
+  }
+  std::span<const std::byte> tip_bscans() const {
+    return {payload.data() + meta.render_bytes + meta.bscan_bytes, meta.tip_bscans_bytes};
   }
 };
 

@@ -37,6 +37,8 @@ struct InstrumentTip {
   bool translucent = false;            // the tip's A-scans are partly shadowed (the paddle)
   double bscan = 0.0, ascan = 0.0, depth_px = 0.0;  // voxels
   double x_um = 0.0, y_um = 0.0, z_um = 0.0;        // um from the first voxel
+  // The instrument's axis en face (unit, in um): from the shaft towards the tip.
+  double axis_x = 1.0, axis_y = 0.0;
   double ilm_px = kNone, rpe_px = kNone;            // the surfaces at the tip's lateral position
   double to_ilm_um = kNone, to_rpe_um = kNone;      // signed, see above
   DistanceSource source = DistanceSource::none;

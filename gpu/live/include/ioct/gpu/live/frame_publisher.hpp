@@ -18,6 +18,7 @@
 #include <thread>
 #include <vector>
 
+#include "ioct/gpu/instruments/tip_bscans.hpp"
 #include "ioct/gpu/live/banded_jpeg_encoder.hpp"
 #include "ioct/gpu/live_stage.hpp"
 #include "ioct/gpu/render/rgba_image.hpp"
@@ -38,6 +39,9 @@ class FramePublisher {
   // The B-scan sent with the following frames (publishing thread): encoded once here, since it
   // changes only with a pass or the chosen position. `image` is the B-scan with depth downwards.
   void set_bscan(const segmentation::RgbImage& image, std::uint32_t index, std::uint32_t bscans);
+  // The B-scan pair through the instrument's tip sent with the following frames (publishing
+  // thread), encoded once here; null: none (no instrument, or detection off).
+  void set_tip_bscans(const instruments::TipBscans* pair);
 
   // Encodes `render` and publishes it with the current B-scan (publishing thread). `meta` gives
   // the view, generation, group stamp, times and mode; the sizes are filled in here. Returns the
@@ -81,6 +85,9 @@ class FramePublisher {
   BandedJpegEncoder bscan_encoder_;
   std::vector<std::byte> bscan_jpeg_;
   std::uint32_t bscan_width_ = 0, bscan_height_ = 0, bscan_index_ = 0, bscans_ = 0;
+  BandedJpegEncoder tip_bscans_encoder_;
+  std::vector<std::byte> tip_bscans_jpeg_;
+  std::uint32_t tip_bscan_width_ = 0, tip_bscan_height_ = 0;
 
   std::thread heartbeat_;
 };

@@ -38,6 +38,7 @@
 #include "ioct/gpu/filters/filter_config.hpp"
 #include "ioct/gpu/instruments/instrument_config.hpp"
 #include "ioct/gpu/instruments/instrument_findings.hpp"
+#include "ioct/gpu/instruments/tip_bscans.hpp"
 #include "ioct/gpu/latency_histogram.hpp"
 #include "ioct/gpu/live/view_control.hpp"
 #include "ioct/gpu/live/view_set.hpp"
@@ -231,6 +232,8 @@ class VolumeStages final : public LiveStage, public ViewControl {
   std::unique_ptr<segmentation::Segmenter> segmenter_;
   std::unique_ptr<instruments::InstrumentDetector> detector_;  // null unless enabled
   instruments::InstrumentFindings findings_;
+  instruments::TipBscans tip_bscans_;  // through the nearest tip, cut when frames need them
+  bool tip_bscans_stale_ = false;      // new findings since the publisher encoded the pair
   std::unique_ptr<render::Renderer> renderer_;
   std::unique_ptr<LiveImageWriter> image_writer_;  // render.png, off the stages' thread
   Volume input_;
