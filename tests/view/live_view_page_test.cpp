@@ -345,6 +345,7 @@ TEST_F(LiveViewPageWithForceps, TipDistancesAreShownOverTheRenderAndTheTipMarked
              instrument: ioctView.status.lastFrame.instrument,
              bscan: ioctView.status.lastFrame.bscan_index,
              marked: ioctView.status.tipMarked,
+             onRender: ioctView.status.tipOnRender,
              tipBscansBytes: ioctView.status.lastFrame.tip_bscans_bytes,
              tipBscansShown: !document.getElementById('tip-bscans').hidden,
              tipBscansWidth: document.getElementById('tip-bscans').width };
@@ -368,6 +369,8 @@ TEST_F(LiveViewPageWithForceps, TipDistancesAreShownOverTheRenderAndTheTipMarked
   const double tip_bscan = tip.at("tip_voxel").at(0).get<double>();
   EXPECT_NEAR(tip_bscan, shown.at("bscan").get<double>(), 1.5) << shown;
   EXPECT_TRUE(shown.at("marked").get<bool>()) << shown;
+  // ... and over the render (enhanced, auto-rotating): ioct-gpu placed it in the picture.
+  EXPECT_TRUE(shown.at("onRender").get<bool>()) << shown;
   // The B-scan pair through the tip (along | across the forceps) comes with the frame and shows.
   EXPECT_GT(shown.at("tipBscansBytes").get<int>(), 1000) << shown;
   EXPECT_TRUE(shown.at("tipBscansShown").get<bool>()) << shown;

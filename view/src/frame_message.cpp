@@ -43,7 +43,10 @@ nlohmann::json instrument_json(const shm::FrameInstrument& in) {
       {"distance", source},
       {"translucent", in.translucent != 0},
       {"warning", in.warning != 0},
-      {"warn_rpe_um", number(in.warn_rpe_um)}};
+      {"warn_rpe_um", number(in.warn_rpe_um)},
+      {"render_xy",
+       {{number(in.render_x[0]), number(in.render_y[0])},
+        {number(in.render_x[1]), number(in.render_y[1])}}}};
 }
 
 }  // namespace

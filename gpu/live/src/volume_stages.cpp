@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
@@ -15,6 +16,7 @@
 #include "ioct/gpu/instruments/findings_json.hpp"
 #include "ioct/gpu/instruments/instrument_detector.hpp"
 #include "ioct/gpu/live/frame_publisher.hpp"
+#include "ioct/gpu/render/frame_setup.hpp"
 #include "ioct/gpu/render/png_rgba.hpp"
 #include "ioct/gpu/render/render_params_json.hpp"
 #include "ioct/gpu/render/renderer.hpp"
@@ -394,8 +396,7 @@ void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered
     meta.stereo = render.config.view.stereo ? 1 : 0;
     const std::string_view mode = render::to_string(render.config.mode);
     std::copy_n(mode.data(), std::min(mode.size(), sizeof meta.mode - 1), meta.mode);
-    meta.instrument = frame_instrument(detector_ != nullptr ? &findings_ : nullptr,
-                                       config_.instruments.warn_rpe_um);
+    meta.instrument = instrument_for(render.config);
     publisher_->publish(meta, image_);
     publisher_->note_frame(shm::monotonic_ns() - started_ns);
     std::lock_guard lock(mutex_);
@@ -407,6 +408,21 @@ void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered
     ++figures_.frame_errors;
     figures_.frame_problem = e.what();
   }
+}
+
+shm::FrameInstrument VolumeStages::instrument_for(const render::RenderConfig& shown) const {
+  if (detector_ == nullptr)
+    return frame_instrument(nullptr, config_.instruments.warn_rpe_um, nullptr);
+  // The render's camera, to place the tip over the picture (the tables are not needed for it).
+  std::optional<render::RenderParams> camera;
+  if (findings_.nearest_tip() != nullptr && !filtered_.pixels().empty()) {
+    try {
+      camera = render::bake_params(shown, VolumeDims::of(filtered_), 0.0f);
+    } catch (const std::exception&) {
+      // A config the renderer took is baked the same way; without a camera the tip is not placed.
+    }
+  }
+  return frame_instrument(&findings_, config_.instruments.warn_rpe_um, camera ? &*camera : nullptr);
 }
 
 void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups) {

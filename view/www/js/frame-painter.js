@@ -1,7 +1,7 @@
 // Draws frames onto the render and B-scan canvases as they come, newest first: while one frame
 // is being decoded, a newer one replaces any other waiting (a slow page drops frames, it never
 // falls behind). After drawing it calls onDrawn(meta), which tells the server (published → drawn).
-import { drawTipMarker, drawTipBscanMarkers } from './instrument-readout.js';
+import { drawTipMarker, drawTipBscanMarkers, drawRenderTipMarker } from './instrument-readout.js';
 
 export class FramePainter {
   constructor({ renderCanvas, bscanCanvas, tipCanvas = null, onDrawn = () => {}, onProblem = () => {} }) {
@@ -9,6 +9,7 @@ export class FramePainter {
     this.busy = false;
     this.waiting = null;
     this.tipMarked = false;  // the last B-scan drawn has the instrument's tip marked on it
+    this.tipOnRender = false;  // ... and the last render
   }
 
   paint(frame) {
@@ -40,6 +41,7 @@ export class FramePainter {
       tipShown ? jpeg(tipBscans) : null,
     ]);
     drawBitmap(this.renderCanvas, images[0]);
+    this.tipOnRender = drawRenderTipMarker(this.renderCanvas, meta);
     if (images[1]) {
       drawBitmap(this.bscanCanvas, images[1]);
       this.tipMarked = drawTipMarker(this.bscanCanvas, meta);

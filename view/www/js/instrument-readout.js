@@ -55,12 +55,31 @@ export function drawTipMarker(canvas, meta) {
   if (Math.abs(tip.bscan - meta.bscan_index) > 1.5) return false;
   const x = ((tip.ascan + 0.5) / meta.bscan_width) * canvas.width;
   const y = ((tip.depth + 0.5) / meta.bscan_height) * canvas.height;
-  const r = Math.max(8, canvas.width / 40);
+  ring(canvas, meta.instrument, x, y, Math.max(8, canvas.width / 40));
+  return true;
+}
+
+// The tip over the render just drawn, where ioct-gpu placed it in each eye's image (render_xy,
+// output px; null where it is not in the picture or the mode is planar).
+export function drawRenderTipMarker(canvas, meta) {
+  if (!tipOf(meta) || !Array.isArray(meta.instrument.render_xy) || !(meta.width > 0)) return false;
+  const scale = canvas.width / meta.width;
+  let drawn = false;
+  for (const point of meta.instrument.render_xy) {
+    if (!Array.isArray(point) || !point.every(Number.isFinite)) continue;
+    ring(canvas, meta.instrument, point[0] * scale, point[1] * scale,
+      Math.max(5, canvas.width / (meta.stereo ? 180 : 90)));
+    drawn = true;
+  }
+  return drawn;
+}
+
+function ring(canvas, instrument, x, y, r) {
   const ctx = canvas.getContext('2d');
   ctx.save();
   ctx.lineWidth = Math.max(2, r / 4);
-  ctx.strokeStyle = markerColour(meta.instrument);
-  ctx.setLineDash(meta.instrument.distance === 'inferred' ? [r / 2, r / 3] : []);
+  ctx.strokeStyle = markerColour(instrument);
+  ctx.setLineDash(instrument.distance === 'inferred' ? [r / 2, r / 3] : []);
   ctx.beginPath();
   ctx.arc(x, y, r, 0, 2 * Math.PI);
   ctx.stroke();
@@ -74,7 +93,6 @@ export function drawTipMarker(canvas, meta) {
   ctx.lineTo(x, y - 1.2 * r);
   ctx.stroke();
   ctx.restore();
-  return true;
 }
 
 // The B-scan pair through the tip (along | across the instrument, side by side, the tip in each

@@ -53,6 +53,7 @@ export function startLiveView({ token = '', onState = () => {}, onFrame = () => 
       status.framesDrawn += 1;
       status.lastFrame = meta;
       status.tipMarked = painter.tipMarked;
+      status.tipOnRender = painter.tipOnRender;
       socket.send({ type: 'drawn', frame: meta.frame, view: meta.view });
       document.body.classList.toggle('stereo', Boolean(meta.stereo));
       if (elements.locator) {

@@ -70,6 +70,10 @@ struct FrameInstrument {
   float tip_um[3];                // x along a B-scan, y across B-scans, z in depth
   float to_ilm_um;
   float to_rpe_um;
+  // Where the tip appears in the frame's render, px of the output image (per eye; the right
+  // eye's to the right of the left's); NaN where it does not (outside, or a planar mode).
+  float render_x[2];
+  float render_y[2];
 };
 
 // One frame's description. Trivially copyable; copied out whole by readers.

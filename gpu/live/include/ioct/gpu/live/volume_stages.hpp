@@ -49,6 +49,7 @@
 #include "ioct/gpu/segmentation/segmentation_config.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
 #include "ioct/gpu/volume.hpp"
+#include "ioct/shm/frame_ring.hpp"
 
 namespace ioct::gpu::filters {
 class VolumeFilter;
@@ -195,6 +196,8 @@ class VolumeStages final : public LiveStage, public ViewControl {
   // The render in image_ to the frame ring, to the snapshots waiting for it, and its figures.
   void deliver(const DueRender& render, std::uint64_t rendered_ns, SnapshotWaiters& waiters);
   void publish_frame(const DueRender& render, std::uint64_t rendered_ns);
+  // The instrument a frame of `shown` carries, placed in its render.
+  shm::FrameInstrument instrument_for(const render::RenderConfig& shown) const;
   // A change of the views under the lock, then the stages' thread woken; returns the generation.
   std::uint64_t change_views(const std::function<std::uint64_t(ViewSet&, std::uint64_t)>& change);
   render::RenderConfig live_view() const;
