@@ -1,4 +1,4 @@
-// The raw recording reader (sim/recording), as ioct-process and the replay digitizer use it: the
+// The raw recording reader (recording/raw), as ioct-process and the replay digitizer use it: the
 // metadata (rec.json), then every group record and its ground truth. The input is
 //   <rec.json text> NUL <u32 LE: bytes of rec.raw> <rec.raw> <rec.truth>
 // so the seeds (tests/fuzz/corpus/recording/) are small real recordings in one file; the

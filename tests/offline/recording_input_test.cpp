@@ -1,4 +1,4 @@
-// ioct-process on raw recordings (sim/recording): the recording's metadata gives the dimensions,
+// ioct-process on raw recordings (recording/raw): the recording's metadata gives the dimensions,
 // the calibration, the dispersion and the scan direction; --volume picks one of its volumes; a
 // damaged recording or a volume it does not hold is refused with no output left. The last test
 // records the simulator with ioct-sim-record and finds its RPE at the ground truth.

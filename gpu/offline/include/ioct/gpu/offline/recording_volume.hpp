@@ -1,4 +1,4 @@
-// One volume of a raw recording (sim/recording: STEM.json + STEM.raw, written by ioct-sim-record
+// One volume of a raw recording (recording/raw: STEM.json + STEM.raw, written by ioct-sim-record
 // or a bench recording) as a source of spectra for offline processing. The recording's metadata
 // also says how to process it: its calibration (λ → k resampling), its dispersion and whether
 // odd lines run backwards; recording_processing_hints() hands them out.
