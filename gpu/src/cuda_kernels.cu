@@ -2,7 +2,7 @@
 
 #include "cuda_kernels.cuh"
 #include "ioct/gpu/background_removal.hpp"
-#include "ioct/gpu/cuda_support.hpp"
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/host_device.hpp"
 
 namespace ioct::gpu::cuda {
@@ -148,8 +148,6 @@ __global__ void log_u8(const float2* __restrict__ bins, std::uint32_t distance, 
   }
 }
 
-__global__ void probe() {}
-
 std::uint32_t blocks(std::uint64_t items, std::uint32_t per_block) {
   return static_cast<std::uint32_t>((items + per_block - 1) / per_block);
 }
@@ -212,10 +210,6 @@ void launch_log_u8(const float2* bins, std::uint32_t distance, std::uint32_t wid
   const dim3 grid(width, job.count);
   log_u8<<<grid, threads, 0, stream>>>(bins, distance, width, depth, job, gain, offset, target);
   check_launch("log_u8");
-}
-
-const void* probe_kernel() {
-  return reinterpret_cast<const void*>(&probe);
 }
 
 }  // namespace ioct::gpu::cuda

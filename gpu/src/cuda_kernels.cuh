@@ -69,7 +69,4 @@ void launch_log_u8(const float2* bins, std::uint32_t distance, std::uint32_t wid
                    std::uint32_t depth, const PixelJob& job, float gain, float offset,
                    std::uint8_t* target, cudaStream_t stream);
 
-// A kernel of this library, to ask the runtime whether the binary has code for the device.
-const void* probe_kernel();
-
 }  // namespace ioct::gpu::cuda

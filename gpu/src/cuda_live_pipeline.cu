@@ -2,9 +2,9 @@
 #include <deque>
 #include <limits>
 
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/cuda_live_pipeline.hpp"
 #include "ioct/gpu/cuda_oct_processor.hpp"
-#include "ioct/gpu/cuda_support.hpp"
 #include "ioct/gpu/group_check.hpp"
 #include "ioct/gpu/repeats.hpp"
 

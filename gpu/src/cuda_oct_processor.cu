@@ -2,8 +2,8 @@
 #include <stdexcept>
 
 #include "cuda_kernels.cuh"
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/cuda_oct_processor.hpp"
-#include "ioct/gpu/cuda_support.hpp"
 #include "ioct/gpu/group_check.hpp"
 #include "ioct/gpu/repeats.hpp"
 #include "ioct/gpu/spectral_tables.hpp"

@@ -37,8 +37,8 @@
 #include <vector>
 
 #include "host_description.hpp"
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/cuda_oct_processor.hpp"
-#include "ioct/gpu/cuda_support.hpp"
 #include "ioct/gpu/filters/cuda_volume_filter.hpp"
 #include "ioct/gpu/live/volume_stages.hpp"
 #include "ioct/gpu/live_pipeline.hpp"

@@ -25,7 +25,7 @@
 #if IOCT_GPU_WITH_CUDA
 #include <cuda_runtime.h>
 
-#include "ioct/gpu/cuda_support.hpp"
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #endif
 
 namespace ioct::gpu::live {

@@ -10,7 +10,7 @@
 #if IOCT_GPU_WITH_CUDA && IOCT_FILTERS_HAVE_CUDA && IOCT_SEGMENTATION_HAVE_CUDA && \
     IOCT_RENDER_HAVE_CUDA
 #define IOCT_LIVE_DEVICE_CHAIN 1
-#include "ioct/gpu/cuda_support.hpp"
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/filters/cuda_volume_filter.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"

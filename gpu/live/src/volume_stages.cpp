@@ -10,7 +10,7 @@
 
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
-#include "ioct/gpu/device_memory.hpp"
+#include "ioct/gpu/cuda/device_memory.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
 #include "ioct/gpu/instruments/findings_json.hpp"
 #include "ioct/gpu/instruments/instrument_detector.hpp"

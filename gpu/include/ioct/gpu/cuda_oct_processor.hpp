@@ -28,10 +28,6 @@ struct CUevent_st;
 
 namespace ioct::gpu {
 
-// Why the cuda backend cannot run on this machine (no driver, no GPU, a GPU this build has no
-// code for, with the rebuild flag), or nothing when it can.
-std::optional<std::string> cuda_device_problem();
-
 // Where the u8 pixels of a group's output B-scans go in device memory: output B-scan o to
 // B-scan position[o] of `pixels`, whose B-scans are the group's width x depth; -1 skips it.
 struct DevicePixelTarget {

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <cstring>
 
-#include "ioct/gpu/host_device_function.hpp"
+#include "ioct/gpu/cuda/host_device_function.hpp"
 
 namespace ioct::gpu {
 

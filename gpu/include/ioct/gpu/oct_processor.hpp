@@ -18,6 +18,7 @@
 #include <string_view>
 
 #include "ioct/gpu/background_removal.hpp"
+#include "ioct/gpu/cuda/backend.hpp"
 #include "ioct/gpu/db_scale.hpp"
 #include "ioct/gpu/dispersion.hpp"
 #include "ioct/gpu/fftw_r2c_plan.hpp"
@@ -80,31 +81,8 @@ class OctProcessor {
   virtual std::string_view backend_name() const noexcept = 0;
 };
 
-enum class Backend {
-  cpu,
-  cuda,
-  automatic,  // "auto": cuda when a usable device is present, else cpu
-};
-
-std::string_view to_string(Backend backend) noexcept;
-// Throws ConfigError("backend", ...) naming the accepted values.
-Backend parse_backend(std::string_view text);
-
-// Why the cuda backend cannot run here ("built without CUDA", "no CUDA device", "compute
-// capability 7.5 is not supported by this build ..."), or nothing when it can.
-std::optional<std::string> cuda_unavailable_reason();
-
-// cpu or cuda for `requested`: automatic becomes cuda when cuda_unavailable_reason() is empty,
-// else cpu, and then `warning` (when given) says why.
-Backend resolve_backend(Backend requested, std::string* warning = nullptr);
-
 // Throws ConfigError for a bad config and BackendUnavailable for a backend this build or
 // machine lacks (naming why).
 std::unique_ptr<OctProcessor> make_oct_processor(Backend backend, const OctProcessorConfig& config);
-
-class BackendUnavailable : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
 
 }  // namespace ioct::gpu

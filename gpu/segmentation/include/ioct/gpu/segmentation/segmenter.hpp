@@ -26,7 +26,7 @@
 #include <memory>
 #include <string_view>
 
-#include "ioct/gpu/oct_processor.hpp"  // Backend, BackendUnavailable
+#include "ioct/gpu/cuda/backend.hpp"  // Backend, BackendUnavailable
 #include "ioct/gpu/segmentation/segmentation_config.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
 #include "ioct/gpu/volume.hpp"

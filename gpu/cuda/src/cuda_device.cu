@@ -3,10 +3,9 @@
 #include <optional>
 #include <string>
 
-#include "cuda_kernels.cuh"
-#include "ioct/gpu/cuda_oct_processor.hpp"
-#include "ioct/gpu/cuda_support.hpp"
-#include "ioct/gpu/device_memory.hpp"
+#include "ioct/gpu/cuda/backend.hpp"
+#include "ioct/gpu/cuda/cuda_support.hpp"
+#include "ioct/gpu/cuda/device_memory.hpp"
 
 #ifndef IOCT_CUDA_ARCHITECTURES
 #define IOCT_CUDA_ARCHITECTURES "unknown"
@@ -44,6 +43,10 @@ std::string describe(cufftResult status) {
 
 namespace {
 
+// A kernel of this library, to ask the runtime whether the binary has code for the device (the
+// stages' kernels are built for the same CMAKE_CUDA_ARCHITECTURES).
+__global__ void probe() {}
+
 std::optional<std::string> find_device_problem() {
   int count = 0;
   const cudaError_t status = cudaGetDeviceCount(&count);
@@ -61,7 +64,8 @@ std::optional<std::string> find_device_problem() {
   }
   // The kernels only run if the binary carries code (SASS or PTX) this GPU can use.
   cudaFuncAttributes attributes{};
-  if (const cudaError_t e = cudaFuncGetAttributes(&attributes, cuda::probe_kernel());
+  if (const cudaError_t e =
+          cudaFuncGetAttributes(&attributes, reinterpret_cast<const void*>(&probe));
       e != cudaSuccess) {
     cudaGetLastError();
     const std::string cc = std::to_string(props.major) + "." + std::to_string(props.minor);

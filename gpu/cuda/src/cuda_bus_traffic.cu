@@ -1,7 +1,7 @@
 // The counted host <-> device copy of cuda_support.hpp.
 #include <atomic>
 
-#include "ioct/gpu/cuda_support.hpp"
+#include "ioct/gpu/cuda/cuda_support.hpp"
 
 namespace ioct::gpu::cuda {
 namespace {
