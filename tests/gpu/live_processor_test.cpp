@@ -13,7 +13,7 @@
 #include <thread>
 
 #include "ioct/gpu/live_processor.hpp"
-#include "ioct/gpu/png_file.hpp"
+#include "ioct/gpu/volume/png_file.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "live_ring_fixture.hpp"
 

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "ioct/gpu/live_pipeline.hpp"
-#include "ioct/gpu/volume_assembler.hpp"
+#include "ioct/gpu/volume/volume_assembler.hpp"
 
 namespace ioct::gpu {
 

@@ -16,8 +16,8 @@
 
 #include "ioct/gpu/live_stage.hpp"
 #include "ioct/gpu/oct_processor.hpp"
-#include "ioct/gpu/volume.hpp"
-#include "ioct/gpu/volume_book.hpp"
+#include "ioct/gpu/volume/volume.hpp"
+#include "ioct/gpu/volume/volume_book.hpp"
 #include "ioct/shm/ring_reader.hpp"
 
 namespace ioct::gpu {

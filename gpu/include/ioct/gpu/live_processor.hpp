@@ -24,8 +24,8 @@
 #include "ioct/gpu/latency_histogram.hpp"
 #include "ioct/gpu/live_stage.hpp"
 #include "ioct/gpu/oct_processor.hpp"
-#include "ioct/gpu/projections.hpp"
-#include "ioct/gpu/volume_assembler.hpp"
+#include "ioct/gpu/volume/projections.hpp"
+#include "ioct/gpu/volume/volume_assembler.hpp"
 #include "ioct/shm/ring_geometry.hpp"
 #include "ioct/shm/ring_reader.hpp"
 

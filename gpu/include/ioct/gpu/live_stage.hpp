@@ -12,8 +12,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ioct/gpu/volume.hpp"
-#include "ioct/gpu/volume_ref.hpp"
+#include "ioct/gpu/volume/volume.hpp"
+#include "ioct/gpu/volume/volume_ref.hpp"
 
 namespace ioct::gpu {
 

@@ -22,9 +22,9 @@
 #include "ioct/gpu/db_scale.hpp"
 #include "ioct/gpu/dispersion.hpp"
 #include "ioct/gpu/fftw_r2c_plan.hpp"
-#include "ioct/gpu/processed_group.hpp"
 #include "ioct/gpu/resampling.hpp"
 #include "ioct/gpu/spectral_window.hpp"
+#include "ioct/gpu/volume/processed_group.hpp"
 #include "ioct/shm/ring_geometry.hpp"
 #include "ioct/shm/ring_layout.hpp"
 

@@ -11,7 +11,7 @@
 #include <span>
 
 #include "ioct/gpu/db_scale.hpp"
-#include "ioct/gpu/processed_group.hpp"
+#include "ioct/gpu/volume/processed_group.hpp"
 
 namespace ioct::gpu {
 

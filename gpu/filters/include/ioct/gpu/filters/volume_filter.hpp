@@ -13,8 +13,8 @@
 #include "ioct/gpu/cuda/backend.hpp"  // Backend, BackendUnavailable
 #include "ioct/gpu/filters/bscan_range.hpp"
 #include "ioct/gpu/filters/filter_config.hpp"
-#include "ioct/gpu/volume.hpp"
-#include "ioct/gpu/volume_ref.hpp"
+#include "ioct/gpu/volume/volume.hpp"
+#include "ioct/gpu/volume/volume_ref.hpp"
 
 namespace ioct::gpu::filters {
 

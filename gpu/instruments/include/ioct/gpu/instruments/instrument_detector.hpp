@@ -15,7 +15,7 @@
 #include "ioct/gpu/instruments/instrument_findings.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"  // BscanSpan
 #include "ioct/gpu/segmentation/surfaces.hpp"
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 
 namespace ioct::gpu::instruments {
 

@@ -13,7 +13,7 @@
 #include "ioct/gpu/offline/progress_bar.hpp"
 #include "ioct/gpu/offline/raw_spectra_file.hpp"
 #include "ioct/gpu/offline/spectra_source.hpp"
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 
 namespace ioct::gpu::offline {
 

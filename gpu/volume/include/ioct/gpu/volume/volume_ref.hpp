@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <stdexcept>
 
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 
 struct CUstream_st;
 

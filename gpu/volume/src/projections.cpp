@@ -1,4 +1,4 @@
-#include "ioct/gpu/projections.hpp"
+#include "ioct/gpu/volume/projections.hpp"
 
 #include <algorithm>
 #include <string>

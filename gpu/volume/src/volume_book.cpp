@@ -1,4 +1,4 @@
-#include "ioct/gpu/volume_book.hpp"
+#include "ioct/gpu/volume/volume_book.hpp"
 
 #include <algorithm>
 #include <stdexcept>

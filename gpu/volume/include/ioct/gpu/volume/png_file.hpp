@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <span>
 
-#include "ioct/gpu/gray_image.hpp"
+#include "ioct/gpu/volume/gray_image.hpp"
 
 namespace ioct::gpu {
 

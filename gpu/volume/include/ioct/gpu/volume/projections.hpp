@@ -4,8 +4,8 @@
 #include <cstdint>
 #include <string_view>
 
-#include "ioct/gpu/gray_image.hpp"
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume/gray_image.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 
 namespace ioct::gpu {
 

@@ -1,4 +1,4 @@
-#include "ioct/gpu/volume_assembler.hpp"
+#include "ioct/gpu/volume/volume_assembler.hpp"
 
 #include <algorithm>
 #include <stdexcept>

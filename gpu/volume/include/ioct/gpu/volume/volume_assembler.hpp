@@ -8,9 +8,9 @@
 #include <optional>
 #include <vector>
 
-#include "ioct/gpu/processed_group.hpp"
-#include "ioct/gpu/volume.hpp"
-#include "ioct/gpu/volume_book.hpp"
+#include "ioct/gpu/volume/processed_group.hpp"
+#include "ioct/gpu/volume/volume.hpp"
+#include "ioct/gpu/volume/volume_book.hpp"
 
 namespace ioct::gpu {
 

@@ -1,4 +1,4 @@
-#include "ioct/gpu/png_file.hpp"
+#include "ioct/gpu/volume/png_file.hpp"
 
 #include <png.h>
 
