@@ -4,9 +4,9 @@
 
 #include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/cuda_live_pipeline.hpp"
-#include "ioct/gpu/cuda_oct_processor.hpp"
-#include "ioct/gpu/group_check.hpp"
-#include "ioct/gpu/repeats.hpp"
+#include "ioct/gpu/processing/cuda_oct_processor.hpp"
+#include "ioct/gpu/processing/group_check.hpp"
+#include "ioct/gpu/processing/repeats.hpp"
 
 namespace ioct::gpu {
 namespace {

@@ -18,8 +18,8 @@
 
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
-#include "ioct/gpu/dispersion_estimator.hpp"
 #include "ioct/gpu/offline/calibration_file.hpp"
+#include "ioct/gpu/processing/dispersion_estimator.hpp"
 #include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_reader.hpp"

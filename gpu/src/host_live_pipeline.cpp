@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "ioct/gpu/group_check.hpp"
+#include "ioct/gpu/processing/group_check.hpp"
 
 namespace ioct::gpu {
 

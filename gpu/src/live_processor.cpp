@@ -9,8 +9,8 @@
 
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
-#include "ioct/gpu/group_check.hpp"
 #include "ioct/gpu/live_pipeline.hpp"
+#include "ioct/gpu/processing/group_check.hpp"
 #include "ioct/gpu/run_summary_json.hpp"
 #include "ioct/gpu/volume/png_file.hpp"
 #include "ioct/shm/monotonic_clock.hpp"

@@ -8,7 +8,7 @@
 
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/live_processor.hpp"
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 #include "ioct/gpu/volume/projections.hpp"
 
 namespace ioct::gpu {

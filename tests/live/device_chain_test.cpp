@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "ioct/gpu/live/volume_stages.hpp"
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 #include "layered_volume.hpp"
 
 #if IOCT_GPU_WITH_CUDA

@@ -12,7 +12,7 @@
 
 #include "ioct/gpu/filters/volume_filter.hpp"
 #include "ioct/gpu/live/volume_stages.hpp"
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 #include "live_volumes.hpp"
 
 namespace ioct::gpu::live {

@@ -15,7 +15,7 @@
 #include <string_view>
 
 #include "ioct/gpu/live_stage.hpp"
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 #include "ioct/gpu/volume/volume.hpp"
 #include "ioct/gpu/volume/volume_book.hpp"
 #include "ioct/shm/ring_reader.hpp"

@@ -23,7 +23,7 @@
 
 #include "ioct/gpu/latency_histogram.hpp"
 #include "ioct/gpu/live_stage.hpp"
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 #include "ioct/gpu/volume/projections.hpp"
 #include "ioct/gpu/volume/volume_assembler.hpp"
 #include "ioct/shm/ring_geometry.hpp"

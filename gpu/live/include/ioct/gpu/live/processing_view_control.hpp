@@ -7,7 +7,7 @@
 #include <functional>
 #include <mutex>
 
-#include "ioct/gpu/db_scale.hpp"
+#include "ioct/gpu/processing/db_scale.hpp"
 #include "ioct/gpu/live/view_control.hpp"
 
 namespace ioct::gpu::live {

@@ -42,7 +42,7 @@
 #include "ioct/gpu/live/view_control.hpp"
 #include "ioct/gpu/live/view_set.hpp"
 #include "ioct/gpu/live_stage.hpp"
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 #include "ioct/gpu/render/render_config.hpp"
 #include "ioct/gpu/render/rgba_image.hpp"
 #include "ioct/gpu/segmentation/segmentation_config.hpp"

@@ -14,9 +14,9 @@
 #include <span>
 #include <vector>
 
-#include "ioct/gpu/db_scale.hpp"
-#include "ioct/gpu/oct_processor.hpp"
-#include "ioct/gpu/resampling.hpp"
+#include "ioct/gpu/processing/db_scale.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
+#include "ioct/gpu/processing/resampling.hpp"
 
 namespace ioct::gpu {
 

@@ -1,4 +1,4 @@
-#include "ioct/gpu/dispersion_estimator.hpp"
+#include "ioct/gpu/processing/dispersion_estimator.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,11 +9,11 @@
 #include <stdexcept>
 
 #include "ioct/common/config_error.hpp"
-#include "ioct/gpu/cpu_oct_processor.hpp"
-#include "ioct/gpu/fftw_c2c_plan.hpp"
-#include "ioct/gpu/group_check.hpp"
-#include "ioct/gpu/spectral_tables.hpp"
-#include "ioct/gpu/volume_sharpness.hpp"
+#include "ioct/gpu/processing/cpu_oct_processor.hpp"
+#include "ioct/gpu/processing/fftw_c2c_plan.hpp"
+#include "ioct/gpu/processing/group_check.hpp"
+#include "ioct/gpu/processing/spectral_tables.hpp"
+#include "ioct/gpu/processing/volume_sharpness.hpp"
 
 namespace ioct::gpu {
 namespace {

@@ -5,7 +5,7 @@
 #include <mutex>
 #include <string>
 
-#include "ioct/gpu/fftw_r2c_plan.hpp"
+#include "ioct/gpu/processing/fftw_r2c_plan.hpp"
 
 namespace ioct::gpu {
 

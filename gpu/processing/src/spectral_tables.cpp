@@ -1,4 +1,4 @@
-#include "ioct/gpu/spectral_tables.hpp"
+#include "ioct/gpu/processing/spectral_tables.hpp"
 
 #include <numeric>
 

@@ -1,11 +1,11 @@
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 
 #include <string>
 
 #include "ioct/common/config_error.hpp"
-#include "ioct/gpu/cpu_oct_processor.hpp"
+#include "ioct/gpu/processing/cpu_oct_processor.hpp"
 #if IOCT_GPU_WITH_CUDA
-#include "ioct/gpu/cuda_oct_processor.hpp"
+#include "ioct/gpu/processing/cuda_oct_processor.hpp"
 #endif
 
 namespace ioct::gpu {

@@ -1,4 +1,4 @@
-#include "ioct/gpu/db_scale.hpp"
+#include "ioct/gpu/processing/db_scale.hpp"
 
 #include <algorithm>
 #include <cmath>

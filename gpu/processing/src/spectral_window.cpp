@@ -1,4 +1,4 @@
-#include "ioct/gpu/spectral_window.hpp"
+#include "ioct/gpu/processing/spectral_window.hpp"
 
 #include <cmath>
 #include <numbers>

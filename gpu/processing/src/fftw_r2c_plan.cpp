@@ -1,4 +1,4 @@
-#include "ioct/gpu/fftw_r2c_plan.hpp"
+#include "ioct/gpu/processing/fftw_r2c_plan.hpp"
 
 #include <fftw3.h>
 #include <unistd.h>

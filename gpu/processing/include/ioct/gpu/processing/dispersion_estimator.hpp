@@ -52,8 +52,8 @@
 #include <string>
 #include <vector>
 
-#include "ioct/gpu/fftw_c2c_plan.hpp"
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/processing/fftw_c2c_plan.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 
 namespace ioct::gpu {
 

@@ -1,4 +1,4 @@
-#include "ioct/gpu/group_check.hpp"
+#include "ioct/gpu/processing/group_check.hpp"
 
 #include <stdexcept>
 

@@ -18,7 +18,7 @@
 #include <string_view>
 #include <vector>
 
-#include "ioct/gpu/host_device.hpp"
+#include "ioct/gpu/processing/host_device.hpp"
 
 namespace ioct::gpu {
 

@@ -19,7 +19,7 @@
 #include <cstdint>
 #include <string_view>
 
-#include "ioct/gpu/host_device.hpp"
+#include "ioct/gpu/processing/host_device.hpp"
 
 namespace ioct::gpu {
 

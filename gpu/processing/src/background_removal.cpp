@@ -1,4 +1,4 @@
-#include "ioct/gpu/background_removal.hpp"
+#include "ioct/gpu/processing/background_removal.hpp"
 
 #include <algorithm>
 #include <stdexcept>

@@ -17,13 +17,13 @@
 #include <string>
 #include <string_view>
 
-#include "ioct/gpu/background_removal.hpp"
 #include "ioct/gpu/cuda/backend.hpp"
-#include "ioct/gpu/db_scale.hpp"
-#include "ioct/gpu/dispersion.hpp"
-#include "ioct/gpu/fftw_r2c_plan.hpp"
-#include "ioct/gpu/resampling.hpp"
-#include "ioct/gpu/spectral_window.hpp"
+#include "ioct/gpu/processing/background_removal.hpp"
+#include "ioct/gpu/processing/db_scale.hpp"
+#include "ioct/gpu/processing/dispersion.hpp"
+#include "ioct/gpu/processing/fftw_r2c_plan.hpp"
+#include "ioct/gpu/processing/resampling.hpp"
+#include "ioct/gpu/processing/spectral_window.hpp"
 #include "ioct/gpu/volume/processed_group.hpp"
 #include "ioct/shm/ring_geometry.hpp"
 #include "ioct/shm/ring_layout.hpp"

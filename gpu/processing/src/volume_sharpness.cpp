@@ -1,4 +1,4 @@
-#include "ioct/gpu/volume_sharpness.hpp"
+#include "ioct/gpu/processing/volume_sharpness.hpp"
 
 #include <array>
 #include <cmath>

@@ -3,10 +3,10 @@
 
 #include "cuda_kernels.cuh"
 #include "ioct/gpu/cuda/cuda_support.hpp"
-#include "ioct/gpu/cuda_oct_processor.hpp"
-#include "ioct/gpu/group_check.hpp"
-#include "ioct/gpu/repeats.hpp"
-#include "ioct/gpu/spectral_tables.hpp"
+#include "ioct/gpu/processing/cuda_oct_processor.hpp"
+#include "ioct/gpu/processing/group_check.hpp"
+#include "ioct/gpu/processing/repeats.hpp"
+#include "ioct/gpu/processing/spectral_tables.hpp"
 
 namespace ioct::gpu {
 

@@ -1,12 +1,12 @@
-#include "ioct/gpu/cpu_oct_processor.hpp"
+#include "ioct/gpu/processing/cpu_oct_processor.hpp"
 
 #include <algorithm>
 #include <bit>
 #include <stdexcept>
 
-#include "ioct/gpu/group_check.hpp"
-#include "ioct/gpu/line_flip.hpp"
-#include "ioct/gpu/repeats.hpp"
+#include "ioct/gpu/processing/group_check.hpp"
+#include "ioct/gpu/processing/line_flip.hpp"
+#include "ioct/gpu/processing/repeats.hpp"
 
 namespace ioct::gpu {
 namespace {

@@ -1,4 +1,4 @@
-#include "ioct/gpu/resampling.hpp"
+#include "ioct/gpu/processing/resampling.hpp"
 
 #include <algorithm>
 #include <charconv>

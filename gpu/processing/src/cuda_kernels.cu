@@ -1,9 +1,9 @@
 #include <cstdint>
 
 #include "cuda_kernels.cuh"
-#include "ioct/gpu/background_removal.hpp"
 #include "ioct/gpu/cuda/cuda_support.hpp"
-#include "ioct/gpu/host_device.hpp"
+#include "ioct/gpu/processing/background_removal.hpp"
+#include "ioct/gpu/processing/host_device.hpp"
 
 namespace ioct::gpu::cuda {
 namespace {

@@ -6,7 +6,7 @@
 #include <complex>
 #include <cstdint>
 
-#include "ioct/gpu/fftw_r2c_plan.hpp"
+#include "ioct/gpu/processing/fftw_r2c_plan.hpp"
 
 struct fftwf_plan_s;
 

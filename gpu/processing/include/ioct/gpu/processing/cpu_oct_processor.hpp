@@ -14,9 +14,9 @@
 #include <optional>
 #include <vector>
 
-#include "ioct/gpu/fftw_c2c_plan.hpp"
-#include "ioct/gpu/oct_processor.hpp"
-#include "ioct/gpu/spectral_tables.hpp"
+#include "ioct/gpu/processing/fftw_c2c_plan.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
+#include "ioct/gpu/processing/spectral_tables.hpp"
 #include "ioct/gpu/worker_pool.hpp"
 
 namespace ioct::gpu {

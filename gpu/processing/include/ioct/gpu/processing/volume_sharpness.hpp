@@ -10,7 +10,7 @@
 #include <cstdint>
 #include <span>
 
-#include "ioct/gpu/db_scale.hpp"
+#include "ioct/gpu/processing/db_scale.hpp"
 #include "ioct/gpu/volume/processed_group.hpp"
 
 namespace ioct::gpu {

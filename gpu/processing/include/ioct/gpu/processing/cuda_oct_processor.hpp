@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 
 struct CUstream_st;
 struct CUevent_st;

@@ -1,4 +1,4 @@
-#include "ioct/gpu/dispersion.hpp"
+#include "ioct/gpu/processing/dispersion.hpp"
 
 #include <cmath>
 
