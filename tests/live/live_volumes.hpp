@@ -6,7 +6,7 @@
 #include <cmath>
 #include <random>
 
-#include "ioct/gpu/live_stage.hpp"
+#include "ioct/gpu/ingest/live_stage.hpp"
 #include "ioct/gpu/volume/volume.hpp"
 #include "layered_volume.hpp"
 

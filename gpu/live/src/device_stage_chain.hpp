@@ -18,7 +18,7 @@
 #include <cstdint>
 #include <memory>
 
-#include "ioct/gpu/live_stage.hpp"
+#include "ioct/gpu/ingest/live_stage.hpp"
 #include "ioct/gpu/render/render_config.hpp"
 #include "ioct/gpu/render/rgba_image.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"

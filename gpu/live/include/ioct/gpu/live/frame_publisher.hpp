@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "ioct/gpu/live/banded_jpeg_encoder.hpp"
-#include "ioct/gpu/live_stage.hpp"
+#include "ioct/gpu/ingest/live_stage.hpp"
 #include "ioct/gpu/render/rgba_image.hpp"
 #include "ioct/gpu/segmentation/overlay_image.hpp"
 #include "ioct/shm/frame_ring.hpp"

@@ -41,7 +41,7 @@
 #include "ioct/gpu/latency_histogram.hpp"
 #include "ioct/gpu/live/view_control.hpp"
 #include "ioct/gpu/live/view_set.hpp"
-#include "ioct/gpu/live_stage.hpp"
+#include "ioct/gpu/ingest/live_stage.hpp"
 #include "ioct/gpu/processing/oct_processor.hpp"
 #include "ioct/gpu/render/render_config.hpp"
 #include "ioct/gpu/render/rgba_image.hpp"

@@ -1,4 +1,4 @@
-#include "ioct/gpu/live_processor.hpp"
+#include "ioct/gpu/ingest/live_processor.hpp"
 
 #include <algorithm>
 #include <cinttypes>
@@ -9,9 +9,9 @@
 
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
-#include "ioct/gpu/live_pipeline.hpp"
+#include "ioct/gpu/ingest/live_pipeline.hpp"
+#include "ioct/gpu/ingest/run_summary_json.hpp"
 #include "ioct/gpu/processing/group_check.hpp"
-#include "ioct/gpu/run_summary_json.hpp"
 #include "ioct/gpu/volume/png_file.hpp"
 #include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_attach.hpp"

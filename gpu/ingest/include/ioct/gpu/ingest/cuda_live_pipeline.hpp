@@ -32,7 +32,7 @@
 #include <optional>
 #include <string>
 
-#include "ioct/gpu/live_pipeline.hpp"
+#include "ioct/gpu/ingest/live_pipeline.hpp"
 
 struct CUstream_st;
 

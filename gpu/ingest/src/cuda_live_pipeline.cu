@@ -3,7 +3,7 @@
 #include <limits>
 
 #include "ioct/gpu/cuda/cuda_support.hpp"
-#include "ioct/gpu/cuda_live_pipeline.hpp"
+#include "ioct/gpu/ingest/cuda_live_pipeline.hpp"
 #include "ioct/gpu/processing/cuda_oct_processor.hpp"
 #include "ioct/gpu/processing/group_check.hpp"
 #include "ioct/gpu/processing/repeats.hpp"

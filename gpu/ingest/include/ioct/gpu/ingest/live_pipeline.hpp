@@ -14,7 +14,7 @@
 #include <string>
 #include <string_view>
 
-#include "ioct/gpu/live_stage.hpp"
+#include "ioct/gpu/ingest/live_stage.hpp"
 #include "ioct/gpu/processing/oct_processor.hpp"
 #include "ioct/gpu/volume/volume.hpp"
 #include "ioct/gpu/volume/volume_book.hpp"

@@ -7,7 +7,7 @@
 #include <optional>
 #include <vector>
 
-#include "ioct/gpu/live_pipeline.hpp"
+#include "ioct/gpu/ingest/live_pipeline.hpp"
 #include "ioct/gpu/volume/volume_assembler.hpp"
 
 namespace ioct::gpu {

@@ -1,4 +1,4 @@
-#include "ioct/gpu/run_summary_json.hpp"
+#include "ioct/gpu/ingest/run_summary_json.hpp"
 
 #include <utility>
 

@@ -3,7 +3,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ioct/gpu/live_processor.hpp"
+#include "ioct/gpu/ingest/live_processor.hpp"
 
 namespace ioct::gpu {
 

@@ -1,11 +1,11 @@
-#include "ioct/gpu/live_pipeline.hpp"
+#include "ioct/gpu/ingest/live_pipeline.hpp"
 
 #include <stdexcept>
 #include <string>
 
-#include "ioct/gpu/host_live_pipeline.hpp"
+#include "ioct/gpu/ingest/host_live_pipeline.hpp"
 #if IOCT_GPU_WITH_CUDA
-#include "ioct/gpu/cuda_live_pipeline.hpp"
+#include "ioct/gpu/ingest/cuda_live_pipeline.hpp"
 #endif
 
 namespace ioct::gpu {

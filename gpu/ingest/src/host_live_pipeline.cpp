@@ -1,4 +1,4 @@
-#include "ioct/gpu/host_live_pipeline.hpp"
+#include "ioct/gpu/ingest/host_live_pipeline.hpp"
 
 #include <algorithm>
 
