@@ -1,5 +1,5 @@
 // What runs on the live volume after processing: the filters, the segmentation and the renderers
-// live in libraries above this one (gpu/live puts them together), so the live loop sees them
+// live in libraries above this one (gpu/live_stages puts them together), so the live loop sees them
 // through this interface. The loop calls on_bscans() after every group it placed; a stage copies
 // what it needs and does its work on its own thread, so a slow stage (the CPU reference on two
 // cores) folds groups together instead of holding up the ring.
