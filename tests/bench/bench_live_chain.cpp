@@ -40,7 +40,7 @@
 #include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/filters/cuda_volume_filter.hpp"
 #include "ioct/gpu/ingest/live_pipeline.hpp"
-#include "ioct/gpu/live/volume_stages.hpp"
+#include "ioct/gpu/live_stages/volume_stages.hpp"
 #include "ioct/gpu/processing/cuda_oct_processor.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"

@@ -8,7 +8,7 @@
 #include <string_view>
 
 #include "input_files.hpp"
-#include "ioct/gpu/live/view_requests.hpp"
+#include "ioct/gpu/live_stages/view_requests.hpp"
 #include "refusal.hpp"
 
 namespace {

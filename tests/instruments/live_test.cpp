@@ -9,7 +9,7 @@
 #include <string>
 
 #include "instrument_scenes.hpp"
-#include "ioct/gpu/live/volume_stages.hpp"
+#include "ioct/gpu/live_stages/volume_stages.hpp"
 #include "ioct/gpu/processing/oct_processor.hpp"
 #include "live_volumes.hpp"
 

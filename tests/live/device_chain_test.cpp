@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "ioct/gpu/live/volume_stages.hpp"
+#include "ioct/gpu/live_stages/volume_stages.hpp"
 #include "ioct/gpu/processing/oct_processor.hpp"
 #include "layered_volume.hpp"
 

@@ -13,9 +13,9 @@
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/stop_signals.hpp"
 #include "ioct/gpu/ingest/live_processor.hpp"
-#include "ioct/gpu/live/processing_view_control.hpp"
-#include "ioct/gpu/live/view_socket.hpp"
-#include "ioct/gpu/live/volume_stages.hpp"
+#include "ioct/gpu/live_stages/processing_view_control.hpp"
+#include "ioct/gpu/live_stages/view_socket.hpp"
+#include "ioct/gpu/live_stages/volume_stages.hpp"
 #include "ioct/shm/ring_error.hpp"
 
 namespace {

@@ -1,4 +1,4 @@
-#include "ioct/gpu/live/banded_jpeg_encoder.hpp"
+#include "ioct/gpu/live_stages/banded_jpeg_encoder.hpp"
 
 #include <algorithm>
 #include <stdexcept>

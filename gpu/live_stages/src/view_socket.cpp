@@ -1,4 +1,4 @@
-#include "ioct/gpu/live/view_socket.hpp"
+#include "ioct/gpu/live_stages/view_socket.hpp"
 
 #include <fcntl.h>
 #include <grp.h>
@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "ioct/gpu/live/view_requests.hpp"
+#include "ioct/gpu/live_stages/view_requests.hpp"
 
 namespace ioct::gpu::live {
 namespace {

@@ -1,4 +1,4 @@
-#include "ioct/gpu/live/frame_publisher.hpp"
+#include "ioct/gpu/live_stages/frame_publisher.hpp"
 
 #include <algorithm>
 #include <chrono>

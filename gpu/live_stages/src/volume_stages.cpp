@@ -1,4 +1,4 @@
-#include "ioct/gpu/live/volume_stages.hpp"
+#include "ioct/gpu/live_stages/volume_stages.hpp"
 
 #include <sys/resource.h>
 #include <sys/syscall.h>
@@ -14,7 +14,7 @@
 #include "ioct/gpu/filters/volume_filter.hpp"
 #include "ioct/gpu/instruments/findings_json.hpp"
 #include "ioct/gpu/instruments/instrument_detector.hpp"
-#include "ioct/gpu/live/frame_publisher.hpp"
+#include "ioct/gpu/live_stages/frame_publisher.hpp"
 #include "ioct/gpu/render/png_rgba.hpp"
 #include "ioct/gpu/render/render_params_json.hpp"
 #include "ioct/gpu/render/renderer.hpp"

@@ -1,4 +1,4 @@
-#include "ioct/gpu/live/jpeg_encoder.hpp"
+#include "ioct/gpu/live_stages/jpeg_encoder.hpp"
 
 #include <turbojpeg.h>
 

@@ -18,7 +18,7 @@
 #include <thread>
 #include <vector>
 
-#include "ioct/gpu/live/banded_jpeg_encoder.hpp"
+#include "ioct/gpu/live_stages/banded_jpeg_encoder.hpp"
 #include "ioct/gpu/ingest/live_stage.hpp"
 #include "ioct/gpu/render/rgba_image.hpp"
 #include "ioct/gpu/segmentation/overlay_image.hpp"

@@ -12,7 +12,7 @@
 #include <span>
 #include <vector>
 
-#include "ioct/gpu/live/jpeg_encoder.hpp"
+#include "ioct/gpu/live_stages/jpeg_encoder.hpp"
 #include "ioct/gpu/worker_pool.hpp"
 
 namespace ioct::gpu::live {

@@ -12,7 +12,7 @@
 #include <string>
 #include <thread>
 
-#include "ioct/gpu/live/view_control.hpp"
+#include "ioct/gpu/live_stages/view_control.hpp"
 
 namespace ioct::gpu::live {
 

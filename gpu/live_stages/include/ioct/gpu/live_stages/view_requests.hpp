@@ -17,7 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "ioct/gpu/live/view_control.hpp"
+#include "ioct/gpu/live_stages/view_control.hpp"
 
 namespace ioct::gpu::live {
 

@@ -1,4 +1,4 @@
-#include "ioct/gpu/live/view_set.hpp"
+#include "ioct/gpu/live_stages/view_set.hpp"
 
 #include <algorithm>
 #include <cmath>

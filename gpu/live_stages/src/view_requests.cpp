@@ -1,4 +1,4 @@
-#include "ioct/gpu/live/view_requests.hpp"
+#include "ioct/gpu/live_stages/view_requests.hpp"
 
 #include "ioct/common/strict_json.hpp"
 

@@ -1,4 +1,4 @@
-#include "ioct/gpu/live/processing_view_control.hpp"
+#include "ioct/gpu/live_stages/processing_view_control.hpp"
 
 #include <string>
 #include <utility>
