@@ -37,11 +37,11 @@
 #include <vector>
 
 #include "host_description.hpp"
-#include "ioct/gpu/cuda_oct_processor.hpp"
-#include "ioct/gpu/cuda_support.hpp"
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/filters/cuda_volume_filter.hpp"
-#include "ioct/gpu/live/volume_stages.hpp"
-#include "ioct/gpu/live_pipeline.hpp"
+#include "ioct/gpu/ingest/live_pipeline.hpp"
+#include "ioct/gpu/live_stages/volume_stages.hpp"
+#include "ioct/gpu/processing/cuda_oct_processor.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"
 #include "ioct/shm/monotonic_clock.hpp"

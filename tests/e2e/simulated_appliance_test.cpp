@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "ioct/gpu/png_file.hpp"
+#include "ioct/gpu/volume/png_file.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "ioct/test_support/child_process.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"

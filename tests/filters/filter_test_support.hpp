@@ -10,7 +10,7 @@
 #include <string>
 
 #include "ioct/gpu/filters/gaussian_taps.hpp"
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 
 namespace ioct::gpu::filters::testing {
 

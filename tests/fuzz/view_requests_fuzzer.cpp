@@ -1,6 +1,6 @@
-// ioct-gpu's view socket requests (gpu/live view_requests): one line as ioct-view or a script
-// sends it, handled by the real ViewRequests on a stand-in for the render stages. The reply is
-// always an object with "ok", and a refusal's error is a readable message.
+// ioct-gpu's view socket requests (gpu/live_stages view_requests): one line as ioct-view or a
+// script sends it, handled by the real ViewRequests on a stand-in for the render stages. The reply
+// is always an object with "ok", and a refusal's error is a readable message.
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
@@ -8,7 +8,7 @@
 #include <string_view>
 
 #include "input_files.hpp"
-#include "ioct/gpu/live/view_requests.hpp"
+#include "ioct/gpu/live_stages/view_requests.hpp"
 #include "refusal.hpp"
 
 namespace {

@@ -5,7 +5,7 @@
 #include <numeric>
 #include <vector>
 
-#include "ioct/gpu/cpu_oct_processor.hpp"
+#include "ioct/gpu/processing/cpu_oct_processor.hpp"
 #include "processing_fixture.hpp"
 
 namespace ioct::gpu {

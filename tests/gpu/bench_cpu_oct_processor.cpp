@@ -7,7 +7,7 @@
 
 #include <vector>
 
-#include "ioct/gpu/cpu_oct_processor.hpp"
+#include "ioct/gpu/processing/cpu_oct_processor.hpp"
 #include "synthetic_spectra.hpp"
 
 namespace ioct::gpu {

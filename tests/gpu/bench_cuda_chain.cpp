@@ -33,9 +33,9 @@
 #include <vector>
 
 #include "host_description.hpp"
-#include "ioct/gpu/cuda_oct_processor.hpp"
+#include "ioct/gpu/ingest/live_pipeline.hpp"
 #include "ioct/gpu/latency_histogram.hpp"
-#include "ioct/gpu/live_pipeline.hpp"
+#include "ioct/gpu/processing/cuda_oct_processor.hpp"
 #include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_writer.hpp"

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 #include "live_ring_fixture.hpp"
 
 extern char** environ;

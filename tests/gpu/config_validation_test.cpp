@@ -7,9 +7,9 @@
 #include <string>
 
 #include "ioct/common/config_error.hpp"
-#include "ioct/gpu/live_processor.hpp"
-#include "ioct/gpu/oct_processor.hpp"
-#include "ioct/gpu/projections.hpp"
+#include "ioct/gpu/ingest/live_processor.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
+#include "ioct/gpu/volume/projections.hpp"
 
 namespace ioct::gpu {
 namespace {

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "ioct/common/config_error.hpp"
-#include "ioct/gpu/cpu_oct_processor.hpp"
-#include "ioct/gpu/group_check.hpp"
+#include "ioct/gpu/processing/cpu_oct_processor.hpp"
+#include "ioct/gpu/processing/group_check.hpp"
 #include "synthetic_spectra.hpp"
 
 namespace ioct::gpu {

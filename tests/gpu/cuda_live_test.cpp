@@ -9,12 +9,12 @@
 #include <string>
 #include <vector>
 
-#include "ioct/gpu/live_pipeline.hpp"
+#include "ioct/gpu/ingest/live_pipeline.hpp"
 #include "live_ring_fixture.hpp"
 #if IOCT_GPU_WITH_CUDA
 #include <cuda_runtime.h>
 
-#include "ioct/gpu/cuda_live_pipeline.hpp"
+#include "ioct/gpu/ingest/cuda_live_pipeline.hpp"
 #endif
 
 namespace ioct::gpu {

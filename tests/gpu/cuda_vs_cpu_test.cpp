@@ -13,9 +13,9 @@
 #include <string>
 #include <vector>
 
-#include "ioct/gpu/cpu_oct_processor.hpp"
+#include "ioct/gpu/processing/cpu_oct_processor.hpp"
 #if IOCT_GPU_WITH_CUDA
-#include "ioct/gpu/cuda_oct_processor.hpp"
+#include "ioct/gpu/processing/cuda_oct_processor.hpp"
 #endif
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "processing_fixture.hpp"

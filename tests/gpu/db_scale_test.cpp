@@ -5,7 +5,7 @@
 #include <complex>
 #include <vector>
 
-#include "ioct/gpu/db_scale.hpp"
+#include "ioct/gpu/processing/db_scale.hpp"
 
 namespace ioct::gpu {
 namespace {

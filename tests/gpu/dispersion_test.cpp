@@ -6,9 +6,9 @@
 #include <random>
 #include <vector>
 
-#include "ioct/gpu/cpu_oct_processor.hpp"
-#include "ioct/gpu/dispersion_estimator.hpp"
-#include "ioct/gpu/volume_sharpness.hpp"
+#include "ioct/gpu/processing/cpu_oct_processor.hpp"
+#include "ioct/gpu/processing/dispersion_estimator.hpp"
+#include "ioct/gpu/processing/volume_sharpness.hpp"
 #include "processing_fixture.hpp"
 
 namespace ioct::gpu {

@@ -7,8 +7,8 @@
 #include <fstream>
 #include <random>
 
-#include "ioct/gpu/png_file.hpp"
-#include "ioct/gpu/projections.hpp"
+#include "ioct/gpu/volume/png_file.hpp"
+#include "ioct/gpu/volume/projections.hpp"
 
 namespace ioct::gpu {
 namespace {

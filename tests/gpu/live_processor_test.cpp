@@ -12,8 +12,8 @@
 #include <string>
 #include <thread>
 
-#include "ioct/gpu/live_processor.hpp"
-#include "ioct/gpu/png_file.hpp"
+#include "ioct/gpu/ingest/live_processor.hpp"
+#include "ioct/gpu/volume/png_file.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "live_ring_fixture.hpp"
 

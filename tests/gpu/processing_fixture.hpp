@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <span>
 
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 #include "synthetic_spectra.hpp"
 
 namespace ioct::gpu::testing {

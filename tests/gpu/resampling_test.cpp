@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "ioct/common/config_error.hpp"
-#include "ioct/gpu/cpu_oct_processor.hpp"
-#include "ioct/gpu/resampling.hpp"
+#include "ioct/gpu/processing/cpu_oct_processor.hpp"
+#include "ioct/gpu/processing/resampling.hpp"
 #include "processing_fixture.hpp"
 
 namespace ioct::gpu {

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <vector>
 
-#include "ioct/gpu/volume_assembler.hpp"
+#include "ioct/gpu/volume/volume_assembler.hpp"
 #include "synthetic_spectra.hpp"
 
 namespace ioct::gpu {

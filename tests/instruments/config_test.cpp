@@ -1,6 +1,7 @@
 // The config's refusals name the key and the value.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <functional>
 #include <string>
 

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "ioct/gpu/segmentation/segmentation_config.hpp"
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 #include "ioct/sim/instrument_truth.hpp"
 #include "simulated_volume.hpp"
 

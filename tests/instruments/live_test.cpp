@@ -9,8 +9,8 @@
 #include <string>
 
 #include "instrument_scenes.hpp"
-#include "ioct/gpu/live/volume_stages.hpp"
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/live_stages/volume_stages.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 #include "live_volumes.hpp"
 
 namespace ioct::instruments_test {

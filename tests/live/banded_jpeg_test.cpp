@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "ioct/gpu/live/banded_jpeg_encoder.hpp"
+#include "ioct/gpu/live_stages/banded_jpeg_encoder.hpp"
 
 namespace ioct::gpu::live {
 namespace {

@@ -18,14 +18,14 @@
 #include <string>
 #include <vector>
 
-#include "ioct/gpu/live/volume_stages.hpp"
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/live_stages/volume_stages.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 #include "layered_volume.hpp"
 
 #if IOCT_GPU_WITH_CUDA
 #include <cuda_runtime.h>
 
-#include "ioct/gpu/cuda_support.hpp"
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #endif
 
 namespace ioct::gpu::live {

@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <random>
 
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 
 namespace ioct::gpu::live {
 

@@ -13,7 +13,7 @@
 #include <thread>
 #include <vector>
 
-#include "ioct/gpu/live/volume_stages.hpp"
+#include "ioct/gpu/live_stages/volume_stages.hpp"
 #include "ioct/shm/frame_ring.hpp"
 #include "ioct/shm/monotonic_clock.hpp"
 #include "live_volumes.hpp"

@@ -6,8 +6,8 @@
 #include <cmath>
 #include <random>
 
-#include "ioct/gpu/live_stage.hpp"
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/ingest/live_stage.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 #include "layered_volume.hpp"
 
 namespace ioct::gpu::live {

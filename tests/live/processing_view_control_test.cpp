@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "ioct/common/config_error.hpp"
-#include "ioct/gpu/live/processing_view_control.hpp"
+#include "ioct/gpu/live_stages/processing_view_control.hpp"
 
 namespace ioct::gpu::live {
 namespace {

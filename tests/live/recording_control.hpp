@@ -7,7 +7,7 @@
 #include <set>
 #include <stdexcept>
 
-#include "ioct/gpu/live/view_control.hpp"
+#include "ioct/gpu/live_stages/view_control.hpp"
 #include "ioct/gpu/render/render_params_json.hpp"
 
 namespace ioct::gpu::live {

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "ioct/common/config_error.hpp"
-#include "ioct/gpu/live/view_requests.hpp"
+#include "ioct/gpu/live_stages/view_requests.hpp"
 #include "ioct/gpu/render/render_params_json.hpp"
 #include "recording_control.hpp"
 

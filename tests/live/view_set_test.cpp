@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "ioct/common/config_error.hpp"
-#include "ioct/gpu/live/view_set.hpp"
+#include "ioct/gpu/live_stages/view_set.hpp"
 
 namespace ioct::gpu::live {
 namespace {

@@ -12,7 +12,7 @@
 #include <fstream>
 #include <string>
 
-#include "ioct/gpu/live/view_socket.hpp"
+#include "ioct/gpu/live_stages/view_socket.hpp"
 #include "recording_control.hpp"
 
 namespace ioct::gpu::live {

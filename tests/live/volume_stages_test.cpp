@@ -11,8 +11,8 @@
 #include <string>
 
 #include "ioct/gpu/filters/volume_filter.hpp"
-#include "ioct/gpu/live/volume_stages.hpp"
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/live_stages/volume_stages.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 #include "live_volumes.hpp"
 
 namespace ioct::gpu::live {

@@ -10,7 +10,7 @@
 #include <string>
 #include <thread>
 
-#include "ioct/gpu/oct_processor.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
 #include "ioct/view_test/live_appliance.hpp"
 #include "prometheus_exposition.hpp"
 

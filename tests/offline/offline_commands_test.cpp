@@ -12,7 +12,7 @@
 #include "ioct/gpu/offline/bioptigen_oct.hpp"
 #include "ioct/gpu/offline/heidelberg_vol.hpp"
 #include "ioct/gpu/offline/nrrd_file.hpp"
-#include "ioct/gpu/png_file.hpp"
+#include "ioct/gpu/volume/png_file.hpp"
 #include "offline_test_support.hpp"
 
 namespace ioct::gpu::offline {

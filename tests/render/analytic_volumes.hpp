@@ -5,7 +5,7 @@
 #include <cstdint>
 
 #include "ioct/gpu/segmentation/surfaces.hpp"
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 
 namespace ioct::render_test {
 
@@ -33,8 +33,8 @@ struct VolumeWithSurfaces {
 };
 
 // A dim background (value 30) with one bright layer centred at curved_layer_depth(): 250 within
-// 1 px of it (so every A-scan has a voxel at the peak), falling off as a Gaussian of sigma 1 px; the surfaces give it as the RPE (and an ILM 20 px
-// above it).
+// 1 px of it (so every A-scan has a voxel at the peak), falling off as a Gaussian of sigma 1 px;
+// the surfaces give it as the RPE (and an ILM 20 px above it).
 VolumeWithSurfaces make_curved_layer(std::uint32_t bscans, std::uint32_t ascans,
                                      std::uint32_t depth);
 

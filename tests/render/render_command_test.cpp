@@ -13,7 +13,7 @@
 
 #include "analytic_volumes.hpp"
 #include "ioct/gpu/offline/nrrd_file.hpp"
-#include "ioct/gpu/png_file.hpp"
+#include "ioct/gpu/volume/png_file.hpp"
 #include "test_paths.hpp"
 
 namespace {

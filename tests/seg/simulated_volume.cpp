@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <stdexcept>
 
-#include "ioct/gpu/cpu_oct_processor.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
-#include "ioct/gpu/processed_group.hpp"
+#include "ioct/gpu/processing/cpu_oct_processor.hpp"
+#include "ioct/gpu/volume/processed_group.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 
 namespace ioct::seg_test {

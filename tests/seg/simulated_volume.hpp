@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 #include "ioct/sim/simulation_config.hpp"
 
 namespace ioct::seg_test {

@@ -7,7 +7,7 @@
 
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/offline/input_file_error.hpp"
-#include "ioct/gpu/resampling.hpp"
+#include "ioct/gpu/processing/resampling.hpp"
 
 namespace ioct::gpu::offline {
 

@@ -7,9 +7,9 @@
 
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
-#include "ioct/gpu/group_check.hpp"
-#include "ioct/gpu/processed_group.hpp"
-#include "ioct/gpu/volume_assembler.hpp"
+#include "ioct/gpu/processing/group_check.hpp"
+#include "ioct/gpu/volume/processed_group.hpp"
+#include "ioct/gpu/volume/volume_assembler.hpp"
 #include "ioct/shm/ring_layout.hpp"
 
 namespace ioct::gpu::offline {

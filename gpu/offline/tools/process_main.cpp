@@ -25,9 +25,9 @@
 #include "ioct/gpu/offline/raw_processing.hpp"
 #include "ioct/gpu/offline/recording_volume.hpp"
 #include "ioct/gpu/offline/ring_recording_volume.hpp"
-#include "ioct/gpu/png_file.hpp"
-#include "ioct/gpu/projections.hpp"
-#include "ioct/gpu/resampling.hpp"
+#include "ioct/gpu/processing/resampling.hpp"
+#include "ioct/gpu/volume/png_file.hpp"
+#include "ioct/gpu/volume/projections.hpp"
 
 namespace {
 

@@ -19,8 +19,8 @@
 #include "ioct/gpu/offline/layer_csv.hpp"
 #include "ioct/gpu/offline/nrrd_file.hpp"
 #include "ioct/gpu/offline/progress_bar.hpp"
-#include "ioct/gpu/png_file.hpp"
-#include "ioct/gpu/projections.hpp"
+#include "ioct/gpu/volume/png_file.hpp"
+#include "ioct/gpu/volume/projections.hpp"
 
 namespace fs = std::filesystem;
 using namespace ioct::gpu;

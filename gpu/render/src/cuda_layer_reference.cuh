@@ -11,7 +11,7 @@
 
 #include <cstdint>
 
-#include "ioct/gpu/cuda_support.hpp"
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/render/layer_reference.hpp"
 
 namespace ioct::gpu::render {

@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "cuda_layer_reference.cuh"
-#include "ioct/gpu/cuda_support.hpp"
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
 #include "ioct/gpu/render/frame_setup.hpp"
 #include "ioct/gpu/render/la_mip.hpp"

@@ -1,6 +1,6 @@
 #include "ioct/gpu/render/png_rgba.hpp"
 
-#include "ioct/gpu/png_file.hpp"
+#include "ioct/gpu/volume/png_file.hpp"
 
 namespace ioct::gpu::render {
 

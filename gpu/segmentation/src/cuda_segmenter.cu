@@ -6,7 +6,7 @@
 #include <utility>
 #include <vector>
 
-#include "ioct/gpu/cuda_support.hpp"
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/segmentation/column_math.hpp"
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"
 #include "ioct/gpu/segmentation/finishing.hpp"

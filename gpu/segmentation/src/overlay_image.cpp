@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "ioct/gpu/png_file.hpp"
+#include "ioct/gpu/volume/png_file.hpp"
 
 namespace ioct::gpu::segmentation {
 

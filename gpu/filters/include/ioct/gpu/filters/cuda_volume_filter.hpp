@@ -15,7 +15,7 @@
 #include <cstdint>
 #include <string_view>
 
-#include "ioct/gpu/cuda_support.hpp"
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/filters/gaussian_taps.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
 

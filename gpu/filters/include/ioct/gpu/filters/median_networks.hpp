@@ -20,7 +20,7 @@
 //    per output against about 300 for (1).
 #pragma once
 
-#include "ioct/gpu/host_device_function.hpp"
+#include "ioct/gpu/cuda/host_device_function.hpp"
 
 namespace ioct::gpu::filters {
 

@@ -10,11 +10,11 @@
 #include <memory>
 #include <string_view>
 
+#include "ioct/gpu/cuda/backend.hpp"  // Backend, BackendUnavailable
 #include "ioct/gpu/filters/bscan_range.hpp"
 #include "ioct/gpu/filters/filter_config.hpp"
-#include "ioct/gpu/oct_processor.hpp"  // Backend, BackendUnavailable
-#include "ioct/gpu/volume.hpp"
-#include "ioct/gpu/volume_ref.hpp"
+#include "ioct/gpu/volume/volume.hpp"
+#include "ioct/gpu/volume/volume_ref.hpp"
 
 namespace ioct::gpu::filters {
 

@@ -20,7 +20,7 @@
 
 #include <cstdint>
 
-#include "ioct/gpu/host_device_function.hpp"
+#include "ioct/gpu/cuda/host_device_function.hpp"
 #include "ioct/gpu/instruments/column_params.hpp"
 
 namespace ioct::gpu::instruments {

@@ -7,7 +7,7 @@
 
 #include <cstdint>
 
-#include "ioct/gpu/cuda_support.hpp"
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/instruments/instrument_detector.hpp"
 
 namespace ioct::gpu::instruments {

@@ -10,12 +10,12 @@
 #include <memory>
 #include <string_view>
 
+#include "ioct/gpu/cuda/backend.hpp"  // Backend, BackendUnavailable
 #include "ioct/gpu/instruments/instrument_config.hpp"
 #include "ioct/gpu/instruments/instrument_findings.hpp"
-#include "ioct/gpu/oct_processor.hpp"           // Backend, BackendUnavailable
 #include "ioct/gpu/segmentation/segmenter.hpp"  // BscanSpan
 #include "ioct/gpu/segmentation/surfaces.hpp"
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 
 namespace ioct::gpu::instruments {
 

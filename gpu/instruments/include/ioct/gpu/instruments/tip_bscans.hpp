@@ -10,7 +10,7 @@
 
 #include "ioct/gpu/instruments/instrument_findings.hpp"
 #include "ioct/gpu/segmentation/segmentation_config.hpp"
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 
 namespace ioct::gpu::instruments {
 

@@ -29,7 +29,7 @@
 #include <utility>
 #include <vector>
 
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 
 namespace ioct::gpu::offline {
 

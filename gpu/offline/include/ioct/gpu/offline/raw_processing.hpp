@@ -9,11 +9,11 @@
 #include <string>
 
 #include "ioct/gpu/filters/filter_config.hpp"
-#include "ioct/gpu/oct_processor.hpp"
 #include "ioct/gpu/offline/progress_bar.hpp"
 #include "ioct/gpu/offline/raw_spectra_file.hpp"
 #include "ioct/gpu/offline/spectra_source.hpp"
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/processing/oct_processor.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 
 namespace ioct::gpu::offline {
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 
 namespace ioct::gpu::offline {
 

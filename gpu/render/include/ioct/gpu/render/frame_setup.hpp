@@ -8,7 +8,7 @@
 
 #include "ioct/gpu/render/render_config.hpp"
 #include "ioct/gpu/render/render_params.hpp"
-#include "ioct/gpu/volume_ref.hpp"  // VolumeDims
+#include "ioct/gpu/volume/volume_ref.hpp"  // VolumeDims
 
 namespace ioct::gpu::render {
 

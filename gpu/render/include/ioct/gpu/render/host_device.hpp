@@ -4,7 +4,7 @@
 
 #include <math.h>
 
-#include "ioct/gpu/host_device_function.hpp"
+#include "ioct/gpu/cuda/host_device_function.hpp"
 
 namespace ioct::gpu::render {
 

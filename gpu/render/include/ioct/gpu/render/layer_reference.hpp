@@ -7,7 +7,7 @@
 #include <vector>
 
 #include "ioct/gpu/segmentation/surfaces.hpp"
-#include "ioct/gpu/volume.hpp"
+#include "ioct/gpu/volume/volume.hpp"
 
 namespace ioct::gpu::render {
 

@@ -13,12 +13,12 @@
 #include <memory>
 #include <string_view>
 
-#include "ioct/gpu/oct_processor.hpp"  // Backend, BackendUnavailable
+#include "ioct/gpu/cuda/backend.hpp"  // Backend, BackendUnavailable
 #include "ioct/gpu/render/render_config.hpp"
 #include "ioct/gpu/render/rgba_image.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
-#include "ioct/gpu/volume.hpp"
-#include "ioct/gpu/volume_ref.hpp"
+#include "ioct/gpu/volume/volume.hpp"
+#include "ioct/gpu/volume/volume_ref.hpp"
 
 namespace ioct::gpu::render {
 

@@ -9,7 +9,7 @@
 
 #include <cstdint>
 
-#include "ioct/gpu/host_device_function.hpp"
+#include "ioct/gpu/cuda/host_device_function.hpp"
 #include "ioct/gpu/segmentation/segmentation_config.hpp"
 
 namespace ioct::gpu::segmentation::detail {

@@ -21,7 +21,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "ioct/gpu/host_device_function.hpp"
+#include "ioct/gpu/cuda/host_device_function.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
 
 namespace ioct::gpu::segmentation::detail {

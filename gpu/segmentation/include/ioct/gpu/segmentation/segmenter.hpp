@@ -26,11 +26,11 @@
 #include <memory>
 #include <string_view>
 
-#include "ioct/gpu/oct_processor.hpp"  // Backend, BackendUnavailable
+#include "ioct/gpu/cuda/backend.hpp"  // Backend, BackendUnavailable
 #include "ioct/gpu/segmentation/segmentation_config.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
-#include "ioct/gpu/volume.hpp"
-#include "ioct/gpu/volume_ref.hpp"
+#include "ioct/gpu/volume/volume.hpp"
+#include "ioct/gpu/volume/volume_ref.hpp"
 
 namespace ioct::gpu::segmentation {
 

@@ -1,0 +1,286 @@
+#include "device_stage_chain.hpp"
+
+#include <stdexcept>
+#include <utility>
+
+#include "ioct/gpu/filters/volume_filter.hpp"
+#include "ioct/gpu/render/renderer.hpp"
+#include "ioct/gpu/segmentation/segmenter.hpp"
+
+#if IOCT_GPU_WITH_CUDA && IOCT_FILTERS_HAVE_CUDA && IOCT_SEGMENTATION_HAVE_CUDA && \
+    IOCT_RENDER_HAVE_CUDA
+#define IOCT_LIVE_DEVICE_CHAIN 1
+#include "ioct/gpu/cuda/cuda_support.hpp"
+#include "ioct/gpu/filters/cuda_volume_filter.hpp"
+#include "ioct/gpu/render/cuda_renderer.hpp"
+#include "ioct/gpu/segmentation/cuda_segmenter.hpp"
+#include "ioct/shm/monotonic_clock.hpp"
+#else
+#define IOCT_LIVE_DEVICE_CHAIN 0
+#endif
+
+namespace ioct::gpu::live {
+
+#if IOCT_LIVE_DEVICE_CHAIN
+
+namespace {
+
+// An event that measures time (cuda::Event only orders work).
+class TimingEvent {
+ public:
+  TimingEvent() { IOCT_CUDA_CHECK(cudaEventCreate(&event_)); }
+  ~TimingEvent() { cudaEventDestroy(event_); }
+  TimingEvent(const TimingEvent&) = delete;
+  TimingEvent& operator=(const TimingEvent&) = delete;
+  void record(cudaStream_t stream) { IOCT_CUDA_CHECK(cudaEventRecord(event_, stream)); }
+  float ms_since(const TimingEvent& earlier) const {
+    float ms = 0.0f;
+    IOCT_CUDA_CHECK(cudaEventElapsedTime(&ms, earlier.event_, event_));
+    return ms;
+  }
+  cudaEvent_t get() const noexcept { return event_; }
+
+ private:
+  cudaEvent_t event_ = nullptr;
+};
+
+std::uint64_t ns_before(std::uint64_t end_ns, float ms) {
+  const auto ns = static_cast<std::uint64_t>(static_cast<double>(ms) * 1e6);
+  return end_ns > ns ? end_ns - ns : 0;
+}
+
+}  // namespace
+
+struct DeviceStageChain::Impl {
+  filters::CudaVolumeFilter& filter;
+  segmentation::CudaSegmenter& segmenter;
+  render::CudaRenderer& renderer;
+
+  cuda::Stream stream;       // the passes
+  cuda::Stream copy_stream;  // the hand-overs
+  cuda::Event pending_ready;
+  cuda::Event input_taken;
+  bool input_taken_recorded = false;
+  TimingEvent started, filtered_done, segmented_done, rendered_done;
+
+  VolumeDims pending_dims, input_dims;
+  cuda::DeviceArray<std::uint8_t> pending, input, filtered;
+
+  Impl(filters::CudaVolumeFilter& f, segmentation::CudaSegmenter& s, render::CudaRenderer& r)
+      : filter(f), segmenter(s), renderer(r) {
+    renderer.use_stream(stream.get());
+  }
+
+  // The input (and the filtered volume) take the pending volume's dimensions: true when they
+  // had others. Nothing may still read them.
+  bool reshape_input() {
+    if (input_dims == pending_dims && input.size() == pending_dims.bytes()) return false;
+    IOCT_CUDA_CHECK(cudaStreamSynchronize(stream.get()));
+    input = {};
+    filtered = {};
+    input = cuda::DeviceArray<std::uint8_t>(pending_dims.bytes());
+    filtered = cuda::DeviceArray<std::uint8_t>(pending_dims.bytes());
+    input_dims = pending_dims;
+    return true;
+  }
+
+  void record_taken() {
+    IOCT_CUDA_CHECK(cudaEventRecord(input_taken.get(), stream.get()));
+    input_taken_recorded = true;
+  }
+};
+
+std::unique_ptr<DeviceStageChain> DeviceStageChain::make(filters::VolumeFilter& filter,
+                                                         segmentation::Segmenter& segmenter,
+                                                         render::Renderer& renderer) {
+  auto* f = dynamic_cast<filters::CudaVolumeFilter*>(&filter);
+  auto* s = dynamic_cast<segmentation::CudaSegmenter*>(&segmenter);
+  auto* r = dynamic_cast<render::CudaRenderer*>(&renderer);
+  if (f == nullptr || s == nullptr || r == nullptr) return nullptr;
+  return std::unique_ptr<DeviceStageChain>(
+      new DeviceStageChain(std::make_unique<Impl>(*f, *s, *r)));
+}
+
+bool DeviceStageChain::hand_over(LiveVolumeSource& source, const LiveVolumeShape& shape,
+                                 std::uint32_t first, std::uint32_t count, bool& new_shape) {
+  Impl& m = *impl_;
+  cudaStream_t copy = m.copy_stream.get();
+  const VolumeDims dims{shape.bscans, shape.ascans, shape.depth};
+  // New to the stages only when the input has other dimensions; the pending buffer may also be
+  // new when earlier hand-overs came from the host (take_host).
+  new_shape = !(dims == m.input_dims) || m.input.size() != dims.bytes();
+  const bool new_buffer = !(dims == m.pending_dims) || m.pending.size() != dims.bytes();
+  // The last pass must have taken its input before these B-scans overwrite the pending ones.
+  if (m.input_taken_recorded) IOCT_CUDA_CHECK(cudaStreamWaitEvent(copy, m.input_taken.get(), 0));
+  bool device = false;
+  const bool enqueued = source.read_on_device(copy, [&](const DeviceVolumeView& view) {
+    device = true;
+    if (new_buffer) {
+      IOCT_CUDA_CHECK(cudaStreamSynchronize(copy));
+      m.pending = cuda::DeviceArray<std::uint8_t>(dims.bytes());
+      m.pending_dims = dims;
+      if (new_shape) {
+        // The B-scans that have not arrived yet are zero, as on the host path.
+        IOCT_CUDA_CHECK(cudaMemsetAsync(m.pending.data(), 0, dims.bytes(), copy));
+      } else {
+        // What the passes took from the host so far (the copy stream waited for the last take).
+        IOCT_CUDA_CHECK(cudaMemcpyAsync(m.pending.data(), m.input.data(), dims.bytes(),
+                                        cudaMemcpyDeviceToDevice, copy));
+      }
+    }
+    if (view.bscans != dims.bscans || view.ascans != dims.ascans || view.depth != dims.depth) {
+      throw std::logic_error("live stages: the device volume's view disagrees with its shape");
+    }
+    const std::size_t stride = dims.bscan_bytes();
+    IOCT_CUDA_CHECK(cudaMemcpyAsync(m.pending.data() + first * stride, view.pixels + first * stride,
+                                    count * stride, cudaMemcpyDeviceToDevice, copy));
+  });
+  if (!enqueued || !device) return false;
+  IOCT_CUDA_CHECK(cudaEventRecord(m.pending_ready.get(), copy));
+  return true;
+}
+
+DeviceStageChain::Taken DeviceStageChain::take(std::uint32_t first, std::uint32_t count) {
+  Impl& m = *impl_;
+  cudaStream_t stream = m.stream.get();
+  IOCT_CUDA_CHECK(cudaStreamWaitEvent(stream, m.pending_ready.get(), 0));
+  const bool whole = m.reshape_input();
+  const std::size_t stride = m.input_dims.bscan_bytes();
+  if (whole) {
+    first = 0;
+    count = m.input_dims.bscans;
+  }
+  IOCT_CUDA_CHECK(cudaMemcpyAsync(m.input.data() + first * stride,
+                                  m.pending.data() + first * stride, count * stride,
+                                  cudaMemcpyDeviceToDevice, stream));
+  m.record_taken();
+  return {first, count};
+}
+
+DeviceStageChain::Taken DeviceStageChain::take_host(const Volume& pending, std::uint32_t first,
+                                                    std::uint32_t count) {
+  Impl& m = *impl_;
+  m.pending_dims = VolumeDims::of(pending);
+  const bool whole = m.reshape_input();
+  const std::size_t stride = m.input_dims.bscan_bytes();
+  if (whole) {
+    first = 0;
+    count = m.input_dims.bscans;
+  }
+  // Pageable memory: staged before the call returns, so the pending volume may change after it.
+  cuda::copy_async(m.input.data() + first * stride, pending.bscan(first).data(), count * stride,
+                   cudaMemcpyHostToDevice, m.stream.get(), cuda::Payload::volume,
+                   "upload of the handed-over B-scans");
+  m.record_taken();
+  return {first, count};
+}
+
+DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t first, std::uint32_t count,
+                                                       const render::RenderConfig& view,
+                                                       render::RgbaImage* frame) {
+  Impl& m = *impl_;
+  cudaStream_t stream = m.stream.get();
+  const VolumeDims dims = m.input_dims;
+  const VolumeRef input = VolumeRef::on_device(m.input.data(), dims, stream);
+  const VolumeRef filtered = VolumeRef::on_device(m.filtered.data(), dims, stream);
+
+  m.started.record(stream);
+  const filters::BscanRange outputs = m.filter.filter_group(
+      input, MutableVolumeRef::on_device(m.filtered.data(), dims, stream), {first, count});
+  m.filtered_done.record(stream);
+  const segmentation::BscanSpan affected =
+      m.segmenter.segment_group(filtered, {outputs.first, outputs.count}, nullptr);
+  m.segmented_done.record(stream);
+  m.renderer.update_bscans(filtered, affected.first, affected.count, m.segmenter.device_surfaces());
+  if (frame != nullptr) {
+    m.renderer.render(view, *frame);
+  } else {
+    m.renderer.render_on_device(view);
+  }
+  m.rendered_done.record(stream);
+  IOCT_CUDA_CHECK(cudaEventSynchronize(m.rendered_done.get()));
+  const std::uint64_t now = shm::monotonic_ns();
+
+  PassTimes t;
+  t.filter_ms = m.filtered_done.ms_since(m.started);
+  t.segment_ms = m.segmented_done.ms_since(m.filtered_done);
+  t.render_ms = m.rendered_done.ms_since(m.segmented_done);
+  t.rendered_ns = now;
+  t.segmented_ns = ns_before(now, static_cast<float>(t.render_ms));
+  t.filtered_ns = ns_before(now, static_cast<float>(t.render_ms + t.segment_ms));
+  t.changed_first = affected.first;  // the segmentation's reach covers the filter's outputs
+  t.changed_count = affected.count;
+  return t;
+}
+
+void DeviceStageChain::download(Volume& filtered, segmentation::Surfaces& surfaces) {
+  Impl& m = *impl_;
+  const VolumeDims& d = m.input_dims;
+  filtered.reshape(d.bscans, d.ascans, d.depth);
+  if (d.bytes() == 0) return;
+  cuda::copy_async(filtered.pixels().data(), m.filtered.data(), d.bytes(), cudaMemcpyDeviceToHost,
+                   m.stream.get(), cuda::Payload::volume,
+                   "copy of the filtered volume to the host");
+  m.segmenter.download_surfaces(surfaces, m.stream.get());
+}
+
+void DeviceStageChain::download_bscan(std::uint32_t bscan, Volume& filtered,
+                                      segmentation::Surfaces& surfaces) {
+  Impl& m = *impl_;
+  const VolumeDims& d = m.input_dims;
+  if (filtered.bscans() != d.bscans || filtered.ascans() != d.ascans ||
+      filtered.depth() != d.depth) {
+    filtered.reshape(d.bscans, d.ascans, d.depth);
+  }
+  if (d.bytes() == 0 || bscan >= d.bscans) return;
+  const std::size_t n = std::size_t{d.ascans} * d.depth;
+  cuda::copy_async(filtered.bscan(bscan).data(), m.filtered.data() + bscan * n, n,
+                   cudaMemcpyDeviceToHost, m.stream.get(), cuda::Payload::volume,
+                   "copy of the B-scan shown to the host");
+  m.segmenter.download_surfaces(surfaces, m.stream.get());  // waits for both
+}
+
+std::uint32_t DeviceStageChain::bscans() const noexcept {
+  return impl_->input_dims.bscans;
+}
+
+#else  // no CUDA: the stages always work on host volumes
+
+struct DeviceStageChain::Impl {};
+
+std::unique_ptr<DeviceStageChain> DeviceStageChain::make(filters::VolumeFilter&,
+                                                         segmentation::Segmenter&,
+                                                         render::Renderer&) {
+  return nullptr;
+}
+bool DeviceStageChain::hand_over(LiveVolumeSource&, const LiveVolumeShape&, std::uint32_t,
+                                 std::uint32_t, bool&) {
+  return false;
+}
+DeviceStageChain::Taken DeviceStageChain::take(std::uint32_t, std::uint32_t) {
+  throw std::logic_error("live stages: built without CUDA");
+}
+DeviceStageChain::Taken DeviceStageChain::take_host(const Volume&, std::uint32_t, std::uint32_t) {
+  throw std::logic_error("live stages: built without CUDA");
+}
+DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t, std::uint32_t,
+                                                       const render::RenderConfig&,
+                                                       render::RgbaImage*) {
+  throw std::logic_error("live stages: built without CUDA");
+}
+void DeviceStageChain::download(Volume&, segmentation::Surfaces&) {
+  throw std::logic_error("live stages: built without CUDA");
+}
+void DeviceStageChain::download_bscan(std::uint32_t, Volume&, segmentation::Surfaces&) {
+  throw std::logic_error("live stages: built without CUDA");
+}
+std::uint32_t DeviceStageChain::bscans() const noexcept {
+  return 0;
+}
+
+#endif
+
+DeviceStageChain::DeviceStageChain(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+DeviceStageChain::~DeviceStageChain() = default;
+
+}  // namespace ioct::gpu::live

@@ -1,0 +1,97 @@
+// The live stages on the device (CUDA builds, CUDA stages): where the live volume's bytes live
+// while VolumeStages works on them.
+//
+// Hand-over (the live loop's thread): the new B-scans are copied device to device from the live
+// volume (LiveVolumeSource::read_on_device) into a pending device volume on a copy stream of
+// their own, which waits only for the last pass to have taken its input, so the processing never
+// waits for a pass. A source with a host volume instead fills VolumeStages' host pending volume,
+// and the pass uploads it (the stages' host path).
+//
+// Pass (the stages' thread): the pending B-scans are copied into the input volume, then the
+// filter, the segmentation and the renderer's update and frame are enqueued on one stream, each
+// on the previous one's device output, with no copy of the volume to the host and no wait for the
+// host in between (the renderer makes its layer reference on the device too); the pass ends by
+// waiting for its frame. Only what is asked for
+// (a frame to write, the files at the end) comes back.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+
+#include "ioct/gpu/ingest/live_stage.hpp"
+#include "ioct/gpu/render/render_config.hpp"
+#include "ioct/gpu/render/rgba_image.hpp"
+#include "ioct/gpu/segmentation/surfaces.hpp"
+#include "ioct/gpu/volume/volume.hpp"
+
+namespace ioct::gpu::filters {
+class VolumeFilter;
+}
+namespace ioct::gpu::segmentation {
+class Segmenter;
+}
+namespace ioct::gpu::render {
+class Renderer;
+}
+
+namespace ioct::gpu::live {
+
+class DeviceStageChain {
+ public:
+  // Device time of each stage of a pass, ms, and when the frame was done (CLOCK_MONOTONIC).
+  struct PassTimes {
+    double filter_ms = 0.0, segment_ms = 0.0, render_ms = 0.0;
+    std::uint64_t filtered_ns = 0, segmented_ns = 0, rendered_ns = 0;
+    // The B-scans whose filtered pixels or surfaces the pass changed: the segmentation's
+    // affected B-scans, which contain the filter's outputs.
+    std::uint32_t changed_first = 0, changed_count = 0;
+  };
+
+  // Null when the stages are not all CUDA ones (or the build has no CUDA): they then work on
+  // host volumes. Moves the renderer onto the chain's stream.
+  static std::unique_ptr<DeviceStageChain> make(filters::VolumeFilter& filter,
+                                                segmentation::Segmenter& segmenter,
+                                                render::Renderer& renderer);
+  ~DeviceStageChain();
+  DeviceStageChain(const DeviceStageChain&) = delete;
+  DeviceStageChain& operator=(const DeviceStageChain&) = delete;
+
+  // Live loop's thread, under the stages' lock. Enqueues the copy of B-scans [first, first +
+  // count) of the source's device volume into the pending device volume. `new_shape` says when
+  // `shape` differs from the passes' input: the pending volume is then zeroed first (otherwise a
+  // new pending volume starts as the input, which take_host() filled). False, with nothing done,
+  // for a host source.
+  bool hand_over(LiveVolumeSource& source, const LiveVolumeShape& shape, std::uint32_t first,
+                 std::uint32_t count, bool& new_shape);
+
+  // Stages' thread, under the stages' lock: the pending B-scans [first, first + count) become
+  // the pass's input, from the pending device volume, or (take_host) uploaded from a host one.
+  // Returns the B-scans the pass must work on: these, or all when the input was new (other
+  // dimensions).
+  struct Taken {
+    std::uint32_t first = 0, count = 0;
+  };
+  Taken take(std::uint32_t first, std::uint32_t count);
+  Taken take_host(const Volume& pending, std::uint32_t first, std::uint32_t count);
+
+  // Stages' thread: filter -> segment -> render the input's B-scans [first, first + count) (as
+  // take() returned them); the frame comes back into `frame` only when one is given.
+  PassTimes run_pass(std::uint32_t first, std::uint32_t count, const render::RenderConfig& view,
+                     render::RgbaImage* frame);
+
+  // The filtered volume and the surfaces, to the host (the files at the end).
+  void download(Volume& filtered, segmentation::Surfaces& surfaces);
+  // B-scan `bscan` of the filtered volume into the same B-scan of `filtered` (reshaped to the
+  // input's dimensions; its other B-scans are left as they are) and the surfaces, to the host:
+  // the B-scan a frame shows beside the render.
+  void download_bscan(std::uint32_t bscan, Volume& filtered, segmentation::Surfaces& surfaces);
+  // B-scans in the passes' input (0 before the first pass).
+  std::uint32_t bscans() const noexcept;
+
+ private:
+  struct Impl;
+  explicit DeviceStageChain(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace ioct::gpu::live

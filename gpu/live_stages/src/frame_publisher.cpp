@@ -1,0 +1,160 @@
+#include "ioct/gpu/live_stages/frame_publisher.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+#include "ioct/shm/monotonic_clock.hpp"
+
+namespace ioct::gpu::live {
+namespace {
+
+// Well inside the view's bound for a silent writer (1 s) and the 100 ms the contract asks for.
+constexpr auto kHeartbeatPeriod = std::chrono::milliseconds(50);
+
+// Bands a frame is encoded in, and the threads (the publishing one included) that encode them:
+// four bands of a 768-row render are 192 rows each; more threads than cores would only queue.
+constexpr unsigned kEncodeBands = 4;
+unsigned encode_threads() {
+  return std::clamp(std::thread::hardware_concurrency(), 1u, kEncodeBands);
+}
+
+}  // namespace
+
+FramePublisher::FramePublisher(const shm::FrameRingConfig& ring)
+    : name_(ring.name),
+      writer_(ring),
+      encode_pool_(encode_threads()),
+      render_encoder_(85, kEncodeBands, encode_pool_),
+      bscan_encoder_(90, kEncodeBands, encode_pool_),
+      tip_bscans_encoder_(90, kEncodeBands, encode_pool_) {
+  status_.source_state = static_cast<std::uint64_t>(shm::SourceState::waiting);
+  {
+    std::lock_guard lock(mutex_);
+    push_status_locked();
+  }
+  heartbeat_ = std::thread([this] { beat(); });
+}
+
+FramePublisher::~FramePublisher() {
+  close();
+}
+
+void FramePublisher::close() {
+  {
+    std::lock_guard lock(mutex_);
+    if (closed_) return;
+    closed_ = true;
+  }
+  wake_.notify_all();
+  if (heartbeat_.joinable()) heartbeat_.join();
+  std::lock_guard lock(mutex_);
+  push_status_locked();
+  writer_.close();
+}
+
+void FramePublisher::beat() {
+  std::unique_lock lock(mutex_);
+  while (!closed_) {
+    writer_.heartbeat(shm::monotonic_ns());
+    wake_.wait_for(lock, kHeartbeatPeriod, [this] { return closed_; });
+  }
+}
+
+void FramePublisher::push_status_locked() {
+  writer_.set_status(status_);
+}
+
+void FramePublisher::note_group(const GroupStamp& stamp, std::uint64_t group_period_ns) {
+  std::lock_guard lock(mutex_);
+  status_.source_state = static_cast<std::uint64_t>(shm::SourceState::live);
+  status_.groups_consumed = stamp.groups_consumed;
+  status_.groups_dropped = stamp.groups_dropped;
+  status_.volumes_completed = stamp.volumes_completed;
+  status_.last_group_index = stamp.group_index;
+  status_.last_group_published_ns = stamp.t_published_ns;
+  status_.group_period_ns = group_period_ns;
+  status_.ingest.record(stamp.ingest_ns);
+  // Clamped: the publish time comes from another process.
+  if (stamp.t_processed_ns >= stamp.t_published_ns && stamp.t_published_ns != 0) {
+    status_.published_to_processed.record(stamp.t_processed_ns - stamp.t_published_ns);
+  }
+  push_status_locked();
+}
+
+void FramePublisher::note_pass(std::uint64_t filter_ns, std::uint64_t segmentation_ns,
+                               bool rendered, std::uint64_t render_ns,
+                               std::uint64_t published_to_rendered_ns) {
+  std::lock_guard lock(mutex_);
+  ++status_.passes;
+  status_.filter.record(filter_ns);
+  status_.segmentation.record(segmentation_ns);
+  if (rendered) {
+    status_.render.record(render_ns);
+    status_.published_to_rendered.record(published_to_rendered_ns);
+  }
+  push_status_locked();
+}
+
+void FramePublisher::note_render_time(std::uint64_t render_ns) {
+  std::lock_guard lock(mutex_);
+  status_.render.record(render_ns);
+  push_status_locked();
+}
+
+void FramePublisher::note_frame(std::uint64_t publish_ns) {
+  std::lock_guard lock(mutex_);
+  ++status_.renders;
+  status_.publish.record(publish_ns);
+  push_status_locked();
+}
+
+void FramePublisher::note_device_memory(std::uint64_t used_bytes, std::uint64_t total_bytes) {
+  std::lock_guard lock(mutex_);
+  status_.device_memory_known = 1;
+  status_.device_memory_used_bytes = used_bytes;
+  status_.device_memory_total_bytes = total_bytes;
+  push_status_locked();
+}
+
+void FramePublisher::set_bscan(const segmentation::RgbImage& image, std::uint32_t index,
+                               std::uint32_t bscans) {
+  const std::span<const std::byte> jpeg =
+      bscan_encoder_.encode(image.pixels, image.width, image.height, PixelLayout::rgb);
+  bscan_jpeg_.assign(jpeg.begin(), jpeg.end());
+  bscan_width_ = image.width;
+  bscan_height_ = image.height;
+  bscan_index_ = index;
+  bscans_ = bscans;
+}
+
+void FramePublisher::set_tip_bscans(const instruments::TipBscans* pair) {
+  if (pair == nullptr || pair->width == 0 || pair->height == 0) {
+    tip_bscans_jpeg_.clear();
+    tip_bscan_width_ = tip_bscan_height_ = 0;
+    return;
+  }
+  const std::span<const std::byte> jpeg =
+      tip_bscans_encoder_.encode(pair->pixels, pair->stride(), pair->height, PixelLayout::gray);
+  tip_bscans_jpeg_.assign(jpeg.begin(), jpeg.end());
+  tip_bscan_width_ = pair->width;
+  tip_bscan_height_ = pair->height;
+}
+
+std::uint64_t FramePublisher::publish(shm::FrameMeta meta, const render::RgbaImage& render) {
+  const std::span<const std::byte> jpeg =
+      render_encoder_.encode(render.rgba, render.width, render.height, PixelLayout::rgba);
+  meta.format = static_cast<std::uint32_t>(shm::FrameFormat::jpeg);
+  meta.width = render.width;
+  meta.height = render.height;
+  meta.bscan_width = bscan_width_;
+  meta.bscan_height = bscan_height_;
+  meta.bscan_index = bscan_index_;
+  meta.bscans = bscans_;
+  meta.tip_bscan_width = tip_bscan_width_;
+  meta.tip_bscan_height = tip_bscan_height_;
+  std::lock_guard lock(mutex_);
+  if (closed_) return 0;
+  return writer_.publish(meta, jpeg, bscan_jpeg_, tip_bscans_jpeg_);
+}
+
+}  // namespace ioct::gpu::live
