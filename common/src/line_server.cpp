@@ -12,15 +12,10 @@
 #include <ctime>
 #include <stdexcept>
 
+#include "ioct/concurrency/monotonic_clock.hpp"
+
 namespace ioct {
 namespace {
-
-std::uint64_t monotonic_ns() noexcept {
-  timespec now{};
-  ::clock_gettime(CLOCK_MONOTONIC, &now);
-  return static_cast<std::uint64_t>(now.tv_sec) * 1'000'000'000u +
-         static_cast<std::uint64_t>(now.tv_nsec);
-}
 
 std::string errno_text(int error) {
   return std::strerror(error);
@@ -191,9 +186,10 @@ void LineServer::accept_clients(std::uint64_t now_ns) {
     if (fd < 0) return;  // EAGAIN: none left (or a transient error: the next poll retries)
     if (clients_.size() >= max_clients_ && !evict_silent(now_ns)) {
       ++rejected_;
-      const std::string reply = error_reply("too many control clients (" + names_.max_clients_key + " = " +
-                                            std::to_string(max_clients_) + "); try again later") +
-                                "\n";
+      const std::string reply =
+          error_reply("too many control clients (" + names_.max_clients_key + " = " +
+                      std::to_string(max_clients_) + "); try again later") +
+          "\n";
       (void)!::send(fd, reply.data(), reply.size(), MSG_NOSIGNAL | MSG_DONTWAIT);
       ::close(fd);
       continue;

@@ -11,9 +11,9 @@
 
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/input_file.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/ringrec/group_queue.hpp"
 #include "ioct/ringrec/ring_recording_writer.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_attach.hpp"
 #include "ioct/shm/ring_reader.hpp"
 
@@ -130,7 +130,7 @@ struct DiskWriter {
         } else {
           if (refusing) say("room again: recording resumes");
           refusing = false;
-          const std::uint64_t start = shm::monotonic_ns();
+          const std::uint64_t start = ioct::monotonic_ns();
           file.append(buffer.header, buffer.payload);
           CounterValues next = counters.snapshot();
           next[static_cast<std::size_t>(Counter::groups_written)] += 1;
@@ -139,7 +139,7 @@ struct DiskWriter {
           // Counted only now, so a status line never counts a group a kill could still lose.
           counters.add(Counter::groups_written);
           counters.add(Counter::bytes_written, bytes);
-          busy_ns += shm::monotonic_ns() - start;
+          busy_ns += ioct::monotonic_ns() - start;
         }
         queue.release(*index);
       }
@@ -293,7 +293,7 @@ std::unique_ptr<RingRecorder::Session> RingRecorder::open_session(const std::fil
   description.run_metadata = config_.run_metadata;
   auto session = std::make_unique<Session>(config_, file, description, overwrite,
                                            geometry.group_payload_bytes(), status, &status_mutex);
-  session->start_ns = shm::monotonic_ns();
+  session->start_ns = ioct::monotonic_ns();
   session->limit_s = seconds;
   session->end_ns = seconds > 0 ? session->start_ns + seconds_to_ns(seconds) : UINT64_MAX;
   session->next_status_ns = session->start_ns + seconds_to_ns(config_.status_interval_s);
@@ -316,7 +316,7 @@ RecorderSummary RingRecorder::finish_session(std::unique_ptr<Session>& session, 
   summary.file = session->file_path;
   summary.stop_reason = std::move(reason);
   summary.failed = failed;
-  summary.seconds = static_cast<double>(shm::monotonic_ns() - session->start_ns) / kNsPerS;
+  summary.seconds = static_cast<double>(ioct::monotonic_ns() - session->start_ns) / kNsPerS;
   session->queue->close();
   session->writer_thread.join();
   DiskWriter& writer = session->writer;
@@ -457,7 +457,7 @@ RecorderStatus RingRecorder::status() const {
   if (view) {
     out.recording = true;
     out.file = view->file;
-    out.seconds = static_cast<double>(shm::monotonic_ns() - view->start_ns) / kNsPerS;
+    out.seconds = static_cast<double>(ioct::monotonic_ns() - view->start_ns) / kNsPerS;
     out.limit_seconds = view->limit_s;
     out.counters = view->counters->snapshot();
     out.queued = view->queue->queued();
@@ -475,7 +475,7 @@ RecorderSummary RingRecorder::run(std::ostream* status) {
   };
 
   shm::AttachWait first_wait;
-  first_wait.deadline_ns = shm::monotonic_ns() + seconds_to_ns(config_.wait_s);
+  first_wait.deadline_ns = ioct::monotonic_ns() + seconds_to_ns(config_.wait_s);
   first_wait.stop = &stop_;
   std::optional<shm::RingReader> reader = shm::attach_when_available(
       config_.ring_name, shm::ReaderOptions{config_.label}, first_wait, config_.wait_s);
@@ -541,7 +541,7 @@ RecorderSummary RingRecorder::run(std::ostream* status) {
     if (command_pending_.load(std::memory_order_acquire)) {
       serve_command(session, geometry, status, status_mutex);
     }
-    const std::uint64_t now = shm::monotonic_ns();
+    const std::uint64_t now = ioct::monotonic_ns();
     if (stop_.load(std::memory_order_relaxed)) break;
     if (session) {
       if (now >= session->end_ns) {
@@ -602,13 +602,13 @@ RecorderSummary RingRecorder::run(std::ostream* status) {
     again.stop = &stop_;
     // Reported each retry, so that commands (record-stop, record-status) are served meanwhile.
     again.report_interval_ns = again.retry_interval_ns;
-    std::uint64_t next_waiting_line = shm::monotonic_ns() + status_ns;
+    std::uint64_t next_waiting_line = ioct::monotonic_ns() + status_ns;
     again.on_waiting = [&](shm::RingErrc last, std::uint64_t waited_ns) {
       if (command_pending_.load(std::memory_order_acquire)) {
         serve_command(session, geometry, status, status_mutex);
       }
-      if (status_ns == 0 || shm::monotonic_ns() < next_waiting_line) return;
-      next_waiting_line = shm::monotonic_ns() + status_ns;
+      if (status_ns == 0 || ioct::monotonic_ns() < next_waiting_line) return;
+      next_waiting_line = ioct::monotonic_ns() + status_ns;
       char line[128];
       std::snprintf(line, sizeof line, "waiting for the producer for %.0f s: %s",
                     static_cast<double>(waited_ns) / kNsPerS,

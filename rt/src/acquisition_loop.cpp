@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <utility>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "safety_state_machine.hpp"
 #include "slot_description.hpp"
 
@@ -94,7 +94,7 @@ RealtimeOutcome AcquisitionLoop::start() {
   if (settings_.realtime.lock_memory) outcome.memory_lock_error = lock_process_memory();
   std::promise<RealtimeOutcome> ready;
   std::future<RealtimeOutcome> started = ready.get_future();
-  heartbeat_ns_.store(shm::monotonic_ns(), std::memory_order_relaxed);
+  heartbeat_ns_.store(ioct::monotonic_ns(), std::memory_order_relaxed);
   thread_ = std::thread([this, ready = std::move(ready), outcome]() mutable {
     make_current_thread_realtime(settings_.realtime, outcome);
     deadline_faults_ = settings_.deadline_faults_without_realtime ||
@@ -181,12 +181,12 @@ bool AcquisitionLoop::commanded_to_run() const noexcept {
 }
 
 void AcquisitionLoop::beat() noexcept {
-  heartbeat_ns_.store(shm::monotonic_ns(), std::memory_order_relaxed);
+  heartbeat_ns_.store(ioct::monotonic_ns(), std::memory_order_relaxed);
 }
 
 void AcquisitionLoop::event(LoopEventKind kind, std::uint32_t value) noexcept {
   // A full queue (housekeeping stalled) loses the event, never blocks the thread.
-  events_.push(LoopEvent{shm::monotonic_ns(), kind, value, ring_.published()});
+  static_cast<void>(events_.push(LoopEvent{ioct::monotonic_ns(), kind, value, ring_.published()}));
 }
 
 void AcquisitionLoop::fail(const char* what) noexcept {
@@ -209,7 +209,7 @@ void AcquisitionLoop::run() noexcept {
       if (cycle != 0 && cycle != serving_cycle_.load(std::memory_order_relaxed)) {
         arm();
       } else {
-        sleep_absolute(shm::monotonic_ns() + settings_.check_interval_ns);
+        sleep_absolute(ioct::monotonic_ns() + settings_.check_interval_ns);
       }
       continue;
     }
@@ -289,7 +289,7 @@ void AcquisitionLoop::arm() noexcept {
     park();
     return;
   }
-  const std::uint64_t now = shm::monotonic_ns();
+  const std::uint64_t now = ioct::monotonic_ns();
   clock_ = SweepClock(now, paced_sweep_period_ns(settings_));
   clock_start_ns_.store(now, std::memory_order_release);
   underruns_at_arm_ = galvo_.status().underruns;
@@ -338,10 +338,10 @@ void AcquisitionLoop::post_fault(std::uint32_t faults) noexcept {
 }
 
 void AcquisitionLoop::wait_for_park_command() noexcept {
-  const std::uint64_t give_up = shm::monotonic_ns() + settings_.park_wait_ns;
-  while (commanded_to_run() && shm::monotonic_ns() < give_up) {
+  const std::uint64_t give_up = ioct::monotonic_ns() + settings_.park_wait_ns;
+  while (commanded_to_run() && ioct::monotonic_ns() < give_up) {
     beat();
-    sleep_absolute(std::min(give_up, shm::monotonic_ns() + settings_.check_interval_ns / 4));
+    sleep_absolute(std::min(give_up, ioct::monotonic_ns() + settings_.check_interval_ns / 4));
   }
 }
 
@@ -349,7 +349,7 @@ bool AcquisitionLoop::sleep_until(std::uint64_t deadline_ns) noexcept {
   for (;;) {
     beat();
     if (!commanded_to_run()) return false;
-    const std::uint64_t now = shm::monotonic_ns();
+    const std::uint64_t now = ioct::monotonic_ns();
     if (now >= deadline_ns) return true;
     sleep_absolute(std::min(deadline_ns, now + settings_.check_interval_ns));
   }
@@ -379,7 +379,7 @@ void AcquisitionLoop::acquire_one_group() noexcept {
   const bool laser_at_start = emission_on_.load(std::memory_order_relaxed);
 
   const shm::RingWriter::Claim claim = ring_.claim();
-  const std::uint64_t begin_ns = shm::monotonic_ns();
+  const std::uint64_t begin_ns = ioct::monotonic_ns();
   hal::GroupInfo info;
   try {
     digitizer_.acquire_group(sample_words(claim.payload), info);
@@ -391,7 +391,7 @@ void AcquisitionLoop::acquire_one_group() noexcept {
     park();
     return;
   }
-  const std::uint64_t generated_ns = shm::monotonic_ns();
+  const std::uint64_t generated_ns = ioct::monotonic_ns();
   beat();
   last_group_sweep_ = info.first_sweep_counter;
 
@@ -457,7 +457,7 @@ void AcquisitionLoop::acquire_one_group() noexcept {
     add(counters_.groups_dropped, std::uint64_t{1});  // parked meanwhile
     return;
   }
-  const std::uint64_t resumed_ns = shm::monotonic_ns();
+  const std::uint64_t resumed_ns = ioct::monotonic_ns();
   wake_latency_.record(resumed_ns > times.complete_ns ? resumed_ns - times.complete_ns : 0);
 
   const bool laser_on = laser_at_start && emission_on_.load(std::memory_order_relaxed);

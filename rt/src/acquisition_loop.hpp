@@ -23,14 +23,14 @@
 #include <thread>
 #include <vector>
 
+#include "ioct/concurrency/latency_histogram.hpp"
+#include "ioct/concurrency/spsc_queue.hpp"
 #include "ioct/hal/digitizer.hpp"
 #include "ioct/hal/galvo_output.hpp"
 #include "ioct/shm/ring_writer.hpp"
-#include "latency_histogram.hpp"
 #include "realtime_setup.hpp"
 #include "scan/scan_pattern.hpp"
 #include "scan_schedule.hpp"
-#include "spsc_queue.hpp"
 #include "sweep_clock.hpp"
 
 namespace ioct::rt {
@@ -137,7 +137,8 @@ class AcquisitionLoop {
   const ScanPattern* take_retired() noexcept;
   std::optional<LoopEvent> take_event() noexcept { return events_.pop(); }
   LoopCounters counters() const noexcept;
-  LatencySnapshot wake_latency() const noexcept { return wake_latency_.snapshot(); }
+  // A snapshot (a copy) of the histogram the acquisition thread fills.
+  LatencyHistogram wake_latency() const noexcept { return wake_latency_; }
   // The message of the last error that ended acquisition (empty when none).
   std::string failure() const;
   bool failed() const noexcept { return failed_.load(std::memory_order_acquire); }
@@ -181,9 +182,9 @@ class AcquisitionLoop {
   std::atomic<std::uint64_t> clock_start_ns_{0};
 
   // Housekeeping ↔ thread.
-  SpscQueue<const ScanPattern*, 4> offered_;
-  SpscQueue<const ScanPattern*, 16> retired_;
-  SpscQueue<LoopEvent, 256> events_;
+  SpscQueue<const ScanPattern*> offered_{4};
+  SpscQueue<const ScanPattern*> retired_{16};
+  SpscQueue<LoopEvent> events_{256};
   std::atomic<bool> failed_{false};
   std::string failure_;  // written by the thread before failed_ (release)
 

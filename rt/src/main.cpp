@@ -20,7 +20,7 @@
 #include "effective_config.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/input_file.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_layout.hpp"
 #include "ioct/shm/ring_writer.hpp"
@@ -242,10 +242,10 @@ nlohmann::json Process::status_now() {
 std::string Process::wait_for_request(bool start, std::uint64_t request, const nlohmann::json& id) {
   // The safety thread takes a request within one poll; wait for it so the reply says what came of
   // it.
-  const std::uint64_t give_up = shm::monotonic_ns() + 500'000'000;
+  const std::uint64_t give_up = ioct::monotonic_ns() + 500'000'000;
   rt::SafetyStatus s = supervisor_->status();
   while ((start ? s.start_requests_handled : s.stop_requests_handled) < request &&
-         shm::monotonic_ns() < give_up) {
+         ioct::monotonic_ns() < give_up) {
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
     s = supervisor_->status();
   }
@@ -395,7 +395,7 @@ int Process::run() {
   const LineServer::Handler handler = [this](const std::string& line) { return handle(line); };
 
   for (;;) {
-    std::uint64_t now = shm::monotonic_ns();
+    std::uint64_t now = ioct::monotonic_ns();
     std::uint64_t wake = std::min({next_status_ns, end_ns, now + 50'000'000});
     if (watchdog_ns != 0) wake = std::min(wake, next_watchdog_ns);
     fds.clear();
@@ -411,7 +411,7 @@ int Process::run() {
     }
     if (control) control->process(fds.data() + 1, fds.size() - 1, handler);
     drain_events();
-    now = shm::monotonic_ns();
+    now = ioct::monotonic_ns();
     if (watchdog_ns != 0 && now >= next_watchdog_ns) {
       // Fed only while both real-time threads are alive; otherwise systemd restarts us.
       if (healthy(now)) {
@@ -435,12 +435,12 @@ int Process::run() {
   notifier.notify("STOPPING=1\nSTATUS=" + reason);
   // Emission off and galvos parked through the safety machine, then the threads end.
   const std::uint64_t stop_request = supervisor_->request_stop();
-  const std::uint64_t give_up = shm::monotonic_ns() + 2'000'000'000;
+  const std::uint64_t give_up = ioct::monotonic_ns() + 2'000'000'000;
   for (;;) {
     const rt::SafetyStatus s = supervisor_->status();
     const bool settled = s.stop_requests_handled >= stop_request &&
                          (s.state == rt::SafetyState::idle || s.state == rt::SafetyState::safe);
-    if (settled || shm::monotonic_ns() > give_up) break;
+    if (settled || ioct::monotonic_ns() > give_up) break;
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
   drain_events();

@@ -3,7 +3,7 @@
 #include <future>
 #include <stdexcept>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 
 namespace ioct::rt {
 
@@ -19,7 +19,7 @@ RealtimeOutcome SafetySupervisor::start() {
   if (thread_.joinable()) throw std::logic_error("safety supervisor: start() twice");
   std::promise<RealtimeOutcome> ready;
   std::future<RealtimeOutcome> started = ready.get_future();
-  heartbeat_ns_.store(shm::monotonic_ns(), std::memory_order_relaxed);
+  heartbeat_ns_.store(ioct::monotonic_ns(), std::memory_order_relaxed);
   thread_ = std::thread([this, ready = std::move(ready)]() mutable {
     RealtimeOutcome outcome;
     make_current_thread_realtime(settings_.realtime, outcome);
@@ -69,7 +69,7 @@ void SafetySupervisor::run() noexcept {
 
 void SafetySupervisor::poll_once() noexcept {
   SafetyInputs in;
-  in.now_ns = shm::monotonic_ns();
+  in.now_ns = ioct::monotonic_ns();
   in.lines = lines_.read_inputs();
   in.emission_readback = lines_.laser_emission();
   const LoopReport loop = loop_.report();
@@ -116,7 +116,9 @@ void SafetySupervisor::poll_once() noexcept {
 
   const SafetyState after = machine_.state();
   if (after != before) {
-    transitions_.push({in.now_ns, before, after, machine_.record().faults});
+    // A full queue (housekeeping stalled) loses the log line, never blocks the thread; the
+    // state itself is in the status.
+    static_cast<void>(transitions_.push({in.now_ns, before, after, machine_.record().faults}));
   }
   working_.state = after;
   working_.record = machine_.record();

@@ -15,10 +15,10 @@
 
 #include "acquisition_loop.hpp"
 #include "footswitch_presses.hpp"
+#include "ioct/concurrency/spsc_queue.hpp"
 #include "ioct/hal/lines.hpp"
 #include "realtime_setup.hpp"
 #include "safety_state_machine.hpp"
-#include "spsc_queue.hpp"
 
 namespace ioct::rt {
 
@@ -91,7 +91,7 @@ class SafetySupervisor {
   std::atomic<std::uint64_t> start_requests_{0};
   std::atomic<std::uint64_t> stop_requests_{0};
   std::atomic<std::uint64_t> heartbeat_ns_{0};
-  SpscQueue<SafetyTransition, 64> transitions_;
+  SpscQueue<SafetyTransition> transitions_{64};
 
   // The thread's own state.
   std::uint64_t start_seen_ = 0;

@@ -10,7 +10,8 @@
 #include <thread>
 #include <vector>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
+#include "wake_latency_buckets.hpp"
 
 namespace ioct::rt {
 namespace {
@@ -45,13 +46,13 @@ SelfTestResult run_self_test(const SelfTestSettings& settings) {
   std::thread thread([&] {
     make_current_thread_realtime(settings.realtime, result.outcome);
     prefault_stack(256 * 1024);
-    std::uint64_t next = shm::monotonic_ns() + settings.interval_ns;
+    std::uint64_t next = ioct::monotonic_ns() + settings.interval_ns;
     for (std::size_t i = 0; i < count; ++i) {
       const timespec wake{static_cast<time_t>(next / 1'000'000'000u),
                           static_cast<long>(next % 1'000'000'000u)};
       while (::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &wake, nullptr) != 0) {
       }
-      const std::uint64_t now = shm::monotonic_ns();
+      const std::uint64_t now = ioct::monotonic_ns();
       const std::uint64_t late = now > next ? now - next : 0;
       latencies[i] = late;
       histogram.record(late);
@@ -63,7 +64,7 @@ SelfTestResult run_self_test(const SelfTestSettings& settings) {
   thread.join();
 
   result.samples = count;
-  result.histogram = histogram.snapshot();
+  result.histogram = histogram;
   std::sort(latencies.begin(), latencies.end());
   const auto at = [&](double q) {
     return latencies[std::min(count - 1, static_cast<std::size_t>(q * static_cast<double>(count)))];
@@ -112,11 +113,12 @@ std::string format_self_test(const SelfTestSettings& settings, const SelfTestRes
       static_cast<unsigned long long>(r.samples), us(settings.interval_ns), settings.seconds,
       us(r.min_ns), r.mean_ns * 1e-3, us(r.p50_ns), us(r.p99_ns), us(r.p999_ns), us(r.max_ns));
   text += "self-test: histogram (us, count):";
-  for (std::size_t i = 0; i < kLatencyBuckets; ++i) {
-    if (r.histogram.counts[i] == 0) continue;
-    text += printf_string(
-        " <%llu:%llu", static_cast<unsigned long long>(LatencySnapshot::bucket_upper_ns(i) / 1000),
-        static_cast<unsigned long long>(r.histogram.counts[i]));
+  const std::array<std::uint64_t, kWakeBuckets> counts = wake_bucket_counts(r.histogram);
+  for (std::size_t i = 0; i < kWakeBuckets; ++i) {
+    if (counts[i] == 0) continue;
+    text += printf_string(" <%llu:%llu",
+                          static_cast<unsigned long long>(wake_bucket_upper_ns(i) / 1000),
+                          static_cast<unsigned long long>(counts[i]));
   }
   text += "\n";
   text += printf_string(

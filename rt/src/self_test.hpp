@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <string>
 
-#include "latency_histogram.hpp"
+#include "ioct/concurrency/latency_histogram.hpp"
 #include "realtime_setup.hpp"
 
 namespace ioct::rt {
@@ -29,7 +29,7 @@ struct SelfTestResult {
   std::uint64_t p999_ns = 0;
   std::uint64_t max_ns = 0;
   std::uint64_t over_threshold = 0;  // wake-ups later than the threshold
-  LatencySnapshot histogram;
+  LatencyHistogram histogram;
   bool passed = false;  // max_ns <= threshold
 };
 

@@ -4,7 +4,8 @@
 
 #include <cstdio>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
+#include "wake_latency_buckets.hpp"
 
 namespace ioct::rt {
 namespace {
@@ -55,10 +56,9 @@ std::string timing(const StatusSample& now, const StatusSample& previous,
   text += printf_string(" | gen %.2f ms avg, %.2f ms max of %.2f ms",
                         ratio(generation, generated) * 1e-6, ms(now.counters.generation_ns_max),
                         ms(group_budget_ns));
-  if (now.wake_latency.samples != 0) {
-    text +=
-        printf_string(" | wake p99 <%.0f us, max %.0f us",
-                      us(now.wake_latency.quantile_upper_ns(0.99)), us(now.wake_latency.max_ns));
+  if (now.wake_latency.count() != 0) {
+    text += printf_string(" | wake p99 <%.0f us, max %.0f us",
+                          us(now.wake_latency.quantile_upper(0.99)), us(now.wake_latency.max()));
   }
   text += printf_string(" | cpu %.1f%%", 100.0 * ratio(now.cpu_ns - previous.cpu_ns, wall));
   if (now.counters.simulator_late_groups != 0) {
@@ -86,7 +86,7 @@ std::uint64_t process_cpu_ns() noexcept {
 }
 
 StatusSample sample_status(const AcquisitionLoop& loop) noexcept {
-  return {shm::monotonic_ns(), process_cpu_ns(), loop.counters(), loop.wake_latency()};
+  return {ioct::monotonic_ns(), process_cpu_ns(), loop.counters(), loop.wake_latency()};
 }
 
 std::string format_status(const StatusSample& now, const StatusSample& previous,
@@ -129,12 +129,12 @@ nlohmann::json status_json(const StatusSample& now, std::uint64_t started_ns,
                            std::uint64_t group_budget_ns, const SafetyStatus& safety,
                            std::span<const shm::ReaderReport> readers) {
   const LoopCounters& c = now.counters;
-  const LatencySnapshot& w = now.wake_latency;
+  const LatencyHistogram& w = now.wake_latency;
+  const std::array<std::uint64_t, kWakeBuckets> counts = wake_bucket_counts(w);
   nlohmann::json histogram = nlohmann::json::array();
-  for (std::size_t i = 0; i < kLatencyBuckets; ++i) {
-    if (w.counts[i] != 0) {
-      histogram.push_back(
-          {{"below_us", LatencySnapshot::bucket_upper_ns(i) / 1000}, {"count", w.counts[i]}});
+  for (std::size_t i = 0; i < kWakeBuckets; ++i) {
+    if (counts[i] != 0) {
+      histogram.push_back({{"below_us", wake_bucket_upper_ns(i) / 1000}, {"count", counts[i]}});
     }
   }
   nlohmann::json readers_json = nlohmann::json::array();
@@ -199,15 +199,15 @@ nlohmann::json status_json(const StatusSample& now, std::uint64_t started_ns,
         {"pattern_id", c.scan_pattern_id},
         {"changes", c.scan_changes}}},
       {"wake_latency",
-       {{"samples", w.samples},
+       {{"samples", w.count()},
         {"mean_us", w.mean_ns() * 1e-3},
-        {"p99_below_us", us(w.quantile_upper_ns(0.99))},
-        {"max_us", us(w.max_ns)},
+        {"p99_below_us", us(w.quantile_upper(0.99))},
+        {"max_us", us(w.max())},
         {"histogram", histogram},
         // Every bucket (bucket i below 2^i us, the last one the overflow) and the exact sum,
         // for a Prometheus histogram (ioct-view's /metrics).
-        {"counts", w.counts},
-        {"total_ns", w.total_ns}}},
+        {"counts", counts},
+        {"total_ns", w.sum_ns()}}},
       {"readers", readers_json},
   };
 }

@@ -18,7 +18,7 @@ struct StatusSample {
   std::uint64_t wall_ns = 0;  // CLOCK_MONOTONIC
   std::uint64_t cpu_ns = 0;   // user + system CPU time of the whole process
   LoopCounters counters;
-  LatencySnapshot wake_latency;
+  LatencyHistogram wake_latency;
 };
 
 // User plus system CPU time this process has used, all threads.

@@ -7,8 +7,8 @@
 #include <stdexcept>
 #include <type_traits>
 
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/shm/atomic_word.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_layout.hpp"
 #include "ioct/shm/ring_reader.hpp"  // seqlock_copy

@@ -9,8 +9,8 @@
 #include <cstring>
 #include <filesystem>
 
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/shm/atomic_word.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_layout.hpp"
 

@@ -4,7 +4,7 @@
 #include <chrono>
 #include <thread>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 
 namespace ioct::shm {
 

@@ -4,8 +4,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/shm/atomic_word.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 
 #if defined(__SANITIZE_THREAD__)

@@ -9,8 +9,8 @@
 #include <optional>
 #include <utility>
 
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/shm/atomic_word.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 
 // ThreadSanitizer does not model standalone fences (GCC says so with -Wtsan). The seqlock's
@@ -22,13 +22,6 @@
 
 namespace ioct::shm {
 namespace {
-
-std::uint64_t realtime_ns() noexcept {
-  timespec ts{};
-  ::clock_gettime(CLOCK_REALTIME, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000u +
-         static_cast<std::uint64_t>(ts.tv_nsec);
-}
 
 bool same_layout(const RingHeader& h, const RingConfig& config, const RingLayout& layout,
                  std::uint64_t object_bytes) {
@@ -173,10 +166,10 @@ void RingWriter::initialize(bool in_place) {
   h.total_bytes = layout_.total_bytes;
   h.producer_pid = self.pid;
   h.producer_start_ticks = self.start_ticks;
-  h.created_realtime_ns = realtime_ns();
+  h.created_realtime_ns = clock_ns(CLOCK_REALTIME);
 
   // The epoch goes first: a reader that sees any reset word below (acquire) also sees it.
-  epoch_ = std::max(old_epoch + 1, realtime_ns());
+  epoch_ = std::max(old_epoch + 1, clock_ns(CLOCK_REALTIME));
   store_word(h.producer_epoch, epoch_, std::memory_order_relaxed);
   store_word(h.published, 0, std::memory_order_release);
   for (std::uint64_t i = 0; i < layout_.slot_count; ++i) {

@@ -1,6 +1,6 @@
 #include "ioct/sim/fault_injector.hpp"
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 
 namespace ioct::sim {
 namespace {
@@ -30,7 +30,7 @@ void FaultInjector::set(Fault fault, bool active) noexcept {
   const std::uint32_t previous = active ? mask_.fetch_or(bit(fault), std::memory_order_acq_rel)
                                         : mask_.fetch_and(~bit(fault), std::memory_order_acq_rel);
   if (((previous & bit(fault)) != 0) != active) {
-    changed_ns_[static_cast<std::size_t>(fault)].store(shm::monotonic_ns(),
+    changed_ns_[static_cast<std::size_t>(fault)].store(ioct::monotonic_ns(),
                                                        std::memory_order_release);
   }
 }

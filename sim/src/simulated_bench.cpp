@@ -1,7 +1,7 @@
 #include "ioct/sim/simulated_bench.hpp"
 
 #include "ioct/common/config_error.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 
 namespace ioct::sim {
 void BenchConfig::validate() const {
@@ -24,7 +24,7 @@ void SimulatedBench::command_emission(bool on) noexcept {
 }
 
 void SimulatedBench::heartbeat() noexcept {
-  last_heartbeat_ns_.store(shm::monotonic_ns(), std::memory_order_release);
+  last_heartbeat_ns_.store(ioct::monotonic_ns(), std::memory_order_release);
 }
 
 bool SimulatedBench::emission_on() const noexcept {
@@ -33,12 +33,12 @@ bool SimulatedBench::emission_on() const noexcept {
   if (config_.watchdog_timeout_ms == 0) return true;
   const std::uint64_t last = last_heartbeat_ns_.load(std::memory_order_acquire);
   return last != 0 &&
-         shm::monotonic_ns() - last <= std::uint64_t{config_.watchdog_timeout_ms} * 1'000'000ull;
+         ioct::monotonic_ns() - last <= std::uint64_t{config_.watchdog_timeout_ms} * 1'000'000ull;
 }
 
 void SimulatedBench::set_footswitch(bool pressed) noexcept {
   if (footswitch_.exchange(pressed, std::memory_order_acq_rel) != pressed) {
-    footswitch_changed_ns_.store(shm::monotonic_ns(), std::memory_order_release);
+    footswitch_changed_ns_.store(ioct::monotonic_ns(), std::memory_order_release);
   }
 }
 

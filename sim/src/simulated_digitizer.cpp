@@ -9,7 +9,7 @@
 #include <thread>
 
 #include "ioct/common/config_error.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/sim/anterior_segment_model.hpp"
 #include "ioct/sim/mirror_model.hpp"
 #include "ioct/sim/retina_model.hpp"
@@ -153,7 +153,7 @@ void SimulatedDigitizer::do_start() {
   pending_status_ = 0;
   backlog_sweeps_ = 0;
   device_lost_ = false;
-  start_ns_ = shm::monotonic_ns();
+  start_ns_ = ioct::monotonic_ns();
   if (pipeline_) {
     // Work of the previous run still running finishes before its slots are rewritten.
     pipeline_->cancel();
@@ -199,10 +199,10 @@ void SimulatedDigitizer::lose_sweeps(std::uint64_t sweeps, bool triggers,
 }
 
 bool SimulatedDigitizer::wait_out(std::uint32_t fault_bits) noexcept {
-  const std::uint64_t start = shm::monotonic_ns();
+  const std::uint64_t start = ioct::monotonic_ns();
   const std::uint64_t timeout_ns = std::uint64_t{config().timeout_ms} * 1'000'000ull;
   for (;;) {
-    const std::uint64_t now = shm::monotonic_ns();
+    const std::uint64_t now = ioct::monotonic_ns();
     const bool lasting = (bench_->faults().active_mask() & fault_bits) != 0;
     if (!lasting || now - start >= timeout_ns) {
       // The source kept sweeping while nothing was recorded.

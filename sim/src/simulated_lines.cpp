@@ -3,7 +3,7 @@
 #include <stdexcept>
 #include <thread>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 
 namespace ioct::sim {
 SimulatedLines::SimulatedLines(std::shared_ptr<SimulatedBench> bench) : bench_(std::move(bench)) {
@@ -48,7 +48,7 @@ void SimulatedLines::toggle_watchdog() noexcept {
 std::optional<hal::LineEvent> SimulatedLines::wait_event(std::chrono::nanoseconds timeout) {
   if (!prepared_) throw std::logic_error("simulated lines: wait_event() before prepare()");
   const std::uint64_t deadline =
-      shm::monotonic_ns() + static_cast<std::uint64_t>(std::max<std::int64_t>(0, timeout.count()));
+      ioct::monotonic_ns() + static_cast<std::uint64_t>(std::max<std::int64_t>(0, timeout.count()));
   const FaultInjector& faults = bench_->faults();
   for (;;) {
     const hal::LineInputs now = bench_->inputs();
@@ -56,7 +56,7 @@ std::optional<hal::LineEvent> SimulatedLines::wait_event(std::chrono::nanosecond
                           std::uint64_t changed_ns) -> std::optional<hal::LineEvent> {
       if (reported == level) return std::nullopt;
       reported = level;
-      return hal::LineEvent{line, level, changed_ns != 0 ? changed_ns : shm::monotonic_ns()};
+      return hal::LineEvent{line, level, changed_ns != 0 ? changed_ns : ioct::monotonic_ns()};
     };
     if (auto e = edge(hal::InputLine::laser_ready, reported_.laser_ready, now.laser_ready,
                       faults.changed_ns(Fault::laser_not_ready))) {
@@ -74,7 +74,7 @@ std::optional<hal::LineEvent> SimulatedLines::wait_event(std::chrono::nanosecond
                       bench_->footswitch_changed_ns())) {
       return e;
     }
-    if (shm::monotonic_ns() >= deadline) return std::nullopt;
+    if (ioct::monotonic_ns() >= deadline) return std::nullopt;
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
 }

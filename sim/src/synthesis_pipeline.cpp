@@ -5,7 +5,7 @@
 
 #include <stdexcept>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 
 namespace ioct::sim {
 
@@ -103,7 +103,7 @@ void SynthesisPipeline::work(std::uint32_t worker) noexcept {
       if (bscan < bscans_) {
         task_(worker, slot, bscan);
         // Its end, kept if it is the latest, before the count that may release the slot.
-        const std::uint64_t end = shm::monotonic_ns();
+        const std::uint64_t end = ioct::monotonic_ns();
         std::uint64_t latest = s.finished_ns.load(std::memory_order_relaxed);
         while (latest < end &&
                !s.finished_ns.compare_exchange_weak(latest, end, std::memory_order_relaxed)) {

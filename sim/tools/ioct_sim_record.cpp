@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/recording/recording_writer.hpp"
 #include "ioct/sim/instrument_spec.hpp"
 #include "ioct/sim/raster_waveform.hpp"
@@ -99,9 +100,7 @@ FaultWindow parse_fault(const std::string& spec) {
 }
 
 double cpu_seconds() {
-  timespec ts{};
-  ::clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+  return 1e-9 * static_cast<double>(clock_ns(CLOCK_PROCESS_CPUTIME_ID));
 }
 
 int run(const Options& o) {

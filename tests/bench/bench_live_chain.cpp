@@ -37,6 +37,7 @@
 #include <vector>
 
 #include "host_description.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/filters/cuda_volume_filter.hpp"
 #include "ioct/gpu/ingest/live_pipeline.hpp"
@@ -44,7 +45,6 @@
 #include "ioct/gpu/processing/cuda_oct_processor.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_writer.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
@@ -140,7 +140,7 @@ class ChainRecorder final : public LiveEvents {
 
   void on_volume(const Volume&, const VolumeInfo&) override {}
   void on_group(const shm::SlotHeader& h, const PlacementResult& placed) override {
-    const std::uint64_t now = shm::monotonic_ns();
+    const std::uint64_t now = ioct::monotonic_ns();
     {
       std::lock_guard lock(mutex_);
       waiting_.push_back({h.t_publish_ns, now});
@@ -353,15 +353,15 @@ int run(const Options& o) {
   // nothing moves for 10 s.
   const auto settle = [&] {
     std::uint64_t last = 0;
-    std::uint64_t since = shm::monotonic_ns();
+    std::uint64_t since = ioct::monotonic_ns();
     for (;;) {
       const bool idle = pipeline->poll(recorder) == shm::PollStatus::empty;
       const std::uint64_t through = recorder.groups_through_stages.load();
       if (idle && through >= recorder.groups_processed.load()) return;
       if (through != last) {
         last = through;
-        since = shm::monotonic_ns();
-      } else if (shm::monotonic_ns() - since > 10'000'000'000ull) {
+        since = ioct::monotonic_ns();
+      } else if (ioct::monotonic_ns() - since > 10'000'000'000ull) {
         throw std::runtime_error("the chain made no progress for 10 s (" + std::to_string(through) +
                                  " groups through the stages, " +
                                  std::to_string(recorder.groups_processed.load()) +
@@ -441,11 +441,11 @@ int run(const Options& o) {
   recorder.reset();
   const shm::ReaderCounters r0 = pipeline->reader().counters();
   const std::uint64_t s0 = recorder.groups_through_stages.load();
-  const std::uint64_t t0 = shm::monotonic_ns();
+  const std::uint64_t t0 = ioct::monotonic_ns();
   std::uint64_t now = t0;
   while (now - t0 < static_cast<std::uint64_t>(o.seconds * 1e9)) {
     step();
-    now = shm::monotonic_ns();
+    now = ioct::monotonic_ns();
   }
   const std::uint64_t staged = recorder.groups_through_stages.load() - s0;
   const shm::ReaderCounters r1 = pipeline->reader().counters();

@@ -11,7 +11,7 @@
 
 #include "bench_ring_fixture.hpp"
 #include "cpu_pinning.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
@@ -32,7 +32,7 @@ void spin_pause(bool share_cpu) {
 }
 
 void wait_until(std::uint64_t deadline_ns, bool share_cpu) {
-  while (shm::monotonic_ns() < deadline_ns) spin_pause(share_cpu);
+  while (ioct::monotonic_ns() < deadline_ns) spin_pause(share_cpu);
 }
 
 struct CpuPlan {
@@ -95,10 +95,10 @@ HandoffLatencyResult measure_handoff_latency(std::uint64_t handoffs, std::uint64
         shm::RingWriter& writer = ring.writer();
         for (std::uint64_t i = 0; i < total; ++i) {
           while (taken.value.load(std::memory_order_acquire) < i) spin_pause(plan.share_cpu);
-          wait_until(shm::monotonic_ns() + gap_ns, plan.share_cpu);
-          const std::uint64_t t0 = shm::monotonic_ns();
+          wait_until(ioct::monotonic_ns() + gap_ns, plan.share_cpu);
+          const std::uint64_t t0 = ioct::monotonic_ns();
           writer.publish(writer.claim());
-          const std::uint64_t t1 = shm::monotonic_ns();
+          const std::uint64_t t1 = ioct::monotonic_ns();
           if (i >= warmup) publish_samples[i - warmup] = t1 - t0;
         }
       },
@@ -109,7 +109,7 @@ HandoffLatencyResult measure_handoff_latency(std::uint64_t handoffs, std::uint64
           while ((status = reader.begin_read(ticket)) == shm::PollStatus::empty) {
             spin_pause(plan.share_cpu);
           }
-          const std::uint64_t now = shm::monotonic_ns();
+          const std::uint64_t now = ioct::monotonic_ns();
           if (status != shm::PollStatus::ready) {
             unexpected = status;                                  // reported after the join
             taken.value.store(total, std::memory_order_release);  // let the writer finish
@@ -140,8 +140,8 @@ HandoffLatencyResult measure_handoff_latency(std::uint64_t handoffs, std::uint64
           while (anchor_taken.value.load(std::memory_order_acquire) < i) {
             spin_pause(plan.share_cpu);
           }
-          wait_until(shm::monotonic_ns() + gap_ns, plan.share_cpu);
-          stamp.value.store(shm::monotonic_ns(), std::memory_order_release);
+          wait_until(ioct::monotonic_ns() + gap_ns, plan.share_cpu);
+          stamp.value.store(ioct::monotonic_ns(), std::memory_order_release);
         }
       },
       [&] {
@@ -151,7 +151,7 @@ HandoffLatencyResult measure_handoff_latency(std::uint64_t handoffs, std::uint64
           while ((t = stamp.value.load(std::memory_order_acquire)) == last) {
             spin_pause(plan.share_cpu);
           }
-          const std::uint64_t now = shm::monotonic_ns();
+          const std::uint64_t now = ioct::monotonic_ns();
           last = t;
           if (i >= warmup) anchor_samples[i - warmup] = now - t;
           anchor_taken.value.store(i + 1, std::memory_order_release);

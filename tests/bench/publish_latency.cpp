@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "bench_ring_fixture.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/test_support/allocation_counter.hpp"
 #include "ioct/test_support/page_fault_counter.hpp"
 
@@ -33,10 +33,10 @@ PublishLatencyResult measure_publish_latency(const std::string& label,
   const test_support::PageFaultCounter faults;
   const test_support::AllocationCounter allocations;
   for (std::uint64_t i = 0; i < publishes; ++i) {
-    const std::uint64_t t0 = shm::monotonic_ns();
+    const std::uint64_t t0 = ioct::monotonic_ns();
     const auto claim = writer.claim();
     writer.publish(claim);
-    samples[i] = shm::monotonic_ns() - t0;
+    samples[i] = ioct::monotonic_ns() - t0;
   }
   const test_support::PageFaults loop_faults = faults.faults();
   result.heap_allocations = allocations.allocations();
@@ -44,14 +44,14 @@ PublishLatencyResult measure_publish_latency(const std::string& label,
   result.major_page_faults = loop_faults.major;
   result.per_publish = summarize(samples);
 
-  const std::uint64_t batch_start = shm::monotonic_ns();
+  const std::uint64_t batch_start = ioct::monotonic_ns();
   for (std::uint64_t i = 0; i < publishes; ++i) writer.publish(writer.claim());
-  result.batch_mean_ns = static_cast<double>(shm::monotonic_ns() - batch_start) /
+  result.batch_mean_ns = static_cast<double>(ioct::monotonic_ns() - batch_start) /
                          static_cast<double>(std::max<std::uint64_t>(publishes, 1));
 
   for (std::uint64_t i = 0; i < publishes; ++i) {
-    const std::uint64_t t0 = shm::monotonic_ns();
-    samples[i] = shm::monotonic_ns() - t0;
+    const std::uint64_t t0 = ioct::monotonic_ns();
+    samples[i] = ioct::monotonic_ns() - t0;
   }
   result.timer_floor = summarize(samples);
   return result;

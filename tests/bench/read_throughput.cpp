@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "bench_ring_fixture.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "slot_pattern.hpp"
 
 namespace ioct::bench {
@@ -44,9 +44,9 @@ ReadThroughputResult measure_read_throughput(std::uint64_t groups, std::uint64_t
     const bool timed = round > 0;
     ring.publish(per_round);
     for (std::uint64_t k = 0; k < per_round; ++k) {
-      const std::uint64_t t0 = shm::monotonic_ns();
+      const std::uint64_t t0 = ioct::monotonic_ns();
       const shm::PollStatus status = reader.read_next(destination, header);
-      const std::uint64_t t1 = shm::monotonic_ns();
+      const std::uint64_t t1 = ioct::monotonic_ns();
       if (status != shm::PollStatus::ready) {
         throw std::runtime_error("read throughput: read_next answered " +
                                  std::to_string(static_cast<int>(status)) + " instead of ready");
@@ -57,17 +57,17 @@ ReadThroughputResult measure_read_throughput(std::uint64_t groups, std::uint64_t
     for (std::uint64_t k = 0; k < per_round; ++k) {
       const std::byte* source =
           heap_source.data() + ((round * per_round + k) % slot_count) * group_bytes;
-      const std::uint64_t t0 = shm::monotonic_ns();
+      const std::uint64_t t0 = ioct::monotonic_ns();
       std::memcpy(destination.data(), source, group_bytes);
-      const std::uint64_t t1 = shm::monotonic_ns();
+      const std::uint64_t t1 = ioct::monotonic_ns();
       if (timed) heap_ns.push_back(t1 - t0);
     }
     for (std::uint64_t k = 0; k < per_round; ++k) {
       const std::uint64_t slot = (round * per_round + k) % slot_count;
       const auto source = slot_payload(reader, slot);
-      const std::uint64_t t0 = shm::monotonic_ns();
+      const std::uint64_t t0 = ioct::monotonic_ns();
       std::memcpy(destination.data(), source.data(), group_bytes);
-      const std::uint64_t t1 = shm::monotonic_ns();
+      const std::uint64_t t1 = ioct::monotonic_ns();
       if (!spot_check_pattern(destination, slot)) ++result.bad_copies;
       if (timed) slot_ns.push_back(t1 - t0);
     }

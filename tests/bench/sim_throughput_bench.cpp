@@ -17,7 +17,7 @@
 
 #include "bench_ring_fixture.hpp"
 #include "host_description.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/sim/replay_digitizer.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 
@@ -81,7 +81,7 @@ int main(int argc, char** argv) {
   replay.start();
   shm::RingWriter& writer = ring.writer();
   std::uint64_t published = 0;
-  const std::uint64_t start_ns = shm::monotonic_ns();
+  const std::uint64_t start_ns = ioct::monotonic_ns();
   const auto end_ns = start_ns + static_cast<std::uint64_t>(seconds * 1e9);
   std::uint64_t now_ns = start_ns;
   while (now_ns < end_ns) {
@@ -94,7 +94,7 @@ int main(int argc, char** argv) {
     claim.header->first_sweep_counter = info.first_sweep_counter;
     writer.publish(claim);
     ++published;
-    now_ns = shm::monotonic_ns();
+    now_ns = ioct::monotonic_ns();
   }
   const double elapsed_s = static_cast<double>(now_ns - start_ns) * 1e-9;
   stop.store(true);

@@ -18,7 +18,7 @@
 #include <thread>
 #include <vector>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "latency_summary.hpp"
 #include "view_client.hpp"
 
@@ -62,11 +62,11 @@ ViewerFigures watch(std::uint16_t port, double seconds, int own_view) {
       return f;
     }
   }
-  const std::uint64_t end = ioct::shm::monotonic_ns() + static_cast<std::uint64_t>(seconds * 1e9);
-  while (ioct::shm::monotonic_ns() < end) {
+  const std::uint64_t end = ioct::monotonic_ns() + static_cast<std::uint64_t>(seconds * 1e9);
+  while (ioct::monotonic_ns() < end) {
     auto frame = viewer.next_frame(std::chrono::milliseconds(2000));
     if (!frame) break;
-    const std::uint64_t now = ioct::shm::monotonic_ns();
+    const std::uint64_t now = ioct::monotonic_ns();
     const std::uint64_t published = frame->description.value("published_ns", std::uint64_t{0});
     ++f.frames;
     f.bytes += frame->render.size() + frame->bscan.size();

@@ -33,10 +33,10 @@
 #include <vector>
 
 #include "host_description.hpp"
+#include "ioct/concurrency/latency_histogram.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/ingest/live_pipeline.hpp"
-#include "ioct/gpu/latency_histogram.hpp"
 #include "ioct/gpu/processing/cuda_oct_processor.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_writer.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
@@ -157,7 +157,7 @@ class Counter final : public LiveEvents {
   void on_volume(const Volume&, const VolumeInfo&) override {}
   void on_group(const shm::SlotHeader& h, const PlacementResult&) override {
     ++groups;
-    const std::uint64_t now = shm::monotonic_ns();
+    const std::uint64_t now = ioct::monotonic_ns();
     latency.record(now > h.t_publish_ns ? now - h.t_publish_ns : 0);
   }
   void on_rejected(const shm::SlotHeader&, const std::string& problem) override {
@@ -212,13 +212,13 @@ Throughput measure_pipeline(FilledRing& ring, const shm::RingGeometry& g, const 
   };
   const std::uint64_t warmup_groups = counter.groups + 50;
   while (counter.groups < warmup_groups) step();
-  const std::uint64_t t0 = shm::monotonic_ns();
+  const std::uint64_t t0 = ioct::monotonic_ns();
   const std::uint64_t g0 = counter.groups;
   const shm::ReaderCounters r0 = pipeline->reader().counters();
   std::uint64_t now = t0;
   while (now - t0 < static_cast<std::uint64_t>(o.seconds * 1e9)) {
     step();
-    now = shm::monotonic_ns();
+    now = ioct::monotonic_ns();
   }
   const std::uint64_t groups = counter.groups - g0;
   const shm::ReaderCounters r1 = pipeline->reader().counters();

@@ -1,44 +1,15 @@
-// The small pieces under the live loop: the latency histogram and the worker pool.
+// The small pieces under the live loop: the worker pool (the latency histogram is tested in
+// tests/concurrency).
 #include <gtest/gtest.h>
 
 #include <atomic>
 #include <stdexcept>
 #include <vector>
 
-#include "ioct/gpu/latency_histogram.hpp"
 #include "ioct/gpu/worker_pool.hpp"
 
 namespace ioct::gpu {
 namespace {
-
-TEST(LatencyHistogram, QuantilesAreWithinTheBucketResolution) {
-  LatencyHistogram h;
-  EXPECT_EQ(h.quantile(0.5), 0u);
-  // 1 us .. 10 ms in 1 us steps, shuffled order does not matter for a histogram.
-  for (std::uint64_t us = 1; us <= 10'000; ++us) h.record(us * 1000);
-  EXPECT_EQ(h.count(), 10'000u);
-  EXPECT_EQ(h.min(), 1000u);
-  EXPECT_EQ(h.max(), 10'000'000u);
-  EXPECT_NEAR(static_cast<double>(h.quantile(0.50)), 5.0e6, 5.0e6 * 0.016);
-  EXPECT_NEAR(static_cast<double>(h.quantile(0.99)), 9.9e6, 9.9e6 * 0.016);
-  EXPECT_EQ(h.quantile(1.0), 10'000'000u);
-  EXPECT_EQ(h.quantile(0.0), 1000u);
-}
-
-TEST(LatencyHistogram, SmallValuesAreExactAndMergeAddsUp) {
-  LatencyHistogram a;
-  LatencyHistogram b;
-  for (std::uint64_t v = 0; v < 10; ++v) a.record(v);
-  for (std::uint64_t v = 10; v < 20; ++v) b.record(v);
-  a.merge(b);
-  EXPECT_EQ(a.count(), 20u);
-  EXPECT_EQ(a.quantile(0.5), 9u);
-  EXPECT_EQ(a.max(), 19u);
-  a.record(~std::uint64_t{0});
-  EXPECT_EQ(a.max(), ~std::uint64_t{0});
-  a.reset();
-  EXPECT_EQ(a.count(), 0u);
-}
 
 TEST(WorkerPool, RunsEveryIndexOnceOnEveryPoolSize) {
   for (unsigned threads : {1u, 2u, 3u}) {

@@ -13,9 +13,9 @@
 #include <thread>
 #include <vector>
 
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/live_stages/volume_stages.hpp"
 #include "ioct/shm/frame_ring.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
 #include "live_volumes.hpp"
 
 namespace ioct::gpu::live {

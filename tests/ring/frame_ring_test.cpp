@@ -11,8 +11,8 @@
 #include <thread>
 #include <vector>
 
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/shm/frame_ring.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/shm_object.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"

@@ -4,7 +4,7 @@
 
 #include <algorithm>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "test_group.hpp"
 
 namespace ioct::ring_test {
@@ -14,7 +14,7 @@ PacedWriter::PacedWriter(shm::RingWriter& writer, std::chrono::nanoseconds perio
     : writer_(writer),
       period_ns_(static_cast<std::uint64_t>(period.count())),
       timings_(group_count),
-      start_ns_(shm::monotonic_ns()),
+      start_ns_(ioct::monotonic_ns()),
       thread_([this] { run(); }) {}
 
 PacedWriter::~PacedWriter() {
@@ -41,9 +41,9 @@ void PacedWriter::run() noexcept {
                        static_cast<long>(t.due_ns % 1'000'000'000)};
     while (::clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &due, nullptr) != 0) {
     }
-    t.start_ns = shm::monotonic_ns();
+    t.start_ns = ioct::monotonic_ns();
     publish_test_group(writer_);
-    t.end_ns = shm::monotonic_ns();
+    t.end_ns = ioct::monotonic_ns();
     published_.store(i + 1, std::memory_order_release);
   }
 }

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/shm/ring_attach.hpp"
 #include "ioct/shm/ring_writer.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"
@@ -23,7 +23,7 @@ namespace {
 TEST(RingAttachWait, ABoundedWaitForAMissingRingGivesUpNamingTheWait) {
   const test_support::ScopedShmName name("attach-bounded");
   shm::AttachWait wait;
-  wait.deadline_ns = shm::monotonic_ns();  // already past: one try, then give up
+  wait.deadline_ns = ioct::monotonic_ns();  // already past: one try, then give up
   wait.retry_interval_ns = 1'000'000;
   try {
     shm::attach_when_available(name.str(), {.label = "attach-test"}, wait, 0.25);

@@ -11,7 +11,7 @@
 #include <string>
 #include <thread>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/shm/reader_status.hpp"
 #include "ioct/shm/ring_reader.hpp"
 #include "ioct/shm/ring_writer.hpp"
@@ -46,7 +46,7 @@ constexpr std::uint64_t kMaxP99PublishNs = 2'000'000;
 constexpr std::uint64_t kMaxLatenessNs = 1'000'000'000;
 
 void sleep_until_ns(std::uint64_t monotonic) {
-  // steady_clock is CLOCK_MONOTONIC on Linux, the clock of shm::monotonic_ns().
+  // steady_clock is CLOCK_MONOTONIC on Linux, the clock of ioct::monotonic_ns().
   std::this_thread::sleep_until(
       std::chrono::steady_clock::time_point(std::chrono::nanoseconds(monotonic)));
 }
@@ -95,9 +95,9 @@ TEST(RingReaderFaults, ReaderKilledInMidReadLeavesWriterUndisturbedAndIsReaped) 
   PacedWriter paced(writer, kPeriod, 40'000);  // at most 10 s; stopped when done
   const std::uint64_t t0 = paced.start_ns();
   sleep_until_ns(t0 + 200'000'000);  // warm-up
-  const std::uint64_t before_from = shm::monotonic_ns();
+  const std::uint64_t before_from = ioct::monotonic_ns();
   sleep_until_ns(before_from + 600'000'000);
-  const std::uint64_t before_to = shm::monotonic_ns();
+  const std::uint64_t before_to = ioct::monotonic_ns();
 
   ChildProcess stuck = ChildProcess::spawn(test_support::sibling_executable("ring_stress_peer"),
                                            {"stuck-reader", "--ring", name.str()});
@@ -106,7 +106,7 @@ TEST(RingReaderFaults, ReaderKilledInMidReadLeavesWriterUndisturbedAndIsReaped) 
   const auto holding = parse_peer_line(*line);
   ASSERT_TRUE(holding && holding->kind == "holding") << *line;
   const std::string stuck_status = holding->field("status");
-  const std::uint64_t during_from = shm::monotonic_ns();
+  const std::uint64_t during_from = ioct::monotonic_ns();
   {
     const auto reports = writer.readers();
     const shm::ReaderReport* report = find_report(reports, stuck_status);
@@ -115,14 +115,14 @@ TEST(RingReaderFaults, ReaderKilledInMidReadLeavesWriterUndisturbedAndIsReaped) 
     EXPECT_EQ(report->pid, static_cast<std::uint64_t>(stuck.pid()));
   }
   sleep_until_ns(during_from + 600'000'000);
-  const std::uint64_t during_to = shm::monotonic_ns();
+  const std::uint64_t during_to = ioct::monotonic_ns();
 
   const int status = stuck.kill_and_wait();  // SIGKILL between begin_read and end_read
   ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL)
       << test_support::describe_wait_status(status);
-  const std::uint64_t after_from = shm::monotonic_ns();
+  const std::uint64_t after_from = ioct::monotonic_ns();
   sleep_until_ns(after_from + 600'000'000);
-  const std::uint64_t after_to = shm::monotonic_ns();
+  const std::uint64_t after_to = ioct::monotonic_ns();
   const std::vector<PublishTiming>& timings = paced.stop();
 
   const PublishWindow before = publish_window(timings, kPeriodNs, before_from, before_to);
@@ -176,12 +176,12 @@ TEST(RingReaderFaults, ReaderStoppedForSecondsLeavesWriterUndisturbedAndCatchesU
   PacedWriter paced(writer, kPeriod, kGroups);
   const std::uint64_t t0 = paced.start_ns();
   sleep_until_ns(t0 + 200'000'000);
-  const std::uint64_t before_from = shm::monotonic_ns();
+  const std::uint64_t before_from = ioct::monotonic_ns();
   sleep_until_ns(before_from + 600'000'000);
-  const std::uint64_t before_to = shm::monotonic_ns();
+  const std::uint64_t before_to = ioct::monotonic_ns();
 
   reader.send_signal(SIGSTOP);  // stops reading, heartbeat and all, for two seconds
-  const std::uint64_t during_from = shm::monotonic_ns();
+  const std::uint64_t during_from = ioct::monotonic_ns();
   sleep_until_ns(during_from + 1'500'000'000);
   {
     // Stopped is not dead: reported alive with a stale heartbeat, and not reaped.
@@ -193,11 +193,11 @@ TEST(RingReaderFaults, ReaderStoppedForSecondsLeavesWriterUndisturbedAndCatchesU
     EXPECT_EQ(writer.reap_dead_readers(), 0u);
   }
   sleep_until_ns(during_from + 2'000'000'000);
-  const std::uint64_t during_to = shm::monotonic_ns();
+  const std::uint64_t during_to = ioct::monotonic_ns();
   reader.send_signal(SIGCONT);
-  const std::uint64_t after_from = shm::monotonic_ns();
+  const std::uint64_t after_from = ioct::monotonic_ns();
   sleep_until_ns(after_from + 600'000'000);
-  const std::uint64_t after_to = shm::monotonic_ns();
+  const std::uint64_t after_to = ioct::monotonic_ns();
   const std::vector<PublishTiming>& timings = paced.finish();
   ASSERT_EQ(timings.size(), kGroups);
 

@@ -12,7 +12,7 @@
 #include <thread>
 #include <vector>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/shm/reader_status.hpp"
 #include "ioct/shm/ring_reader.hpp"
 #include "ioct/shm/ring_writer.hpp"
@@ -54,10 +54,10 @@ constexpr std::uint64_t kProcessStressGroups = 1'000'000;
 // processes on a two-core machine. At this pace readers keep up while they run, and are lapped
 // whenever they stall or lose the CPU.
 void publish_paced(shm::RingWriter& writer, std::uint64_t count, std::chrono::nanoseconds period) {
-  const std::uint64_t start = shm::monotonic_ns();
+  const std::uint64_t start = ioct::monotonic_ns();
   for (std::uint64_t g = 0; g < count; ++g) {
     const std::uint64_t due = start + g * static_cast<std::uint64_t>(period.count());
-    while (shm::monotonic_ns() < due) std::this_thread::yield();
+    while (ioct::monotonic_ns() < due) std::this_thread::yield();
     publish_test_group(writer);
   }
 }

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <stdexcept>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 
 namespace ioct::rt::test {
 namespace {
@@ -32,7 +32,7 @@ std::vector<std::string> CallLog::calls() const {
 void FakeDigitizer::do_start() {
   if (fail_start.load()) throw std::runtime_error("digitizer refused to start");
   if (log_ != nullptr) log_->add("digitizer.start");
-  start_ns_ = shm::monotonic_ns();
+  start_ns_ = ioct::monotonic_ns();
   sweep_ = 0;
   starts.fetch_add(1);
 }
@@ -50,16 +50,16 @@ void FakeDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::GroupI
       start_ns_ + static_cast<std::uint64_t>(static_cast<double>(last) * g.sweep_period_ns());
   sleep_until_ns(complete);
   if (const std::uint32_t hang = hang_ms.exchange(0); hang != 0) {
-    sleep_until_ns(shm::monotonic_ns() + std::uint64_t{hang} * 1'000'000);
+    sleep_until_ns(ioct::monotonic_ns() + std::uint64_t{hang} * 1'000'000);
   }
   if (throw_next.exchange(false)) {
-    fault_returned_ns.store(shm::monotonic_ns());
+    fault_returned_ns.store(ioct::monotonic_ns());
     throw std::runtime_error("USB transfer failed");
   }
   if (stall_next.exchange(false)) {
-    sleep_until_ns(shm::monotonic_ns() + std::uint64_t{g.timeout_ms} * 1'000'000);
+    sleep_until_ns(ioct::monotonic_ns() + std::uint64_t{g.timeout_ms} * 1'000'000);
     info.status = hal::kGroupTimeout;
-    fault_returned_ns.store(shm::monotonic_ns());
+    fault_returned_ns.store(ioct::monotonic_ns());
     return;
   }
   const std::uint64_t n = groups.fetch_add(1);
@@ -67,7 +67,7 @@ void FakeDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::GroupI
   info.status = next_status.exchange(0);
   info.missed_sweeps = next_missed_sweeps.exchange(0);
   sweep_ += g.sweeps_per_group() + info.missed_sweeps;
-  if (info.status != 0 || info.missed_sweeps != 0) fault_returned_ns.store(shm::monotonic_ns());
+  if (info.status != 0 || info.missed_sweeps != 0) fault_returned_ns.store(ioct::monotonic_ns());
 }
 
 FakeGalvo::FakeGalvo(CallLog* log, std::size_t keep) : log_(log), keep_(keep) {
@@ -83,7 +83,7 @@ void FakeGalvo::do_prepare(const hal::GalvoOutputConfig& config) {
 void FakeGalvo::do_start() {
   if (fail_start.load()) throw std::runtime_error("galvo driver refused to start");
   if (log_ != nullptr) log_->add("galvo.start");
-  start_ns_ = shm::monotonic_ns();
+  start_ns_ = ioct::monotonic_ns();
   underruns_ = 0;
   faults_ = 0;
   parked_ns.store(0);
@@ -93,7 +93,7 @@ void FakeGalvo::do_start() {
 
 std::uint64_t FakeGalvo::output_now() const noexcept {
   if (!streaming_.load()) return 0;
-  const double elapsed = static_cast<double>(shm::monotonic_ns() - start_ns_) * 1e-9;
+  const double elapsed = static_cast<double>(ioct::monotonic_ns() - start_ns_) * 1e-9;
   return std::min<std::uint64_t>(written_, static_cast<std::uint64_t>(elapsed * rate_hz_));
 }
 
@@ -133,13 +133,13 @@ void FakeGalvo::do_park() noexcept {
   written_ = 0;
   fresh_ = true;
   parks.fetch_add(1);
-  parked_ns.store(shm::monotonic_ns());
+  parked_ns.store(ioct::monotonic_ns());
 }
 
 void FakeLines::set_laser_emission(bool on) noexcept {
   const bool was = commanded.exchange(on);
   if (was != on) {
-    (on ? emission_on_ns : emission_off_ns).store(shm::monotonic_ns());
+    (on ? emission_on_ns : emission_off_ns).store(ioct::monotonic_ns());
     if (on) emission_on_count.fetch_add(1);
   }
 }
@@ -171,7 +171,7 @@ std::optional<hal::LineEvent> FakeLines::wait_event(std::chrono::nanoseconds tim
 }
 
 std::uint64_t FakeLines::set_input(hal::InputLine line, bool level) {
-  const std::uint64_t now = shm::monotonic_ns();
+  const std::uint64_t now = ioct::monotonic_ns();
   {
     const std::lock_guard lock(mutex_);
     switch (line) {

@@ -13,7 +13,7 @@
 
 #include "acquisition_loop.hpp"
 #include "fake_hal.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/shm/ring_reader.hpp"
 #include "ioct/shm/ring_writer.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"

@@ -68,7 +68,7 @@ TEST(SafetySupervisor, EmissionIsDrivenOnlyOnceTheScanRunsAndIsVerified) {
   EXPECT_EQ(rig.galvo.starts.load(), 0u);
   EXPECT_GT(rig.lines.toggles.load(), 0u) << "the external watchdog is fed while healthy";
 
-  const std::uint64_t requested = shm::monotonic_ns();
+  const std::uint64_t requested = ioct::monotonic_ns();
   rig.supervisor->request_start();
   ASSERT_TRUE(rig.reaches(SafetyState::scanning));
   const std::uint64_t on = rig.lines.emission_on_ns.load();
@@ -205,7 +205,7 @@ INSTANTIATE_TEST_SUITE_P(
                   }},
         Injection{"emission_dropped", kFaultEmissionReadback,
                   [](Rig& r) {
-                    const std::uint64_t injected = shm::monotonic_ns();
+                    const std::uint64_t injected = ioct::monotonic_ns();
                     r.lines.readback = FakeLines::Readback::stuck_off;
                     return injected;
                   }}),
@@ -269,7 +269,7 @@ TEST(FootswitchPresses, ABouncingPressCountsOnceAndAPedalHeldAtStartNotAtAll) {
 TEST(SafetySupervisor, AStopParksAndEndsIdleWithoutAFault) {
   Rig rig("rt-safe-stop");
   start_scanning(rig);
-  const std::uint64_t asked = shm::monotonic_ns();
+  const std::uint64_t asked = ioct::monotonic_ns();
   rig.supervisor->request_stop();
   ASSERT_TRUE(rig.reaches(SafetyState::idle));
   EXPECT_FALSE(rig.lines.commanded.load());

@@ -111,7 +111,7 @@ TEST_P(SimulatedFault, DropsEmissionParksWithinTheBoundAndRecovers) {
   }
 
   const SimFault& fault = GetParam();
-  const std::uint64_t injected = shm::monotonic_ns();
+  const std::uint64_t injected = ioct::monotonic_ns();
   fault.set(rig.bench->faults(), true);
   ASSERT_TRUE(rig.reaches(SafetyState::safe)) << to_string(rig.state());
   const SafetyStatus status = rig.supervisor->status();

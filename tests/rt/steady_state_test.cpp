@@ -161,7 +161,7 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
     if (!r.alive) ++dead;
   }
   const LoopCounters c = loop.counters();
-  const LatencySnapshot wake = loop.wake_latency();
+  const LatencyHistogram wake = loop.wake_latency();
   const SafetyStatus safety = supervisor.status();
   supervisor.request_stop();
   eventually([&] { return supervisor.status().state == SafetyState::idle; }, 5s);
@@ -191,7 +191,7 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
       static_cast<unsigned long long>(c.groups_published),
       static_cast<unsigned long long>(c.deadline_misses),
       static_cast<double>(c.worst_lateness_ns) * 1e-6, wake.mean_ns() * 1e-3,
-      static_cast<double>(wake.max_ns) * 1e-3, static_cast<unsigned long long>(wake.samples),
+      static_cast<double>(wake.max()) * 1e-3, static_cast<unsigned long long>(wake.count()),
       static_cast<double>(c.generation_ns_total) * 1e-6 / static_cast<double>(c.groups_generated),
       static_cast<double>(c.generation_ns_max) * 1e-6,
       static_cast<unsigned long long>(c.dac_fill_min),

@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 
 #include "ioct/sim/simulated_digitizer.hpp"
 
@@ -18,12 +19,6 @@ namespace ioct::sim {
 namespace {
 
 using namespace std::chrono_literals;
-
-std::uint64_t monotonic_ns() {
-  timespec ts{};
-  ::clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000ull + ts.tv_nsec;
-}
 
 std::shared_ptr<SimulatedBench> bench_with_watchdog(std::uint32_t timeout_ms) {
   BenchConfig config;

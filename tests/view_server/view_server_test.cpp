@@ -12,8 +12,8 @@
 #include <optional>
 #include <thread>
 
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/shm/frame_ring.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"
 #include "line_service.hpp"
 #include "view_client.hpp"
@@ -132,10 +132,10 @@ class ViewServerTest : public ::testing::Test {
     s.source_state = static_cast<std::uint64_t>(shm::SourceState::live);
     s.groups_consumed = group + 1;
     s.last_group_index = group;
-    s.last_group_published_ns = shm::monotonic_ns() - static_cast<std::uint64_t>(age.count());
+    s.last_group_published_ns = ioct::monotonic_ns() - static_cast<std::uint64_t>(age.count());
     s.group_period_ns = 86'000'000;
     writer_->set_status(s);
-    writer_->heartbeat(shm::monotonic_ns());
+    writer_->heartbeat(ioct::monotonic_ns());
   }
 
   void publish(std::uint64_t group, std::uint64_t view = 0, std::size_t render_bytes = 1000) {
@@ -143,7 +143,7 @@ class ViewServerTest : public ::testing::Test {
     shm::FrameMeta m{};
     m.group_index = group;
     m.view_id = view;
-    m.t_group_published_ns = shm::monotonic_ns();
+    m.t_group_published_ns = ioct::monotonic_ns();
     m.format = static_cast<std::uint32_t>(shm::FrameFormat::jpeg);
     m.width = 64;
     m.height = 48;

@@ -3,7 +3,7 @@
 #include <chrono>
 #include <optional>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 
 namespace ioct::view {
@@ -29,7 +29,7 @@ void FrameFollower::run() {
   std::uint64_t next_tick_ns = 0;
   auto frame = std::make_shared<shm::Frame>();
   while (!stop_.load(std::memory_order_relaxed)) {
-    const std::uint64_t now = shm::monotonic_ns();
+    const std::uint64_t now = ioct::monotonic_ns();
     if (!reader && now >= next_attach_ns) {
       next_attach_ns = now + kAttachNs;
       try {
@@ -64,7 +64,7 @@ void FrameFollower::run() {
         }
       }
       // The age is judged after the status was read, so it is never shown younger than it is.
-      in.now_ns = shm::monotonic_ns();
+      in.now_ns = ioct::monotonic_ns();
       snap.attached = in.attached;
       snap.health = in.health;
       snap.writer_responding =

@@ -5,7 +5,7 @@
 #include <stdexcept>
 
 #include "http_session.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 
 namespace ioct::view {
 
@@ -46,8 +46,8 @@ ViewServer::ViewServer(ViewConfig config, OperatorToken token)
   follower_ = std::make_unique<FrameFollower>(
       config_.frames, policy,
       [this](std::shared_ptr<const shm::Frame> frame) {
-        asio::post(*io_,
-                   [this, frame = std::move(frame)] { hub_.on_frame(frame, shm::monotonic_ns()); });
+        asio::post(
+            *io_, [this, frame = std::move(frame)] { hub_.on_frame(frame, ioct::monotonic_ns()); });
       },
       [this](const FollowerSnapshot& snap) {
         asio::post(*io_, [this, snap] { hub_.on_follower(snap); });

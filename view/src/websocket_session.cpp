@@ -2,7 +2,7 @@
 
 #include <algorithm>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "strict_json.hpp"
 
 namespace ioct::view {
@@ -60,7 +60,7 @@ void WebSocketSession::read() {
 }
 
 bool WebSocketSession::within_rate() {
-  const std::uint64_t now = shm::monotonic_ns();
+  const std::uint64_t now = ioct::monotonic_ns();
   if (tokens_at_ns_ != 0) {
     tokens_ = std::min(2 * kMessagesPerSecond, tokens_ + static_cast<double>(now - tokens_at_ns_) *
                                                              1e-9 * kMessagesPerSecond);
@@ -136,7 +136,7 @@ void WebSocketSession::on_message(const std::string& text) {
   }
   if (type == "drawn") {
     const std::uint64_t frame = message.value("frame", std::uint64_t{0});
-    const std::uint64_t now = shm::monotonic_ns();
+    const std::uint64_t now = ioct::monotonic_ns();
     for (const FrameMessage& sent : sent_) {
       if (sent.bytes && sent.frame_index == frame && sent.t_group_published_ns != 0 &&
           now > sent.t_group_published_ns) {
@@ -195,7 +195,7 @@ void WebSocketSession::write_next() {
   } else if (pending_frame_.bytes) {
     message = pending_frame_.bytes;
     binary = true;
-    const std::uint64_t now = shm::monotonic_ns();
+    const std::uint64_t now = ioct::monotonic_ns();
     // The latency of a group is that of the first frame that shows it; the frames after it
     // (a view turning between groups) show the same group, older.
     const bool new_group = !sent_any_ || pending_frame_.group_index != last_group_sent_;

@@ -18,9 +18,9 @@
 
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/offline/calibration_file.hpp"
 #include "ioct/gpu/processing/dispersion_estimator.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_reader.hpp"
 
@@ -80,7 +80,7 @@ Group read_group_file(const FileOptions& o) {
 
 // The next group published on `ring`, waiting up to `wait_s` for the ring and the group.
 Group read_live_group(const std::string& ring, double wait_s) {
-  const std::uint64_t deadline = shm::monotonic_ns() + static_cast<std::uint64_t>(wait_s * 1e9);
+  const std::uint64_t deadline = ioct::monotonic_ns() + static_cast<std::uint64_t>(wait_s * 1e9);
   for (;;) {
     try {
       shm::RingReader reader = shm::RingReader::attach(ring, {"ioct-dispersion"});
@@ -94,7 +94,7 @@ Group read_live_group(const std::string& ring, double wait_s) {
         const shm::PollStatus status = reader.read_next(buffer, g.header);
         if (status == shm::PollStatus::ready) return g;
         if (status == shm::PollStatus::producer_gone) break;
-        if (shm::monotonic_ns() >= deadline) {
+        if (ioct::monotonic_ns() >= deadline) {
           throw std::runtime_error("no group arrived on ring '" + ring + "' within " +
                                    ioct::format_value(wait_s) + " s");
         }
@@ -105,7 +105,7 @@ Group read_live_group(const std::string& ring, double wait_s) {
           e.code() != shm::RingErrc::producer_gone) {
         throw;
       }
-      if (shm::monotonic_ns() >= deadline) throw;
+      if (ioct::monotonic_ns() >= deadline) throw;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
   }

@@ -9,11 +9,11 @@
 
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/ingest/live_pipeline.hpp"
 #include "ioct/gpu/ingest/run_summary_json.hpp"
 #include "ioct/gpu/processing/group_check.hpp"
 #include "ioct/gpu/volume/png_file.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/ring_attach.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_reader.hpp"
@@ -86,14 +86,14 @@ class LiveProcessor::Session final : public LiveEvents {
   std::string_view backend_name() const noexcept { return pipeline_->backend_name(); }
 
   StopReason loop() {
-    started_ns_ = shm::monotonic_ns();
+    started_ns_ = ioct::monotonic_ns();
     last_status_ns_ = started_ns_;
     const std::uint64_t limit_ns = seconds_to_ns(config_.run_s);
     const std::uint64_t status_ns = seconds_to_ns(config_.status_interval_s);
     const std::uint64_t poll_ns = seconds_to_ns(config_.poll_interval_s);
     for (;;) {
       if (owner_.stop_.load(std::memory_order_relaxed)) return StopReason::stop_requested;
-      const std::uint64_t now = shm::monotonic_ns();
+      const std::uint64_t now = ioct::monotonic_ns();
       if (limit_ns > 0 && now - started_ns_ >= limit_ns) return StopReason::time_limit;
       if (status_ns > 0 && now - last_status_ns_ >= status_ns) print_status(now);
       if (owner_.db_range_changed_.exchange(false, std::memory_order_acquire)) {
@@ -102,7 +102,7 @@ class LiveProcessor::Session final : public LiveEvents {
         owner_.config_.processing.scale = scale;  // for the next attachment's pipeline too
       }
 
-      poll_started_ns_ = shm::monotonic_ns();
+      poll_started_ns_ = ioct::monotonic_ns();
       switch (pipeline_->poll(*this)) {
         case shm::PollStatus::ready:
         case shm::PollStatus::lapped:  // counted by the reader
@@ -121,10 +121,10 @@ class LiveProcessor::Session final : public LiveEvents {
   // `finish_stage`: false when the loop goes on to wait for the producer's return; the stage
   // then keeps running across the gap and reads the next attachment's volume.
   RunSummary finish(StopReason reason, bool finish_stage) {
-    poll_started_ns_ = shm::monotonic_ns();
+    poll_started_ns_ = ioct::monotonic_ns();
     pipeline_->drain(*this);
     write_pending_images();  // a volume the device pipeline reported after its last group
-    const std::uint64_t now = shm::monotonic_ns();
+    const std::uint64_t now = ioct::monotonic_ns();
     if (!images_) {
       // No volume completed (a short run, or the stream ended mid-volume): show what arrived,
       // gaps zeroed, rather than nothing.
@@ -152,7 +152,7 @@ class LiveProcessor::Session final : public LiveEvents {
 
   // LiveEvents
   void on_volume(const Volume& volume, const VolumeInfo& info) override {
-    const std::uint64_t begin = shm::monotonic_ns();
+    const std::uint64_t begin = ioct::monotonic_ns();
     ++counters_.volumes_completed;
     if (!info.complete()) {
       ++counters_.volumes_with_gaps;
@@ -162,14 +162,14 @@ class LiveProcessor::Session final : public LiveEvents {
     }
     if (owner_.observer_) owner_.observer_(volume, info);
     prepare_images(volume, info);
-    completion_ns_ += shm::monotonic_ns() - begin;
+    completion_ns_ += ioct::monotonic_ns() - begin;
   }
 
   void on_group(const shm::SlotHeader& header, const PlacementResult& placed) override {
     status_flags_seen_ |= header.status_flags;
     // Publish -> in the volume; the time spent on completed volumes' images is not processing.
     // (Clamped: the timestamp comes from another process and is not trusted to be sane.)
-    const std::uint64_t now = shm::monotonic_ns();
+    const std::uint64_t now = ioct::monotonic_ns();
     const std::uint64_t elapsed = now > header.t_publish_ns ? now - header.t_publish_ns : 0;
     const std::uint64_t latency = elapsed > completion_ns_ ? elapsed - completion_ns_ : 0;
     // The loop's own time on the group since it asked the ring. With CUDA the group was read
@@ -223,7 +223,7 @@ class LiveProcessor::Session final : public LiveEvents {
     stamp.group_index = header.group_index;
     stamp.volume_index = header.bscan_count > 0 ? header.bscans[0].volume_index : 0;
     stamp.t_published_ns = header.t_publish_ns;
-    stamp.t_processed_ns = shm::monotonic_ns();
+    stamp.t_processed_ns = ioct::monotonic_ns();
     stamp.ingest_ns = ingest_ns_;
     stamp.groups_consumed = c.groups_consumed;
     stamp.groups_dropped = c.dropped();
@@ -366,7 +366,7 @@ RunSummary LiveProcessor::run() {
   bool stage_finished = stage_ == nullptr;
   // The first wait is bounded by wait_s; after the producer went away, waiting for its return
   // is what a service does (until SIGTERM), unless exit_when_producer_gone.
-  const std::uint64_t deadline = shm::monotonic_ns() + seconds_to_ns(config_.wait_s);
+  const std::uint64_t deadline = ioct::monotonic_ns() + seconds_to_ns(config_.wait_s);
   bool waiting_for_return = false;
   for (;;) {
     std::optional<shm::RingReader> reader = attach(deadline, waiting_for_return);

@@ -10,11 +10,11 @@
 #if IOCT_GPU_WITH_CUDA && IOCT_FILTERS_HAVE_CUDA && IOCT_SEGMENTATION_HAVE_CUDA && \
     IOCT_RENDER_HAVE_CUDA
 #define IOCT_LIVE_DEVICE_CHAIN 1
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/filters/cuda_volume_filter.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
 #else
 #define IOCT_LIVE_DEVICE_CHAIN 0
 #endif
@@ -199,7 +199,7 @@ DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t first, std:
   }
   m.rendered_done.record(stream);
   IOCT_CUDA_CHECK(cudaEventSynchronize(m.rendered_done.get()));
-  const std::uint64_t now = shm::monotonic_ns();
+  const std::uint64_t now = ioct::monotonic_ns();
 
   PassTimes t;
   t.filter_ms = m.filtered_done.ms_since(m.started);

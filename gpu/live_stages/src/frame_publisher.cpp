@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <chrono>
 
-#include "ioct/shm/monotonic_clock.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 
 namespace ioct::gpu::live {
 namespace {
@@ -55,7 +55,7 @@ void FramePublisher::close() {
 void FramePublisher::beat() {
   std::unique_lock lock(mutex_);
   while (!closed_) {
-    writer_.heartbeat(shm::monotonic_ns());
+    writer_.heartbeat(ioct::monotonic_ns());
     wake_.wait_for(lock, kHeartbeatPeriod, [this] { return closed_; });
   }
 }

@@ -11,6 +11,7 @@
 
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/cuda/device_memory.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
 #include "ioct/gpu/instruments/findings_json.hpp"
@@ -23,7 +24,6 @@
 #include "ioct/gpu/segmentation/overlay_image.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"
 #include "ioct/gpu/segmentation/surfaces_csv.hpp"
-#include "ioct/shm/monotonic_clock.hpp"
 #include "ioct/shm/shm_object.hpp"
 
 #include "device_stage_chain.hpp"
@@ -118,7 +118,7 @@ void VolumeStagesConfig::validate() const {
 
 VolumeStages::VolumeStages(VolumeStagesConfig config)
     : config_(std::move(config)),
-      views_(config_.render, view_timing(config_, false), shm::monotonic_ns()) {
+      views_(config_.render, view_timing(config_, false), ioct::monotonic_ns()) {
   config_.validate();
   if (!config_.frame_ring.empty()) {
     shm::FrameRingConfig ring;
@@ -209,7 +209,7 @@ void VolumeStages::work() {
       // the stop, whichever comes first.
       bool views_due = false;
       for (;;) {
-        const std::uint64_t now = shm::monotonic_ns();
+        const std::uint64_t now = ioct::monotonic_ns();
         const std::uint64_t due = have_volume_ ? views_.next_due_ns(now) : UINT64_MAX;
         views_due = due <= now;
         if (stop_ || dirty_groups_ > 0 || views_due) break;
@@ -221,14 +221,14 @@ void VolumeStages::work() {
       }
       if (dirty_groups_ == 0 && stop_) return;  // stopped with nothing pending
       if (dirty_groups_ == 0 || (pass_last && views_due && !stop_)) {
-        renders = views_.take_due(shm::monotonic_ns());
+        renders = views_.take_due(ioct::monotonic_ns());
         if (std::ranges::any_of(renders,
                                 [](const DueRender& r) { return r.view_id == kSharedView; })) {
           waiters.swap(snapshot_waiters_);
         }
       }
       if (renders.empty() && dirty_groups_ > 0) {
-        taken_ns = shm::monotonic_ns();
+        taken_ns = ioct::monotonic_ns();
         if (device_ != nullptr) {
           // The input is the chain's, on the device; the pending B-scans are in its pending
           // volume, or in pending_ (a host live volume), uploaded here.
@@ -322,21 +322,21 @@ void VolumeStages::fail(const std::string& what) {
 
 render::RenderConfig VolumeStages::live_view() const {
   std::lock_guard lock(mutex_);
-  return views_.shared(shm::monotonic_ns());
+  return views_.shared(ioct::monotonic_ns());
 }
 
 DueRender VolumeStages::take_shared_render(SnapshotWaiters& waiters) {
   std::lock_guard lock(mutex_);
   views_.volume_changed();
   waiters.swap(snapshot_waiters_);
-  return views_.take_shared(shm::monotonic_ns());
+  return views_.take_shared(ioct::monotonic_ns());
 }
 
 void VolumeStages::render_views(const std::vector<DueRender>& renders, SnapshotWaiters& waiters) {
   for (const DueRender& render : renders) {
-    const std::uint64_t t0 = shm::monotonic_ns();
+    const std::uint64_t t0 = ioct::monotonic_ns();
     renderer_->render(render.config, image_);
-    const std::uint64_t t1 = shm::monotonic_ns();
+    const std::uint64_t t1 = ioct::monotonic_ns();
     {
       std::lock_guard lock(mutex_);
       ++figures_.renders;
@@ -366,7 +366,7 @@ void VolumeStages::deliver(const DueRender& render, std::uint64_t rendered_ns,
 }
 
 void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered_ns) {
-  const std::uint64_t started_ns = shm::monotonic_ns();
+  const std::uint64_t started_ns = ioct::monotonic_ns();
   try {
     const std::uint32_t bscans = device_ != nullptr ? device_->bscans() : filtered_.bscans();
     const std::uint32_t bscan = shown_bscan(render.config.slice, bscans);
@@ -398,7 +398,7 @@ void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered
     std::copy_n(mode.data(), std::min(mode.size(), sizeof meta.mode - 1), meta.mode);
     meta.instrument = instrument_for(render.config);
     publisher_->publish(meta, image_);
-    publisher_->note_frame(shm::monotonic_ns() - started_ns);
+    publisher_->note_frame(ioct::monotonic_ns() - started_ns);
     std::lock_guard lock(mutex_);
     ++figures_.frames_published;
   } catch (const std::exception& e) {
@@ -426,23 +426,23 @@ shm::FrameInstrument VolumeStages::instrument_for(const render::RenderConfig& sh
 }
 
 void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint64_t groups) {
-  const std::uint64_t t0 = shm::monotonic_ns();
+  const std::uint64_t t0 = ioct::monotonic_ns();
   filters::BscanRange outputs{0, input_.bscans()};
   if (!filtered_.same_shape(input_)) {
     filter_->filter_volume(input_, filtered_);
   } else {
     outputs = filter_->filter_group(input_, filtered_, first, count);
   }
-  const std::uint64_t t1 = shm::monotonic_ns();
+  const std::uint64_t t1 = ioct::monotonic_ns();
   const segmentation::BscanSpan affected =
       segmenter_->segment_group(filtered_, {outputs.first, outputs.count}, surfaces_);
-  const std::uint64_t t2 = shm::monotonic_ns();
+  const std::uint64_t t2 = ioct::monotonic_ns();
   std::uint64_t t2_detected = t2;
   if (detector_ != nullptr) {
     // On the processed B-scans: the median filter erases a tool's thin, tilted reflex.
     detector_->detect_group(input_, {first, count}, surfaces_, findings_);
     tip_bscans_stale_ = true;
-    t2_detected = shm::monotonic_ns();
+    t2_detected = ioct::monotonic_ns();
     std::string line = instruments::describe(findings_);
     nlohmann::json json = instruments::to_json(findings_);
     std::lock_guard lock(mutex_);
@@ -461,7 +461,7 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
   if (render_now) {
     shared = take_shared_render(waiters);
     renderer_->render(shared.config, image_);
-    t3 = shm::monotonic_ns();
+    t3 = ioct::monotonic_ns();
     last_render_ns_ = t3;
   }
 
@@ -530,7 +530,7 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
   SnapshotWaiters waiters;
   const DueRender shared = take_shared_render(waiters);
   const bool frame_wanted =
-      publisher_ != nullptr || !waiters.empty() || live_image_due(shm::monotonic_ns());
+      publisher_ != nullptr || !waiters.empty() || live_image_due(ioct::monotonic_ns());
   const DeviceStageChain::PassTimes t =
       device_->run_pass(first, count, shared.config, frame_wanted ? &image_ : nullptr);
   last_render_ns_ = t.rendered_ns;
@@ -555,13 +555,13 @@ void VolumeStages::write_live_image(std::uint64_t now_ns) {
 
 ViewParams VolumeStages::params() const {
   std::lock_guard lock(mutex_);
-  return {views_.generation(), render::to_json(views_.shared(shm::monotonic_ns()))};
+  return {views_.generation(), render::to_json(views_.shared(ioct::monotonic_ns()))};
 }
 
 std::uint64_t VolumeStages::change_views(
     const std::function<std::uint64_t(ViewSet&, std::uint64_t)>& change) {
   std::unique_lock lock(mutex_);
-  const std::uint64_t generation = change(views_, shm::monotonic_ns());
+  const std::uint64_t generation = change(views_, ioct::monotonic_ns());
   lock.unlock();
   wake_.notify_all();  // the stages' thread renders the changed view
   return generation;

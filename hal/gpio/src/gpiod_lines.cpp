@@ -12,19 +12,13 @@
 #include <vector>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/concurrency/monotonic_clock.hpp"
 
 namespace ioct::hal::gpio {
 namespace {
 
 constexpr InputLine kInputOrder[] = {InputLine::laser_ready, InputLine::sweep_trigger_present,
                                      InputLine::k_clock_valid, InputLine::footswitch};
-
-std::uint64_t clock_ns(clockid_t clock) noexcept {
-  timespec now{};
-  clock_gettime(clock, &now);
-  return static_cast<std::uint64_t>(now.tv_sec) * 1'000'000'000u +
-         static_cast<std::uint64_t>(now.tv_nsec);
-}
 
 std::uint64_t distance(std::uint64_t a, std::uint64_t b) noexcept {
   return a > b ? a - b : b - a;
@@ -35,7 +29,7 @@ std::uint64_t distance(std::uint64_t a, std::uint64_t b) noexcept {
 std::uint64_t monotonic_stamp(const timespec& ts) noexcept {
   const std::uint64_t stamp = static_cast<std::uint64_t>(ts.tv_sec) * 1'000'000'000u +
                               static_cast<std::uint64_t>(ts.tv_nsec);
-  const std::uint64_t monotonic = clock_ns(CLOCK_MONOTONIC);
+  const std::uint64_t monotonic = monotonic_ns();
   const std::uint64_t realtime = clock_ns(CLOCK_REALTIME);
   if (distance(stamp, realtime) < distance(stamp, monotonic) && realtime > monotonic) {
     const std::uint64_t offset = realtime - monotonic;

@@ -30,7 +30,7 @@ void GalvoStream::configure(std::uint32_t capacity, std::uint32_t transfers,
   flush(monotonic_ns() + 1'000'000'000u);
   instrument_.run_on_event_thread([&] {
     free_transfers();
-    fifo_.reset(capacity);
+    fifo_ = std::make_unique<SpscQueue<std::uint32_t>>(capacity);
     transfer_bytes_ = transfer_bytes;
     transfers_.resize(transfers);
     idle_.clear();
@@ -76,7 +76,7 @@ void GalvoStream::on_events_handled() noexcept {
   if (flushing_) {
     if (in_flight_.load(std::memory_order_acquire) != 0) return;
     std::uint32_t dropped;
-    while (fifo_.pop(dropped)) {
+    while (fifo_->pop(dropped)) {
     }
     sent_.store(0, std::memory_order_release);
     flushing_ = false;
@@ -93,14 +93,14 @@ void GalvoStream::pump() noexcept {
   if (handle == nullptr) return;
   const std::size_t per_transfer = transfer_bytes_ / protocol::kGalvoSampleBytes;
   while (!idle_.empty()) {
-    const std::size_t queued = fifo_.size();
+    const std::size_t queued = fifo_->size();
     if (queued == 0) return;
     Transfer& t = transfers_[idle_.back()];
     const std::size_t n = std::min(queued, per_transfer);
     std::uint8_t* out = t.buffer.get();
     for (std::size_t i = 0; i < n; ++i) {
       std::uint32_t code = 0;
-      fifo_.pop(code);
+      static_cast<void>(fifo_->pop(code));  // one of the `queued` items: this side alone pops
       // x then y, each int16 little-endian: the little-endian bytes of the packed word.
       out[4 * i + 0] = static_cast<std::uint8_t>(code);
       out[4 * i + 1] = static_cast<std::uint8_t>(code >> 8);

@@ -8,9 +8,9 @@
 #include <memory>
 #include <vector>
 
+#include "ioct/concurrency/spsc_queue.hpp"
 #include "ioct/hal/usb/usb_instrument.hpp"
 #include "progress_signal.hpp"
-#include "spsc_ring.hpp"
 
 struct libusb_transfer;
 
@@ -27,7 +27,7 @@ class GalvoStream final : public UsbInstrument::EventClient {
   void configure(std::uint32_t capacity, std::uint32_t transfers, std::uint32_t transfer_bytes);
 
   // Writer side: queues one encoded sample (x in the low 16 bits, y in the high 16 bits).
-  bool push(std::uint32_t sample) noexcept { return fifo_.push(sample); }
+  [[nodiscard]] bool push(std::uint32_t sample) noexcept { return fifo_->push(sample); }
 
   // Any thread but the event thread: cancels the transfers in flight and drops what is queued;
   // false when that did not finish by `deadline_ns`. Counters restart at 0.
@@ -54,7 +54,8 @@ class GalvoStream final : public UsbInstrument::EventClient {
   void free_transfers() noexcept;
 
   UsbInstrument& instrument_;
-  SpscRing<std::uint32_t> fifo_;
+  // Replaced (never resized) by configure(), while neither side uses it.
+  std::unique_ptr<SpscQueue<std::uint32_t>> fifo_ = std::make_unique<SpscQueue<std::uint32_t>>(1);
   std::vector<Transfer> transfers_;
   std::uint32_t transfer_bytes_ = 0;
 

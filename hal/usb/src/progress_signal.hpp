@@ -5,6 +5,8 @@
 #include <atomic>
 #include <cstdint>
 
+#include "ioct/concurrency/monotonic_clock.hpp"
+
 namespace ioct::hal::usb::detail {
 
 class ProgressSignal {
@@ -20,8 +22,5 @@ class ProgressSignal {
   std::atomic<std::uint32_t> value_{0};
   std::atomic<std::uint32_t> sleepers_{0};
 };
-
-// CLOCK_MONOTONIC now, in ns.
-std::uint64_t monotonic_ns() noexcept;
 
 }  // namespace ioct::hal::usb::detail

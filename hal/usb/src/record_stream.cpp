@@ -78,8 +78,9 @@ void RecordStream::configure(const RecordPlan& plan, const UsbInstrumentConfig& 
     free_staging_.reserve(staging_count_);
     // Everything that can be outstanding at once: a group's parts, plus the next group's
     // parts, which need staging buffers or transfers.
-    completions_.reset(plan.parts_per_group() + staging_count_ + transfer_count_ + 16);
-    released_staging_.reset(staging_count_ + 16);
+    completions_ = std::make_unique<SpscQueue<Completion>>(plan.parts_per_group() + staging_count_ +
+                                                           transfer_count_ + 16);
+    released_staging_ = std::make_unique<SpscQueue<std::int32_t>>(staging_count_ + 16);
     phase_ = Phase::stopped;
   });
 }
@@ -90,10 +91,10 @@ std::uint64_t RecordStream::start() {
   std::uint64_t epoch = 0;
   instrument_.run_on_event_thread([&] {
     Completion stale;
-    while (completions_.pop(stale)) {
+    while (completions_->pop(stale)) {
     }
     std::int32_t id;
-    while (released_staging_.pop(id)) {
+    while (released_staging_->pop(id)) {
     }
     free_staging_.clear();
     for (std::int32_t i = static_cast<std::int32_t>(staging_count_) - 1; i >= 0; --i) {
@@ -159,7 +160,8 @@ void RecordStream::publish_slot(std::uint64_t group, std::uint8_t* slot) noexcep
 
 void RecordStream::release(std::int32_t id) noexcept {
   if (id == kNoStaging) return;
-  released_staging_.push(id);
+  // Sized for every staging buffer at once, so never full.
+  static_cast<void>(released_staging_->push(id));
   if (starved_.load(std::memory_order_acquire)) instrument_.wake_event_thread();
 }
 
@@ -194,7 +196,7 @@ void RecordStream::free_staging(std::int32_t id) noexcept {
 void RecordStream::pump() noexcept {
   if (phase_ != Phase::streaming) return;
   std::int32_t released;
-  while (released_staging_.pop(released)) free_staging_.push_back(released);
+  while (released_staging_->pop(released)) free_staging_.push_back(released);
   libusb_device_handle* handle = instrument_.handle();
   while (!idle_transfers_.empty()) {
     const RecordPart part = plan_.part(cursor_part_);
@@ -286,7 +288,7 @@ void RecordStream::on_transfer_done(Transfer& t) noexcept {
     phase_ = Phase::halted;
   }
   bool wake = c.staging != kNoStaging || !complete || c.part + 1 == plan_.parts_per_group();
-  if (!completions_.push(c)) {
+  if (!completions_->push(c)) {
     // Cannot happen with the ring sized in configure(); stop rather than lose a part silently.
     free_staging(c.staging);
     phase_ = Phase::halted;

@@ -22,10 +22,10 @@
 #include <memory>
 #include <vector>
 
+#include "ioct/concurrency/spsc_queue.hpp"
 #include "ioct/hal/usb/record_plan.hpp"
 #include "ioct/hal/usb/usb_instrument.hpp"
 #include "progress_signal.hpp"
-#include "spsc_ring.hpp"
 
 struct libusb_transfer;
 
@@ -63,9 +63,9 @@ class RecordStream final : public UsbInstrument::EventClient {
   // --- real-time side ---
   // Hands over the slot of `group`: body parts submitted from now on land in it directly.
   void publish_slot(std::uint64_t group, std::uint8_t* slot) noexcept;
-  bool pop(Completion& completion) noexcept { return completions_.pop(completion); }
+  bool pop(Completion& completion) noexcept { return completions_->pop(completion); }
   // Completions are queued without a wake-up when they need no work (a body part in the slot).
-  bool has_completions() const noexcept { return completions_.size() != 0; }
+  bool has_completions() const noexcept { return !completions_->empty(); }
   const std::uint8_t* staging(std::int32_t id) const noexcept {
     return staging_memory_.get() + static_cast<std::size_t>(id) * staging_bytes_;
   }
@@ -150,8 +150,11 @@ class RecordStream final : public UsbInstrument::EventClient {
   bool restart_pending_ = false;
 
   // Shared.
-  SpscRing<Completion> completions_;         // event side -> real-time side
-  SpscRing<std::int32_t> released_staging_;  // real-time side -> event side
+  // Event side -> real-time side, and back; replaced (never resized) by configure(), while
+  // neither side uses them.
+  std::unique_ptr<SpscQueue<Completion>> completions_ = std::make_unique<SpscQueue<Completion>>(1);
+  std::unique_ptr<SpscQueue<std::int32_t>> released_staging_ =
+      std::make_unique<SpscQueue<std::int32_t>>(1);
   ProgressSignal progress_;
   std::atomic<std::uint64_t> published_group_{~std::uint64_t{0}};
   std::atomic<std::uint8_t*> published_slot_{nullptr};

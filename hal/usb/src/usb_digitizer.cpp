@@ -270,7 +270,7 @@ void UsbDigitizer::do_acquire_group(std::span<std::uint16_t> group, GroupInfo& i
   auto* slot = reinterpret_cast<std::uint8_t*>(group.data());
   stream.publish_slot(group_, slot);
   const std::uint64_t parts = plan_.parts_per_group();
-  std::uint64_t deadline = detail::monotonic_ns() + timeout_ns_;
+  std::uint64_t deadline = monotonic_ns() + timeout_ns_;
   while (a.next_part < parts && a.fault == RecordFault::none) {
     const std::uint32_t seen = stream.progress().value();
     detail::Completion c;
@@ -279,7 +279,7 @@ void UsbDigitizer::do_acquire_group(std::span<std::uint16_t> group, GroupInfo& i
         stream.release(c.staging);
         continue;
       }
-      if (take(c, slot, a)) deadline = detail::monotonic_ns() + timeout_ns_;
+      if (take(c, slot, a)) deadline = monotonic_ns() + timeout_ns_;
       continue;
     }
     if (stream.lost()) {
@@ -304,7 +304,7 @@ void UsbDigitizer::do_acquire_group(std::span<std::uint16_t> group, GroupInfo& i
 void UsbDigitizer::fail(RecordFault fault, std::int32_t libusb_status, Assembly& a,
                         GroupInfo& info) noexcept {
   detail::RecordStream& stream = *stream_;
-  const std::uint64_t now = detail::monotonic_ns();
+  const std::uint64_t now = monotonic_ns();
   if (fault == RecordFault::device_lost) {
     stream.wait_idle(now + kLostWaitNs);  // libusb completes every transfer with NO_DEVICE
   } else {

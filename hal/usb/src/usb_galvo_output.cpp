@@ -159,7 +159,7 @@ void UsbGalvoOutput::do_park() noexcept {
   // First the mirrors, at once; then what is queued on the host and in flight; then once more,
   // so that nothing a cancelled transfer had already delivered is clocked out later.
   const int first = instrument_->try_send(protocol::Request::galvo_park);
-  stream_->flush(detail::monotonic_ns() + kFlushWaitNs);
+  stream_->flush(monotonic_ns() + kFlushWaitNs);
   if (first == 0) {
     instrument_->try_send(protocol::Request::galvo_park);
   } else {

@@ -21,8 +21,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "ioct/concurrency/latency_histogram.hpp"
 #include "ioct/gpu/ingest/live_stage.hpp"
-#include "ioct/gpu/latency_histogram.hpp"
 #include "ioct/gpu/processing/oct_processor.hpp"
 #include "ioct/gpu/volume/projections.hpp"
 #include "ioct/gpu/volume/volume_assembler.hpp"

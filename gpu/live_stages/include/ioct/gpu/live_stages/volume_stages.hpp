@@ -35,14 +35,14 @@
 #include <thread>
 #include <vector>
 
+#include "ioct/concurrency/latency_histogram.hpp"
 #include "ioct/gpu/filters/filter_config.hpp"
+#include "ioct/gpu/ingest/live_stage.hpp"
 #include "ioct/gpu/instruments/instrument_config.hpp"
 #include "ioct/gpu/instruments/instrument_findings.hpp"
 #include "ioct/gpu/instruments/tip_bscans.hpp"
-#include "ioct/gpu/latency_histogram.hpp"
 #include "ioct/gpu/live_stages/view_control.hpp"
 #include "ioct/gpu/live_stages/view_set.hpp"
-#include "ioct/gpu/ingest/live_stage.hpp"
 #include "ioct/gpu/processing/oct_processor.hpp"
 #include "ioct/gpu/render/render_config.hpp"
 #include "ioct/gpu/render/rgba_image.hpp"
