@@ -428,6 +428,7 @@ TEST(AcquisitionLoop, WithoutRealTimeSchedulingMissesAreCountedNotFaults) {
   ASSERT_TRUE(eventually([&] { return rig.loop->counters().deadline_misses >= 8; }, 10s));
   EXPECT_EQ(rig.loop->report().faults, 0u);
   EXPECT_TRUE(rig.loop->report().streaming);
+  rig.loop->stop();  // before `slow`, declared after the rig, is destroyed under its thread
 }
 
 TEST(AcquisitionLoop, TooManyDeadlineMissesInARowAreAFault) {
@@ -445,6 +446,7 @@ TEST(AcquisitionLoop, TooManyDeadlineMissesInARowAreAFault) {
   const LoopCounters c = rig.loop->counters();
   EXPECT_EQ(c.deadline_misses, 4u) << "the fourth miss in a row is the fault";
   EXPECT_GT(c.worst_lateness_ns, 5'000'000u);
+  rig.loop->stop();  // before `slow`, declared after the rig, is destroyed under its thread
 }
 
 }  // namespace

@@ -54,7 +54,7 @@ class GalvoStream final : public UsbInstrument::EventClient {
   void free_transfers() noexcept;
 
   UsbInstrument& instrument_;
-  // Replaced (never resized) by configure(), while neither side uses it.
+  // Made anew by configure() (a queue never changes size), while neither side uses it.
   std::unique_ptr<SpscQueue<std::uint32_t>> fifo_ = std::make_unique<SpscQueue<std::uint32_t>>(1);
   std::vector<Transfer> transfers_;
   std::uint32_t transfer_bytes_ = 0;

@@ -150,8 +150,8 @@ class RecordStream final : public UsbInstrument::EventClient {
   bool restart_pending_ = false;
 
   // Shared.
-  // Event side -> real-time side, and back; replaced (never resized) by configure(), while
-  // neither side uses them.
+  // Event side -> real-time side, and back; made anew by configure() (a queue never changes
+  // size), while neither side uses them.
   std::unique_ptr<SpscQueue<Completion>> completions_ = std::make_unique<SpscQueue<Completion>>(1);
   std::unique_ptr<SpscQueue<std::int32_t>> released_staging_ =
       std::make_unique<SpscQueue<std::int32_t>>(1);
