@@ -384,6 +384,14 @@ TEST_F(LiveViewPageWithForceps, TipDistancesAreShownOverTheRenderAndTheTipMarked
   const std::filesystem::path shot = kArtefacts / "surgeons-display-instrument.png";
   page_->save_screenshot(shot, 10s);
   EXPECT_GT(std::filesystem::file_size(shot), 10'000u) << shot;
+
+  // A stopped scan: the last distance is greyed with the picture, never shown as live.
+  appliance_->rt_command("stop");
+  const std::string greyed =
+      "document.getElementById('picture').classList.contains('not-live') && "
+      "getComputedStyle(document.getElementById('instrument-readout')).filter";
+  const nlohmann::json filter = expect_within(greyed, 5s);
+  EXPECT_NE(filter.dump().find("grayscale"), std::string::npos) << filter;
   EXPECT_TRUE(page_->take_page_errors().empty());
 }
 
