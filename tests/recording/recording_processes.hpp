@@ -6,25 +6,13 @@
 #include <vector>
 
 #include "ioct/test_support/child_process.hpp"
+#include "ioct/test_support/small_rt_run.hpp"
 
 namespace ioct::ringrec::test {
 
-// ioct-rt on the simulator: 256 samples x 128 A-scans, 4 B-scans per group, 8 per volume.
+// ioct-rt on the simulator's small geometry (test_support::small_rt_run), status every 5 s.
 inline std::vector<std::string> small_rt(const std::string& ring) {
-  return {"--ring",
-          ring,
-          "--samples",
-          "256",
-          "--ascans",
-          "128",
-          "--bscans-per-group",
-          "4",
-          "--bscans-per-volume",
-          "8",
-          "--rt-priority",
-          "0",
-          "--status-interval",
-          "5"};
+  return test_support::small_rt_run(ring, {"--status-interval", "5"});
 }
 
 inline test_support::ChildProcess start(const std::string& program,

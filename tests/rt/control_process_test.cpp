@@ -24,6 +24,7 @@
 
 #include "ioct/test_support/child_process.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"
+#include "ioct/test_support/small_rt_run.hpp"
 
 namespace ioct {
 namespace {
@@ -93,22 +94,8 @@ class ControlSocket : public testing::Test {
         std::filesystem::temp_directory_path() / ("ioct-rt-control-" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir_);
     socket_ = (dir_ / "rt.sock").string();
-    std::vector<std::string> arguments = {"--ring",
-                                          ring_.str(),
-                                          "--samples",
-                                          "256",
-                                          "--ascans",
-                                          "128",
-                                          "--bscans-per-group",
-                                          "4",
-                                          "--bscans-per-volume",
-                                          "8",
-                                          "--rt-priority",
-                                          "0",
-                                          "--status-interval",
-                                          "0.5",
-                                          "--control-socket",
-                                          socket_};
+    std::vector<std::string> arguments = test_support::small_rt_run(
+        ring_.str(), {"--status-interval", "0.5", "--control-socket", socket_});
     for (const std::string& a : extra_arguments()) arguments.push_back(a);
     rt_.emplace(ChildProcess::spawn(test_support::sibling_executable("ioct-rt"), arguments));
     const auto end = std::chrono::steady_clock::now() + 20s;

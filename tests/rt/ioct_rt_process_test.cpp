@@ -21,6 +21,7 @@
 #include "ioct/shm/shm_object.hpp"
 #include "ioct/test_support/child_process.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"
+#include "ioct/test_support/small_rt_run.hpp"
 
 namespace ioct {
 namespace {
@@ -29,22 +30,8 @@ using namespace std::chrono_literals;
 using test_support::ChildProcess;
 
 std::vector<std::string> small_run(const std::string& ring, std::vector<std::string> extra = {}) {
-  std::vector<std::string> arguments = {"--ring",
-                                        ring,
-                                        "--samples",
-                                        "256",
-                                        "--ascans",
-                                        "128",
-                                        "--bscans-per-group",
-                                        "4",
-                                        "--bscans-per-volume",
-                                        "8",
-                                        "--rt-priority",
-                                        "0",
-                                        "--status-interval",
-                                        "0.2"};
-  arguments.insert(arguments.end(), extra.begin(), extra.end());
-  return arguments;
+  extra.insert(extra.begin(), {"--status-interval", "0.2"});
+  return test_support::small_rt_run(ring, extra);
 }
 
 ChildProcess start_rt(const std::vector<std::string>& arguments) {

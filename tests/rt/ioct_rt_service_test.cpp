@@ -24,6 +24,7 @@
 #include "ioct/shm/shm_object.hpp"
 #include "ioct/test_support/child_process.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"
+#include "ioct/test_support/small_rt_run.hpp"
 
 namespace ioct {
 namespace {
@@ -37,18 +38,7 @@ int exit_code(const std::optional<int>& status) {
 }
 
 std::vector<std::string> small_run(const std::string& ring) {
-  return {"--ring",
-          ring,
-          "--samples",
-          "256",
-          "--ascans",
-          "128",
-          "--bscans-per-group",
-          "4",
-          "--bscans-per-volume",
-          "8",
-          "--rt-priority",
-          "0"};
+  return test_support::small_rt_run(ring);
 }
 
 std::filesystem::path temp_dir(const char* tag) {

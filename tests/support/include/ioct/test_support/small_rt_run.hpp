@@ -1,0 +1,29 @@
+// ioct-rt on a small simulated geometry, as the process tests run it: 256 samples x 128 A-scans,
+// 4 B-scans per group, 8 per volume, no real-time priority (CI runs unprivileged). `extra`
+// arguments follow (a status interval, a control socket, --seconds, ...).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace ioct::test_support {
+
+inline std::vector<std::string> small_rt_run(const std::string& ring,
+                                             const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> arguments = {"--ring",
+                                        ring,
+                                        "--samples",
+                                        "256",
+                                        "--ascans",
+                                        "128",
+                                        "--bscans-per-group",
+                                        "4",
+                                        "--bscans-per-volume",
+                                        "8",
+                                        "--rt-priority",
+                                        "0"};
+  arguments.insert(arguments.end(), extra.begin(), extra.end());
+  return arguments;
+}
+
+}  // namespace ioct::test_support
