@@ -237,12 +237,6 @@ RtSetup make_setup(const RtOptions& options) {
     simulation.bench.mirrors.damping = config.mirror_damping;
     simulation.bench.watchdog_timeout_ms = config.laser_watchdog_timeout_ms;
     simulation.workers = config.resolved_simulation_workers();
-    if (config.simulation_instruments.size() > RtConfig::kMaxSimulationInstruments) {
-      throw ConfigError(
-          "simulation.instruments",
-          format_value(std::uint64_t{config.simulation_instruments.size()}) + " items",
-          "must have at most " + format_value(std::uint64_t{RtConfig::kMaxSimulationInstruments}));
-    }
     simulation.instruments.clear();
     for (std::size_t i = 0; i < config.simulation_instruments.size(); ++i) {
       const std::string key = "simulation.instruments[" + std::to_string(i) + "]";
