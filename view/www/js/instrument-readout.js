@@ -103,20 +103,12 @@ export function drawTipBscanMarkers(canvas, meta) {
   if (!tip || !(w > 0) || !(h > 0)) return false;
   const sx = canvas.width / (2 * w), sy = canvas.height / h;
   const r = Math.max(6, canvas.width / 60);
+  for (const half of [0, 1]) {
+    ring(canvas, meta.instrument, (half * w + Math.floor(w / 2) + 0.5) * sx, (tip.depth + 0.5) * sy, r);
+  }
   const ctx = canvas.getContext('2d');
   ctx.save();
-  ctx.lineWidth = Math.max(2, r / 4);
-  ctx.strokeStyle = markerColour(meta.instrument);
-  ctx.setLineDash(meta.instrument.distance === 'inferred' ? [r / 2, r / 3] : []);
-  for (const half of [0, 1]) {
-    const x = (half * w + Math.floor(w / 2) + 0.5) * sx;
-    const y = (tip.depth + 0.5) * sy;
-    ctx.beginPath();
-    ctx.arc(x, y, r, 0, 2 * Math.PI);
-    ctx.stroke();
-  }
   // The seam between the two B-scans.
-  ctx.setLineDash([]);
   ctx.strokeStyle = 'rgba(140, 170, 170, 0.6)';
   ctx.beginPath();
   ctx.moveTo(canvas.width / 2, 0);
