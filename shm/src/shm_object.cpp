@@ -210,20 +210,24 @@ ShmObject ShmObject::create(const std::string& name, std::uint64_t bytes, unsign
     throw RingError(err == EACCES ? RingErrc::permission : RingErrc::system,
                     "cannot create '" + path + "': " + errno_text(err));
   }
-  // Nothing half-made stays behind: a failure below removes the name again.
+  // Nothing half-made stays behind: a failure below removes the name again (and `object`, which
+  // owns the descriptor from here, closes it).
+  ShmObject object(fd, nullptr, 0, name);
   try {
+    // Mode and group before the allocation, which can take long for a large ring: the name never
+    // shows other access than the one asked for once anyone could look at its contents.
+    object.set_access(mode, group);
     allocate(fd, path, bytes);
     void* data = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
     if (data == MAP_FAILED) {
       throw RingError(RingErrc::system, "cannot map '" + path + "' (" + std::to_string(bytes) +
                                             " bytes): " + errno_text(errno));
     }
-    ShmObject object(fd, static_cast<std::byte*>(data), bytes, name);
-    object.set_access(mode, group);
+    object.data_ = static_cast<std::byte*>(data);
+    object.size_ = bytes;
     return object;
   } catch (...) {
     ::unlink(path.c_str());
-    ::close(fd);
     throw;
   }
 }
