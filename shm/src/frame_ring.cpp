@@ -12,6 +12,7 @@
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_layout.hpp"
 #include "ioct/shm/ring_reader.hpp"  // seqlock_copy
+#include "shared_futex.hpp"
 
 // ThreadSanitizer does not model standalone fences; see ring_reader.cpp.
 #if defined(__SANITIZE_THREAD__)
@@ -220,6 +221,7 @@ std::uint64_t FrameRingWriter::publish(FrameMeta meta, std::span<const std::byte
   store_word(s.sequence, 2 * f + 2, std::memory_order_release);
   store_word(h.published, f + 1, std::memory_order_release);
   store_word(h.heartbeat_ns, now, std::memory_order_release);
+  shared_futex_bump_and_wake(h.frame_signal);
   return f;
 }
 
@@ -239,7 +241,9 @@ void FrameRingWriter::set_status(const FrameRingStatus& status) noexcept {
 
 void FrameRingWriter::close() noexcept {
   if (!object_) return;
-  store_word(header_of(*object_).closed, 1, std::memory_order_release);
+  FrameRingHeader& h = header_of(*object_);
+  store_word(h.closed, 1, std::memory_order_release);
+  shared_futex_bump_and_wake(h.frame_signal);  // sleeping readers see "closed" now
   ShmObject::remove(object_->name());
   object_.reset();
 }
@@ -320,6 +324,20 @@ bool FrameRingReader::read_next(Frame& out) {
     return true;
   }
   return false;
+}
+
+bool FrameRingReader::wait_for_frame(std::uint64_t timeout_ns) const {
+  const FrameRingHeader& h = header_of(*object_);
+  const auto frame_or_close = [&] {
+    return load_word(h.published, std::memory_order_acquire) != next_ ||
+           load_word(h.epoch, std::memory_order_acquire) != epoch_ ||
+           load_word(h.closed, std::memory_order_acquire) != 0;
+  };
+  // The signal first: a frame published after this load changes it, so the wait returns at once.
+  const std::uint32_t signal = load_word(h.frame_signal, std::memory_order_acquire);
+  if (frame_or_close()) return true;
+  shared_futex_wait(h.frame_signal, signal, timeout_ns);
+  return frame_or_close();
 }
 
 FrameWriterHealth FrameRingReader::health() const {

@@ -1,12 +1,15 @@
 // The frame ring between ioct-gpu and ioct-view: frames arrive whole and in order, a reader that
 // falls behind skips to what is still there, a writer that laps a copy is caught, the status
-// block reads back, and a restarted writer or a bad object is recognised.
+// block reads back, a sleeping reader (another process) is woken by the next frame and by close,
+// and a restarted writer or a bad object is recognised.
 #include <gtest/gtest.h>
 
 #include <sys/mman.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <cstring>
 #include <thread>
 #include <vector>
@@ -76,6 +79,93 @@ TEST(FrameRing, FramesArriveWholeInOrderWithTheirDescription) {
   }
   EXPECT_FALSE(reader.read_next(frame));
   EXPECT_EQ(reader.frames_skipped(), 0u);
+}
+
+// A reader process asleep in wait_for_frame(): what woke it, and how long it slept. The timeout
+// is far longer than the test waits, so "woken" and "timed out" cannot be mistaken for each other.
+struct Sleeper {
+  pid_t pid = -1;
+  int result_fd = -1;
+};
+
+constexpr std::uint64_t kSleeperTimeoutNs = 60'000'000'000;
+
+Sleeper start_sleeper(const std::string& name) {
+  int fds[2];
+  EXPECT_EQ(::pipe(fds), 0);
+  int ready[2];
+  EXPECT_EQ(::pipe(ready), 0);
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::close(fds[0]);
+    ::close(ready[0]);
+    FrameRingReader reader = FrameRingReader::attach(name);
+    Frame frame;
+    while (reader.read_next(frame)) {
+    }
+    const char go = 'r';
+    if (::write(ready[1], &go, 1) != 1) ::_exit(3);
+    const std::uint64_t t0 = monotonic_ns();
+    const bool woken = reader.wait_for_frame(kSleeperTimeoutNs);
+    const std::uint64_t slept[2] = {woken ? 1u : 0u, monotonic_ns() - t0};
+    ::_exit(::write(fds[1], slept, sizeof slept) == sizeof slept ? 0 : 4);
+  }
+  ::close(fds[1]);
+  ::close(ready[1]);
+  char go = 0;
+  EXPECT_EQ(::read(ready[0], &go, 1), 1);
+  ::close(ready[0]);
+  // Now the child is about to sleep or asleep; a frame from here on must wake it either way.
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  return {pid, fds[0]};
+}
+
+// {woken, slept_ns} from the sleeper, once it exited.
+std::pair<bool, std::uint64_t> sleeper_result(const Sleeper& s) {
+  std::uint64_t slept[2] = {0, 0};
+  const ssize_t n = ::read(s.result_fd, slept, sizeof slept);
+  ::close(s.result_fd);
+  int status = 0;
+  ::waitpid(s.pid, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "sleeper status " << status;
+  EXPECT_EQ(n, static_cast<ssize_t>(sizeof slept));
+  return {slept[0] == 1, slept[1]};
+}
+
+TEST(FrameRing, AReaderProcessAsleepIsWokenByTheNextFrame) {
+  ScopedShmName name("frames");
+  FrameRingWriter writer(small_config(name.str()));
+  writer.publish(meta_for(0), pattern(0, 100), pattern(1, 10));
+  const Sleeper sleeper = start_sleeper(name.str());
+  writer.publish(meta_for(1), pattern(1, 100), pattern(2, 10));
+  const auto [woken, slept_ns] = sleeper_result(sleeper);
+  EXPECT_TRUE(woken);
+  EXPECT_LT(slept_ns, kSleeperTimeoutNs / 2)
+      << "slept until the timeout: the frame did not wake it";
+}
+
+TEST(FrameRing, AReaderProcessAsleepIsWokenWhenTheWriterCloses) {
+  ScopedShmName name("frames");
+  FrameRingWriter writer(small_config(name.str()));
+  const Sleeper sleeper = start_sleeper(name.str());
+  writer.close();
+  const auto [woken, slept_ns] = sleeper_result(sleeper);
+  EXPECT_TRUE(woken) << "a closed ring is news to the reader";
+  EXPECT_LT(slept_ns, kSleeperTimeoutNs / 2) << "slept until the timeout: close did not wake it";
+}
+
+TEST(FrameRing, WaitingReturnsAtOnceForAnUnreadFrameAndFalseAfterTheTimeout) {
+  ScopedShmName name("frames");
+  FrameRingWriter writer(small_config(name.str()));
+  FrameRingReader reader = FrameRingReader::attach(name.str());
+  EXPECT_FALSE(reader.wait_for_frame(20'000'000)) << "nothing published: the wait times out";
+  writer.publish(meta_for(0), pattern(0, 100), pattern(1, 10));
+  const std::uint64_t t0 = monotonic_ns();
+  EXPECT_TRUE(reader.wait_for_frame(kSleeperTimeoutNs));
+  EXPECT_LT(monotonic_ns() - t0, kSleeperTimeoutNs / 2);
+  Frame frame;
+  ASSERT_TRUE(reader.read_next(frame));
+  EXPECT_FALSE(reader.wait_for_frame(1'000'000)) << "the one frame was read";
 }
 
 TEST(FrameRing, AReaderARingBehindSkipsToTheOldestFrameStillThere) {

@@ -1,5 +1,6 @@
 #include "frame_follower.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <optional>
 
@@ -74,7 +75,16 @@ void FrameFollower::run() {
       snap.verdict = judge_signal(in, policy_);
       on_tick_(snap);
     }
-    std::this_thread::sleep_for(std::chrono::nanoseconds(kPollNs));
+    // Asleep until the next frame (the writer wakes us), the next judgement or the next try to
+    // attach, whichever comes first.
+    const std::uint64_t after = ioct::monotonic_ns();
+    const std::uint64_t until = reader ? next_tick_ns : std::min(next_tick_ns, next_attach_ns);
+    const std::uint64_t rest = until > after ? until - after : 0;
+    if (reader) {
+      reader->wait_for_frame(rest);
+    } else {
+      std::this_thread::sleep_for(std::chrono::nanoseconds(rest));
+    }
   }
 }
 

@@ -1,7 +1,7 @@
 // Follows ioct-gpu's frame ring on a thread of its own: attaches when the ring appears, reattaches
-// when its writer is replaced, reads every new frame (the newest of each view wins downstream) and
-// judges the signal every few milliseconds. It only reads shared memory: nothing it does can slow
-// the writer.
+// when its writer is replaced, reads every new frame as the writer wakes it (the newest of each
+// view wins downstream) and judges the signal 20 times a second. It only reads shared memory:
+// nothing it does can slow the writer.
 #pragma once
 
 #include <atomic>
@@ -41,7 +41,7 @@ class FrameFollower {
   FrameFollower(const FrameFollower&) = delete;
   FrameFollower& operator=(const FrameFollower&) = delete;
 
-  static constexpr std::uint64_t kPollNs = 1'000'000;      // frames: within a millisecond
+  // Frames come as the writer wakes the follower (FrameRingReader::wait_for_frame).
   static constexpr std::uint64_t kTickNs = 50'000'000;     // signal judged 20 times a second
   static constexpr std::uint64_t kAttachNs = 200'000'000;  // retry to attach
 

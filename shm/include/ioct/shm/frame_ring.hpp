@@ -28,7 +28,8 @@ inline constexpr std::uint64_t kFrameRingMagic = 0x454D'4152'4654'4F49;  // "IOT
 // 2: FrameRingStatus carries the stage times, latencies and device memory.
 // 3: FrameMeta carries the instrument finding of the volume state it shows, and the payload the
 //    B-scan pair through the instrument's tip.
-inline constexpr std::uint32_t kFrameRingVersion = 3;
+// 4: FrameRingHeader::frame_signal, the word readers sleep on until the next frame.
+inline constexpr std::uint32_t kFrameRingVersion = 4;
 inline constexpr std::uint32_t kMaxFrameSlots = 64;
 inline constexpr std::uint64_t kMaxFramePayloadBytes = 64ull << 20;  // a 4K stereo JPEG is < 8 MiB
 inline constexpr std::size_t kFrameModeNameBytes = 24;
@@ -144,9 +145,12 @@ struct FrameRingHeader {
   std::uint64_t writer_pid;
   std::uint64_t writer_start_ticks;
   // Live words (atomic access only).
-  std::uint64_t epoch;            // a new writer (restart) takes a new epoch
-  std::uint64_t closed;           // 1 once the writer closed it on an orderly exit
-  std::uint64_t published;        // frames published in this epoch
+  std::uint64_t epoch;      // a new writer (restart) takes a new epoch
+  std::uint64_t closed;     // 1 once the writer closed it on an orderly exit
+  std::uint64_t published;  // frames published in this epoch
+  // Bumped after each frame and at close; readers sleep on it (a shared futex) instead of polling.
+  std::uint32_t frame_signal;
+  std::uint32_t reserved;
   std::uint64_t heartbeat_ns;     // CLOCK_MONOTONIC; the writer beats while alive, frames or not
   std::uint64_t status_sequence;  // seqlock of `status`: odd while it is written
   FrameRingStatus status;
@@ -235,6 +239,10 @@ class FrameRingReader {
   // Frames the writer overwrote before or during the copy are skipped and counted; a reader more
   // than a ring behind jumps to the oldest frame still there. A new writer epoch starts over.
   bool read_next(Frame& out);
+  // Sleeps until a frame not yet read may be there or the writer closed the ring, at most
+  // `timeout_ns` (the writer wakes its readers; a writer that died wakes nobody). Returns at once
+  // when one is there already. True when there may be a frame to read.
+  bool wait_for_frame(std::uint64_t timeout_ns) const;
   FrameWriterHealth health() const;
   // The pipeline status; false if the writer kept rewriting it during the copy (try again).
   bool read_status(FrameRingStatus& out) const;
