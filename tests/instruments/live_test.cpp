@@ -1,7 +1,8 @@
 // The detection in ioct-gpu's live stages: a forceps scene handed over group by group to
 // VolumeStages with instruments enabled; the status line, the view socket's "instruments" answer
 // and summary.json carry the tip where the simulator put it and its distances. CPU stages, and
-// CUDA stages on a GPU machine (skipped without one).
+// CUDA stages on a GPU machine (skipped without one) handed a host volume or, as the CUDA live
+// pipeline does, a device one that the detection reads in place.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -13,28 +14,38 @@
 #include "ioct/gpu/processing/oct_processor.hpp"
 #include "live_volumes.hpp"
 
+#if IOCT_GPU_WITH_CUDA
+#include "ioct/gpu/cuda/cuda_support.hpp"
+#endif
+
 namespace ioct::instruments_test {
 namespace {
 
-class LiveInstruments : public ::testing::TestWithParam<gpu::Backend> {
+// Where the stages run, and where the live volume they are handed lies.
+struct LivePlace {
+  gpu::Backend backend = gpu::Backend::cpu;
+  bool device_volume = false;  // the CUDA live pipeline's device volume, read in place
+};
+
+class LiveInstruments : public ::testing::TestWithParam<LivePlace> {
  protected:
   void SetUp() override {
-    if (GetParam() == gpu::Backend::cuda) {
+    if (GetParam().backend == gpu::Backend::cuda) {
       if (const auto why = gpu::cuda_unavailable_reason()) GTEST_SKIP() << "no CUDA: " << *why;
     }
   }
   void TearDown() override { std::filesystem::remove_all(dir_); }
   const std::filesystem::path dir_ =
       std::filesystem::temp_directory_path() /
-      ("ioct-instruments-live-" + std::to_string(static_cast<int>(GetParam())) + "-" +
-       std::to_string(::getpid()));
+      ("ioct-instruments-live-" + std::to_string(static_cast<int>(GetParam().backend)) +
+       (GetParam().device_volume ? "-device-" : "-") + std::to_string(::getpid()));
 };
 
 TEST_P(LiveInstruments, TheStatusTheViewSocketAndTheSummaryCarryTheTip) {
   std::filesystem::create_directories(dir_);
   const SceneVolume scene = make_scene_volume(instrument_scenes()[0]);  // forceps approaching
   gpu::live::VolumeStagesConfig config;
-  config.backend = GetParam();
+  config.backend = GetParam().backend;
   config.cpu_threads = 2;
   config.render.view.output_width = 64;
   config.render.view.output_height = 48;
@@ -44,9 +55,13 @@ TEST_P(LiveInstruments, TheStatusTheViewSocketAndTheSummaryCarryTheTip) {
   gpu::live::VolumeStages stages(config);
   EXPECT_EQ(stages.instruments().at("enabled"), true);
 
-  gpu::live::FakeLiveVolume live;
+#if IOCT_GPU_WITH_CUDA
+  const gpu::cuda::BusTraffic before = gpu::cuda::bus_traffic();
+#endif
+  gpu::live::DeviceLiveVolume live(GetParam().device_volume);
   live.volume = scene.volume.volume;
   for (std::uint32_t first = 0; first < live.volume.bscans(); first += 16) {
+    live.written(first, 16);
     stages.on_bscans(live, first, 16, gpu::GroupStamp{});
   }
   const nlohmann::json summary = stages.finish(dir_);
@@ -69,6 +84,14 @@ TEST_P(LiveInstruments, TheStatusTheViewSocketAndTheSummaryCarryTheTip) {
   const std::string status = stages.status();
   EXPECT_NE(status.find("instruments: tip"), std::string::npos) << status;
   EXPECT_NE(status.find("WARNING"), std::string::npos) << status;
+#if IOCT_GPU_WITH_CUDA
+  if (GetParam().device_volume) {
+    // The detection read the device volume in place: no B-scan crossed during the passes (the
+    // files at the end bring the filtered volume back once, counted after finish()).
+    const gpu::cuda::BusTraffic after = gpu::cuda::bus_traffic();
+    EXPECT_EQ(after.volume_to_device - before.volume_to_device, 0u);
+  }
+#endif
 }
 
 TEST(LiveInstrumentsOff, NothingIsReportedWhenDisabled) {
@@ -79,12 +102,16 @@ TEST(LiveInstrumentsOff, NothingIsReportedWhenDisabled) {
   EXPECT_EQ(stages.status().find("instruments"), std::string::npos);
 }
 
-std::string backend_name(const ::testing::TestParamInfo<gpu::Backend>& param) {
-  return param.param == gpu::Backend::cpu ? "cpu" : "cuda";
+std::string place_name(const ::testing::TestParamInfo<LivePlace>& param) {
+  if (param.param.backend == gpu::Backend::cpu) return "cpu";
+  return param.param.device_volume ? "cuda_device_volume" : "cuda";
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, LiveInstruments,
-                         ::testing::Values(gpu::Backend::cpu, gpu::Backend::cuda), backend_name);
+                         ::testing::Values(LivePlace{gpu::Backend::cpu, false},
+                                           LivePlace{gpu::Backend::cuda, false},
+                                           LivePlace{gpu::Backend::cuda, true}),
+                         place_name);
 
 }  // namespace
 }  // namespace ioct::instruments_test

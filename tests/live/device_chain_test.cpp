@@ -22,73 +22,14 @@
 #include "ioct/gpu/processing/oct_processor.hpp"
 #include "layered_volume.hpp"
 
-#if IOCT_GPU_WITH_CUDA
-#include <cuda_runtime.h>
+#include "live_volumes.hpp"
 
+#if IOCT_GPU_WITH_CUDA
 #include "ioct/gpu/cuda/cuda_support.hpp"
 #endif
 
 namespace ioct::gpu::live {
 namespace {
-
-// A live volume the test writes into; with `on_device`, also kept on the device and read there
-// (read_on_device), as the CUDA live pipeline's volume is.
-class TestLiveVolume final : public LiveVolumeSource {
- public:
-  explicit TestLiveVolume(bool on_device) : on_device_(on_device) {}
-  ~TestLiveVolume() override {
-#if IOCT_GPU_WITH_CUDA
-    if (device_ != nullptr) cudaFree(device_);
-#endif
-  }
-  TestLiveVolume(const TestLiveVolume&) = delete;
-  TestLiveVolume& operator=(const TestLiveVolume&) = delete;
-
-  Volume volume;
-
-  // B-scans [first, first + count) of `volume` were written: the device copy follows (plain
-  // cudaMemcpy, outside the stages' counted copies: this is the pipeline's ingest).
-  void written(std::uint32_t first, std::uint32_t count) {
-#if IOCT_GPU_WITH_CUDA
-    if (!on_device_) return;
-    if (device_bytes_ != volume.pixels().size()) {
-      if (device_ != nullptr) cudaFree(device_);
-      device_ = nullptr;
-      ASSERT_EQ(cudaMalloc(&device_, volume.pixels().size()), cudaSuccess);
-      device_bytes_ = volume.pixels().size();
-      first = 0;
-      count = volume.bscans();
-    }
-    const std::size_t n = volume.bscan_pixels();
-    ASSERT_EQ(cudaMemcpy(device_ + first * n, volume.bscan(first).data(), count * n,
-                         cudaMemcpyHostToDevice),
-              cudaSuccess);
-#else
-    (void)first;
-    (void)count;
-#endif
-  }
-
-  LiveVolumeShape shape() const override {
-    return {volume.bscans(), volume.ascans(), volume.depth()};
-  }
-  void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) override {
-    prepare_bscan_copy(shape(), first, count, out);
-    const std::size_t n = volume.bscan_pixels();
-    std::copy_n(volume.bscan(first).data(), count * n, out.bscan(first).data());
-  }
-  bool read_on_device(CUstream_st* /*stream*/,
-                      const std::function<void(const DeviceVolumeView&)>& enqueue_reads) override {
-    if (!on_device_) return false;
-    enqueue_reads({device_, volume.bscans(), volume.ascans(), volume.depth(), 0});
-    return true;
-  }
-
- private:
-  bool on_device_;
-  std::uint8_t* device_ = nullptr;
-  std::size_t device_bytes_ = 0;
-};
 
 // Counts passes; while closed, holds the stages' thread at the end of a pass, so that the groups
 // handed over meanwhile fold into the next pass (the same passes on every backend).
@@ -160,7 +101,7 @@ StagesRun run_stages(Backend backend, bool device_source, const std::filesystem:
   config.on_pass = [&gate](const StagesPass& pass) { gate.on_pass(pass); };
   VolumeStages stages(config);
 
-  TestLiveVolume live(device_source);
+  DeviceLiveVolume live(device_source);
   std::uint64_t handed = 0;
   const auto hand = [&](std::uint32_t first, std::uint32_t count) {
     live.written(first, count);

@@ -1,10 +1,18 @@
-// The live volume the stages' tests hand over: a fake LiveVolumeSource (layered_volume.hpp has
-// the speckled layered volume they fill it with).
+// The live volumes the stages' tests hand over: fake LiveVolumeSources, on the host and (CUDA
+// builds) on the device as the CUDA live pipeline's (layered_volume.hpp has the speckled layered
+// volume they fill it with).
 #pragma once
+
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <random>
+
+#if IOCT_GPU_WITH_CUDA
+#include <cuda_runtime.h>
+#endif
 
 #include "ioct/gpu/ingest/live_stage.hpp"
 #include "ioct/gpu/volume/volume.hpp"
@@ -24,6 +32,66 @@ class FakeLiveVolume final : public LiveVolumeSource {
     const std::size_t n = volume.bscan_pixels();
     std::copy_n(volume.bscan(first).data(), count * n, out.bscan(first).data());
   }
+};
+
+// A live volume the test writes into and then calls written(); with `on_device`, also kept on
+// the device and read there (read_on_device), as the CUDA live pipeline's volume is; without,
+// a host one like FakeLiveVolume.
+class DeviceLiveVolume final : public LiveVolumeSource {
+ public:
+  explicit DeviceLiveVolume(bool on_device) : on_device_(on_device) {}
+  ~DeviceLiveVolume() override {
+#if IOCT_GPU_WITH_CUDA
+    if (device_ != nullptr) cudaFree(device_);
+#endif
+  }
+  DeviceLiveVolume(const DeviceLiveVolume&) = delete;
+  DeviceLiveVolume& operator=(const DeviceLiveVolume&) = delete;
+
+  Volume volume;
+
+  // B-scans [first, first + count) of `volume` were written: the device copy follows (plain
+  // cudaMemcpy, outside the stages' counted copies: this is the pipeline's ingest).
+  void written(std::uint32_t first, std::uint32_t count) {
+#if IOCT_GPU_WITH_CUDA
+    if (!on_device_) return;
+    if (device_bytes_ != volume.pixels().size()) {
+      if (device_ != nullptr) cudaFree(device_);
+      device_ = nullptr;
+      ASSERT_EQ(cudaMalloc(&device_, volume.pixels().size()), cudaSuccess);
+      device_bytes_ = volume.pixels().size();
+      first = 0;
+      count = volume.bscans();
+    }
+    const std::size_t n = volume.bscan_pixels();
+    ASSERT_EQ(cudaMemcpy(device_ + first * n, volume.bscan(first).data(), count * n,
+                         cudaMemcpyHostToDevice),
+              cudaSuccess);
+#else
+    (void)first;
+    (void)count;
+#endif
+  }
+
+  LiveVolumeShape shape() const override {
+    return {volume.bscans(), volume.ascans(), volume.depth()};
+  }
+  void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) override {
+    prepare_bscan_copy(shape(), first, count, out);
+    const std::size_t n = volume.bscan_pixels();
+    std::copy_n(volume.bscan(first).data(), count * n, out.bscan(first).data());
+  }
+  bool read_on_device(CUstream_st* /*stream*/,
+                      const std::function<void(const DeviceVolumeView&)>& enqueue_reads) override {
+    if (!on_device_) return false;
+    enqueue_reads({device_, volume.bscans(), volume.ascans(), volume.depth(), 0});
+    return true;
+  }
+
+ private:
+  bool on_device_;
+  std::uint8_t* device_ = nullptr;
+  std::size_t device_bytes_ = 0;
 };
 
 }  // namespace ioct::gpu::live

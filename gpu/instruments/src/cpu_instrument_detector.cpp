@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <stdexcept>
 
 namespace ioct::gpu::instruments {
 
@@ -9,8 +10,13 @@ CpuInstrumentDetector::CpuInstrumentDetector(const InstrumentConfig& config,
                                              const VolumeSampling& sampling, unsigned threads)
     : InstrumentDetector(config, sampling), pool_(std::max(1u, threads)) {}
 
-void CpuInstrumentDetector::classify(const Volume& volume, BscanSpan group,
-                                     const ColumnParams& params, InstrumentFindings& findings) {
+void CpuInstrumentDetector::classify(VolumeRef ref, BscanSpan group, const ColumnParams& params,
+                                     InstrumentFindings& findings) {
+  if (ref.is_device()) {
+    throw std::invalid_argument(
+        "instruments: the CPU detection reads host volumes, not a device one");
+  }
+  const Volume& volume = ref.host();
   pool_.run(group.count, [&](std::uint32_t i, unsigned) {
     const std::uint32_t b = group.first + i;
     const auto pixels = volume.bscan(b);

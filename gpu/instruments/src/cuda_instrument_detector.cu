@@ -53,21 +53,31 @@ CudaInstrumentDetector::CudaInstrumentDetector(const InstrumentConfig& config,
                                                const VolumeSampling& sampling)
     : InstrumentDetector((require_device(), config), sampling) {}
 
-void CudaInstrumentDetector::classify(const Volume& volume, BscanSpan group,
-                                      const ColumnParams& params, InstrumentFindings& findings) {
-  const std::size_t ascans = volume.ascans();
+void CudaInstrumentDetector::classify(VolumeRef volume, BscanSpan group, const ColumnParams& params,
+                                      InstrumentFindings& findings) {
+  const VolumeDims& dims = volume.dims();
+  const std::size_t ascans = dims.ascans;
   const std::size_t columns = std::size_t{group.count} * ascans;
-  bscans_.resize(columns * volume.depth());
   kinds_.resize(columns);
   reflexes_.resize(columns);
   floors_.resize(group.count);
   if (host_kinds_.size() < columns) host_kinds_ = cuda::PinnedArray<std::uint8_t>(columns);
   cudaStream_t stream = stream_.get();
-  cuda::copy_async(bscans_.data(), volume.bscan(group.first).data(), bscans_.bytes(),
-                   cudaMemcpyHostToDevice, stream, cuda::Payload::volume,
-                   "instruments: the group's B-scans to the device");
+  const std::uint8_t* group_pixels = nullptr;
+  if (volume.is_device()) {
+    // In place, after whatever its stream has still to write into it.
+    IOCT_CUDA_CHECK(cudaEventRecord(volume_ready_.get(), volume.stream()));
+    IOCT_CUDA_CHECK(cudaStreamWaitEvent(stream, volume_ready_.get(), 0));
+    group_pixels = volume.device() + std::size_t{group.first} * dims.bscan_bytes();
+  } else {
+    bscans_.resize(columns * dims.depth);
+    cuda::copy_async(bscans_.data(), volume.host().bscan(group.first).data(), bscans_.bytes(),
+                     cudaMemcpyHostToDevice, stream, cuda::Payload::volume,
+                     "instruments: the group's B-scans to the device");
+    group_pixels = bscans_.data();
+  }
   classify_bscans<<<group.count, kThreads, 0, stream>>>(
-      bscans_.data(), static_cast<std::uint32_t>(ascans), params, kinds_.data(), reflexes_.data(),
+      group_pixels, static_cast<std::uint32_t>(ascans), params, kinds_.data(), reflexes_.data(),
       floors_.data());
   cuda::check_launch("instruments: classify_bscans");
   const std::size_t offset = std::size_t{group.first} * ascans;

@@ -18,22 +18,23 @@ InstrumentDetector::InstrumentDetector(const InstrumentConfig& config,
   sampling_.validate();
 }
 
-void InstrumentDetector::detect_group(const Volume& volume, BscanSpan group,
+void InstrumentDetector::detect_group(VolumeRef volume, BscanSpan group,
                                       const segmentation::Surfaces& surfaces,
                                       InstrumentFindings& findings) {
-  if (group.end() > volume.bscans() || group.end() < group.first) {
+  const VolumeDims& dims = volume.dims();
+  if (group.end() > dims.bscans || group.end() < group.first) {
     throw std::out_of_range("instruments: B-scans [" + std::to_string(group.first) + ", " +
                             std::to_string(group.first + group.count) + ") outside a volume of " +
-                            std::to_string(volume.bscans()) + " B-scans");
+                            std::to_string(dims.bscans) + " B-scans");
   }
-  if (volume.depth() == 0 && volume.bscans() > 0) {
+  if (dims.depth == 0 && dims.bscans > 0) {
     throw std::invalid_argument("instruments: a volume of no depth");
   }
-  if (findings.bscans != volume.bscans() || findings.ascans != volume.ascans()) {
-    findings.reset(volume.bscans(), volume.ascans());
+  if (findings.bscans != dims.bscans || findings.ascans != dims.ascans) {
+    findings.reset(dims.bscans, dims.ascans);
   }
   if (group.count > 0) {
-    classify(volume, group, make_column_params(config_, sampling_, volume.depth()), findings);
+    classify(volume, group, make_column_params(config_, sampling_, dims.depth), findings);
   }
   find_tips(findings, surfaces, config_, sampling_);
 }

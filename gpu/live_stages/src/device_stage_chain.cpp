@@ -4,6 +4,7 @@
 #include <utility>
 
 #include "ioct/gpu/filters/volume_filter.hpp"
+#include "ioct/gpu/instruments/instrument_detector.hpp"
 #include "ioct/gpu/render/renderer.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"
 
@@ -90,13 +91,14 @@ struct DeviceStageChain::Impl {
   }
 };
 
-std::unique_ptr<DeviceStageChain> DeviceStageChain::make(filters::VolumeFilter& filter,
-                                                         segmentation::Segmenter& segmenter,
-                                                         render::Renderer& renderer) {
+std::unique_ptr<DeviceStageChain> DeviceStageChain::make(
+    filters::VolumeFilter& filter, segmentation::Segmenter& segmenter, render::Renderer& renderer,
+    const instruments::InstrumentDetector* detector) {
   auto* f = dynamic_cast<filters::CudaVolumeFilter*>(&filter);
   auto* s = dynamic_cast<segmentation::CudaSegmenter*>(&segmenter);
   auto* r = dynamic_cast<render::CudaRenderer*>(&renderer);
   if (f == nullptr || s == nullptr || r == nullptr) return nullptr;
+  if (detector != nullptr && detector->backend_name() != "cuda") return nullptr;
   return std::unique_ptr<DeviceStageChain>(
       new DeviceStageChain(std::make_unique<Impl>(*f, *s, *r)));
 }
@@ -240,6 +242,14 @@ void DeviceStageChain::download_bscan(std::uint32_t bscan, Volume& filtered,
   m.segmenter.download_surfaces(surfaces, m.stream.get());  // waits for both
 }
 
+void DeviceStageChain::download_surfaces(segmentation::Surfaces& surfaces) {
+  impl_->segmenter.download_surfaces(surfaces, impl_->stream.get());
+}
+
+VolumeRef DeviceStageChain::input() const {
+  return VolumeRef::on_device(impl_->input.data(), impl_->input_dims, impl_->stream.get());
+}
+
 std::uint32_t DeviceStageChain::bscans() const noexcept {
   return impl_->input_dims.bscans;
 }
@@ -250,7 +260,8 @@ struct DeviceStageChain::Impl {};
 
 std::unique_ptr<DeviceStageChain> DeviceStageChain::make(filters::VolumeFilter&,
                                                          segmentation::Segmenter&,
-                                                         render::Renderer&) {
+                                                         render::Renderer&,
+                                                         const instruments::InstrumentDetector*) {
   return nullptr;
 }
 bool DeviceStageChain::hand_over(LiveVolumeSource&, const LiveVolumeShape&, std::uint32_t,
@@ -272,6 +283,12 @@ void DeviceStageChain::download(Volume&, segmentation::Surfaces&) {
   throw std::logic_error("live stages: built without CUDA");
 }
 void DeviceStageChain::download_bscan(std::uint32_t, Volume&, segmentation::Surfaces&) {
+  throw std::logic_error("live stages: built without CUDA");
+}
+void DeviceStageChain::download_surfaces(segmentation::Surfaces&) {
+  throw std::logic_error("live stages: built without CUDA");
+}
+VolumeRef DeviceStageChain::input() const {
   throw std::logic_error("live stages: built without CUDA");
 }
 std::uint32_t DeviceStageChain::bscans() const noexcept {

@@ -11,8 +11,8 @@
 // filter, the segmentation and the renderer's update and frame are enqueued on one stream, each
 // on the previous one's device output, with no copy of the volume to the host and no wait for the
 // host in between (the renderer makes its layer reference on the device too); the pass ends by
-// waiting for its frame. Only what is asked for
-// (a frame to write, the files at the end) comes back.
+// waiting for its frame. Only what is asked for (a frame to write, the files at the end; with
+// instrument detection the surfaces, the A-scans' classes and the tip's B-scan pair) comes back.
 #pragma once
 
 #include <cstdint>
@@ -23,6 +23,7 @@
 #include "ioct/gpu/render/rgba_image.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
 #include "ioct/gpu/volume/volume.hpp"
+#include "ioct/gpu/volume/volume_ref.hpp"
 
 namespace ioct::gpu::filters {
 class VolumeFilter;
@@ -32,6 +33,9 @@ class Segmenter;
 }
 namespace ioct::gpu::render {
 class Renderer;
+}
+namespace ioct::gpu::instruments {
+class InstrumentDetector;
 }
 
 namespace ioct::gpu::live {
@@ -48,10 +52,12 @@ class DeviceStageChain {
   };
 
   // Null when the stages are not all CUDA ones (or the build has no CUDA): they then work on
-  // host volumes. Moves the renderer onto the chain's stream.
+  // host volumes. Moves the renderer onto the chain's stream. `detector` (none: null) must be
+  // a CUDA one too: it reads the chain's input in place (input()).
   static std::unique_ptr<DeviceStageChain> make(filters::VolumeFilter& filter,
                                                 segmentation::Segmenter& segmenter,
-                                                render::Renderer& renderer);
+                                                render::Renderer& renderer,
+                                                const instruments::InstrumentDetector* detector);
   ~DeviceStageChain();
   DeviceStageChain(const DeviceStageChain&) = delete;
   DeviceStageChain& operator=(const DeviceStageChain&) = delete;
@@ -85,6 +91,11 @@ class DeviceStageChain {
   // input's dimensions; its other B-scans are left as they are) and the surfaces, to the host:
   // the B-scan a frame shows beside the render.
   void download_bscan(std::uint32_t bscan, Volume& filtered, segmentation::Surfaces& surfaces);
+  // The surfaces alone, to the host (the instrument's distances after a pass).
+  void download_surfaces(segmentation::Surfaces& surfaces);
+  // The passes' input (the unfiltered B-scans) as a device ref on the chain's stream: what the
+  // instrument detection and the tip's B-scan pair read. Valid until the next take().
+  VolumeRef input() const;
   // B-scans in the passes' input (0 before the first pass).
   std::uint32_t bscans() const noexcept;
 

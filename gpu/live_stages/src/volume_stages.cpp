@@ -284,10 +284,9 @@ bool VolumeStages::make_backends() {
     const bool cpu_renderer = renderer_->backend_name() == "cpu";
     uses_device_ = filter_->backend_name() == "cuda" || segmenter_->backend_name() == "cuda" ||
                    renderer_->backend_name() == "cuda";
-    // With instruments, the stages run on host volumes (the detector reads the unfiltered
-    // B-scans there); the device chain keeps its volume on the GPU only without them.
-    auto device =
-        detector_ != nullptr ? nullptr : DeviceStageChain::make(*filter_, *segmenter_, *renderer_);
+    // CUDA stages (and CUDA detection, which reads the chain's unfiltered input in place) keep
+    // the volume on the device; any CPU stage takes host volumes.
+    auto device = DeviceStageChain::make(*filter_, *segmenter_, *renderer_, detector_.get());
     std::lock_guard lock(mutex_);
     device_ = std::move(device);
     views_.set_timing(view_timing(config_, cpu_renderer));
@@ -381,7 +380,11 @@ void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered
     if (tip_bscans_stale_) {
       // From the processed volume the detector read: the filters erase a tool's thin reflex.
       const instruments::InstrumentTip* tip = findings_.nearest_tip();
-      if (tip != nullptr) instruments::cut_tip_bscans(input_, *tip, config_.sampling, tip_bscans_);
+      if (tip != nullptr) {
+        instruments::cut_tip_bscans(
+            device_ != nullptr ? device_->input() : VolumeRef::on_host(input_), *tip,
+            config_.sampling, tip_bscans_);
+      }
       publisher_->set_tip_bscans(tip != nullptr ? &tip_bscans_ : nullptr);
       tip_bscans_stale_ = false;
     }
@@ -437,19 +440,8 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
   const segmentation::BscanSpan affected =
       segmenter_->segment_group(filtered_, {outputs.first, outputs.count}, surfaces_);
   const std::uint64_t t2 = ioct::monotonic_ns();
-  std::uint64_t t2_detected = t2;
-  if (detector_ != nullptr) {
-    // On the processed B-scans: the median filter erases a tool's thin, tilted reflex.
-    detector_->detect_group(input_, {first, count}, surfaces_, findings_);
-    tip_bscans_stale_ = true;
-    t2_detected = ioct::monotonic_ns();
-    std::string line = instruments::describe(findings_);
-    nlohmann::json json = instruments::to_json(findings_);
-    std::lock_guard lock(mutex_);
-    figures_.instruments.record(t2_detected - t2);
-    figures_.instruments_line = std::move(line);
-    figures_.instruments_json = std::move(json);
-  }
+  const std::uint64_t t2_detected =
+      detector_ != nullptr ? detect_instruments(VolumeRef::on_host(input_), first, count) : t2;
   renderer_->update_bscans(filtered_, affected.first, affected.count, &surfaces_);
   note_bscans_changed(affected.first, affected.count);  // contains the filter's outputs
   const bool render_now =
@@ -468,6 +460,22 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
   record_pass(StagesPass{groups, first, count, false, render_now, t0, t1, t2, t3}, t1 - t0, t2 - t1,
               t3 - t2_detected);
   if (render_now) deliver(shared, t3, waiters);
+}
+
+std::uint64_t VolumeStages::detect_instruments(VolumeRef input, std::uint32_t first,
+                                               std::uint32_t count) {
+  const std::uint64_t t0 = ioct::monotonic_ns();
+  // On the processed B-scans: the median filter erases a tool's thin, tilted reflex.
+  detector_->detect_group(input, {first, count}, surfaces_, findings_);
+  tip_bscans_stale_ = true;
+  const std::uint64_t t1 = ioct::monotonic_ns();
+  std::string line = instruments::describe(findings_);
+  nlohmann::json json = instruments::to_json(findings_);
+  std::lock_guard lock(mutex_);
+  figures_.instruments.record(t1 - t0);
+  figures_.instruments_line = std::move(line);
+  figures_.instruments_json = std::move(json);
+  return t1;
 }
 
 void VolumeStages::note_bscans_changed(std::uint32_t first, std::uint32_t count) {
@@ -533,6 +541,13 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
       publisher_ != nullptr || !waiters.empty() || live_image_due(ioct::monotonic_ns());
   const DeviceStageChain::PassTimes t =
       device_->run_pass(first, count, shared.config, frame_wanted ? &image_ : nullptr);
+  if (detector_ != nullptr) {
+    // After the frame, before it is published: the frame carries the instrument of the volume
+    // state it shows. The classes come from the input in place; the surfaces come to the host
+    // for the tips' distances (a few hundred kB).
+    device_->download_surfaces(surfaces_);
+    detect_instruments(device_->input(), first, count);
+  }
   last_render_ns_ = t.rendered_ns;
   note_bscans_changed(t.changed_first, t.changed_count);
   const auto ns = [](double ms) { return static_cast<std::uint64_t>(ms * 1e6); };

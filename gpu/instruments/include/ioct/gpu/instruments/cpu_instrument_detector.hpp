@@ -13,7 +13,7 @@ class CpuInstrumentDetector final : public InstrumentDetector {
   std::string_view backend_name() const noexcept override { return "cpu"; }
 
  private:
-  void classify(const Volume& volume, BscanSpan group, const ColumnParams& params,
+  void classify(VolumeRef volume, BscanSpan group, const ColumnParams& params,
                 InstrumentFindings& findings) override;
 
   WorkerPool pool_;

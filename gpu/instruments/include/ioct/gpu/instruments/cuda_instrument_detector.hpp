@@ -1,8 +1,9 @@
 // The CUDA implementation of the instrument detection (built only with CUDA): per group, one
-// thread block per B-scan builds the B-scan's histogram in shared memory, takes its median as the
-// floor, and classifies its A-scans, one thread each, with the same column code as the CPU
-// reference (column_classification.hpp); the mask and the reflexes come back (a few bytes per
-// A-scan) and the tips are found on the host, as for the CPU.
+// thread block per B-scan (read in place from a device volume, or uploaded from a host one)
+// builds the B-scan's histogram in shared memory, takes its median as the floor, and classifies its
+// A-scans, one thread each, with the same column code as the CPU reference
+// (column_classification.hpp); the mask and the reflexes come back (a few bytes per A-scan) and the
+// tips are found on the host, as for the CPU.
 #pragma once
 
 #include <cstdint>
@@ -19,11 +20,12 @@ class CudaInstrumentDetector final : public InstrumentDetector {
   std::string_view backend_name() const noexcept override { return "cuda"; }
 
  private:
-  void classify(const Volume& volume, BscanSpan group, const ColumnParams& params,
+  void classify(VolumeRef volume, BscanSpan group, const ColumnParams& params,
                 InstrumentFindings& findings) override;
 
   cuda::Stream stream_;
-  cuda::DeviceArray<std::uint8_t> bscans_;  // the group's B-scans
+  cuda::Event volume_ready_;                // a device volume's writes so far
+  cuda::DeviceArray<std::uint8_t> bscans_;  // the group's B-scans, uploaded from a host volume
   cuda::DeviceArray<std::uint8_t> kinds_;   // [bscan of the group][ascan]
   cuda::DeviceArray<float> reflexes_;       // [bscan of the group][ascan]
   cuda::DeviceArray<std::uint8_t> floors_;  // [bscan of the group]

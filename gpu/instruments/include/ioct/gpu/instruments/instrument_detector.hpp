@@ -16,6 +16,7 @@
 #include "ioct/gpu/segmentation/segmenter.hpp"  // BscanSpan
 #include "ioct/gpu/segmentation/surfaces.hpp"
 #include "ioct/gpu/volume/volume.hpp"
+#include "ioct/gpu/volume/volume_ref.hpp"
 
 namespace ioct::gpu::instruments {
 
@@ -29,9 +30,15 @@ class InstrumentDetector {
   // when its dimensions differ from the volume's), then finds the tips over the whole mask with
   // `surfaces` (the segmentation of the same volume; empty or of other dimensions: no distances).
   // Throws std::out_of_range for a group outside the volume, std::invalid_argument for a volume
-  // of no depth.
-  void detect_group(const Volume& volume, BscanSpan group, const segmentation::Surfaces& surfaces,
+  // of no depth. The CUDA detection reads a device ref in place, after the work on its stream
+  // (the live stages' device volume: no B-scan crosses the bus); the CPU one takes host refs
+  // only (std::invalid_argument for a device ref).
+  void detect_group(VolumeRef volume, BscanSpan group, const segmentation::Surfaces& surfaces,
                     InstrumentFindings& findings);
+  void detect_group(const Volume& volume, BscanSpan group, const segmentation::Surfaces& surfaces,
+                    InstrumentFindings& findings) {
+    detect_group(VolumeRef::on_host(volume), group, surfaces, findings);
+  }
 
   // Every B-scan of `volume`.
   void detect_volume(const Volume& volume, const segmentation::Surfaces& surfaces,
@@ -44,7 +51,7 @@ class InstrumentDetector {
  protected:
   InstrumentDetector(const InstrumentConfig& config, const VolumeSampling& sampling);
   // The classification of B-scans `group` into findings.mask, reflex_px and floor (sized).
-  virtual void classify(const Volume& volume, BscanSpan group, const ColumnParams& params,
+  virtual void classify(VolumeRef volume, BscanSpan group, const ColumnParams& params,
                         InstrumentFindings& findings) = 0;
 
  private:

@@ -11,6 +11,7 @@
 #include "ioct/gpu/instruments/instrument_findings.hpp"
 #include "ioct/gpu/segmentation/segmentation_config.hpp"
 #include "ioct/gpu/volume/volume.hpp"
+#include "ioct/gpu/volume/volume_ref.hpp"
 
 namespace ioct::gpu::instruments {
 
@@ -25,9 +26,16 @@ struct TipBscans {
 inline constexpr double kTipBscanHalfWidthUm = 1500.0;
 
 // Cuts the pair through `tip` from `volume` ([bscan][ascan][depth]) into `out` (its memory
-// reused). Across is the axis turned by +90 degrees en face.
-void cut_tip_bscans(const Volume& volume, const InstrumentTip& tip,
+// reused). Across is the axis turned by +90 degrees en face. A device ref (CUDA builds) is cut on
+// the device, after the work on its stream, and only the pair comes to the host; the pixels are
+// the host's (tip_cut.hpp).
+void cut_tip_bscans(VolumeRef volume, const InstrumentTip& tip,
                     const segmentation::VolumeSampling& sampling, TipBscans& out,
                     double half_width_um = kTipBscanHalfWidthUm);
+inline void cut_tip_bscans(const Volume& volume, const InstrumentTip& tip,
+                           const segmentation::VolumeSampling& sampling, TipBscans& out,
+                           double half_width_um = kTipBscanHalfWidthUm) {
+  cut_tip_bscans(VolumeRef::on_host(volume), tip, sampling, out, half_width_um);
+}
 
 }  // namespace ioct::gpu::instruments

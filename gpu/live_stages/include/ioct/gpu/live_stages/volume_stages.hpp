@@ -49,6 +49,7 @@
 #include "ioct/gpu/segmentation/segmentation_config.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
 #include "ioct/gpu/volume/volume.hpp"
+#include "ioct/gpu/volume/volume_ref.hpp"
 #include "ioct/shm/frame_ring.hpp"
 
 namespace ioct::gpu::filters {
@@ -87,8 +88,8 @@ struct VolumeStagesConfig {
   segmentation::SegmentationConfig segmentation;
   segmentation::VolumeSampling sampling;  // also the renderer's voxel spacing
   // Instrument detection after the segmentation of every pass (instruments.enabled), on the
-  // processed (unfiltered) B-scans of the pass. With CUDA stages it keeps the volume on the host
-  // (the device-resident chain does not carry the detection): the CUDA stages upload each pass.
+  // processed (unfiltered) B-scans of the pass. With CUDA stages the CUDA detection reads them
+  // in place in the device chain, after the pass's frame and before it is published.
   instruments::InstrumentConfig instruments;
   render::RenderConfig render;  // the shared view at the start; auto_rotate turns its azimuth
   // Modes rendered once more at the end, each to render-<mode>.png, at the live view.
@@ -184,6 +185,9 @@ class VolumeStages final : public LiveStage, public ViewControl {
   bool live_image_due(std::uint64_t now_ns) const;
   // The device's memory to the frame ring's status (CUDA stages only; at most once a second).
   void note_device_memory(std::uint64_t now_ns);
+  // The instrument detection of the pass's new B-scans [first, first + count) of `input` (the
+  // unfiltered volume, host or device) with surfaces_; its figures. Returns when it ended.
+  std::uint64_t detect_instruments(VolumeRef input, std::uint32_t first, std::uint32_t count);
   // A pass changed B-scans [first, first + count) of the filtered volume or their surfaces.
   void note_bscans_changed(std::uint32_t first, std::uint32_t count);
   // A pass's figures (the render's only when it rendered), then on_pass and the frame ring's count.
