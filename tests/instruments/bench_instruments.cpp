@@ -1,8 +1,9 @@
 // Benchmark (not a test): the instrument detection of one group of 16 B-scans beside the
 // segmentation of the same group (the anchor: the stage before it, whose budget the issue names),
 // on the CPU and, in CUDA builds with a GPU, on the GPU. Host volumes on both (the CUDA stages
-// upload the group, as in the live stages with --instruments). Also the host's share: the tips
-// from the mask alone (a group of 0 B-scans).
+// upload the group), and on the GPU also the volume in device memory read in place, as the live
+// stages' device chain hands it. Also the host's share: the tips from the mask alone (a group of
+// 0 B-scans).
 //
 //   ioct-bench-instruments [--ascans 512] [--bscans 128] [--reps 30] [--backend both|cpu|cuda]
 #include <CLI/CLI.hpp>
@@ -16,6 +17,12 @@
 #include "instrument_scenes.hpp"
 #include "ioct/gpu/instruments/instrument_detector.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"
+
+#if IOCT_INSTRUMENTS_HAVE_CUDA
+#include <cuda_runtime.h>
+
+#include "ioct/gpu/cuda/cuda_support.hpp"
+#endif
 
 namespace {
 
@@ -69,6 +76,27 @@ void bench(gpu::Backend backend, const instruments_test::SceneVolume& s, int rep
       "the host %.3f ms) beside segmentation %.3f ms (anchor): %.2fx; %zu tip(s): %s\n",
       name, s.volume.volume.ascans(), s.volume.volume.depth(), detect, tips, segment,
       detect / segment, findings.tips.size(), gpu::instruments::describe(findings).c_str());
+#if IOCT_INSTRUMENTS_HAVE_CUDA
+  if (backend == gpu::Backend::cuda) {
+    const gpu::Volume& v = s.volume.volume;
+    gpu::cuda::DeviceArray<std::uint8_t> pixels(v.pixels().size());
+    gpu::cuda::Stream stream;
+    if (cudaMemcpy(pixels.data(), v.pixels().data(), v.pixels().size(), cudaMemcpyHostToDevice) !=
+        cudaSuccess) {
+      std::printf("cuda, device volume: not measured: the copy to the device failed\n");
+      return;
+    }
+    const gpu::VolumeRef ref =
+        gpu::VolumeRef::on_device(pixels.data(), gpu::VolumeDims::of(v), stream.get());
+    const double in_place = time_ms(reps, [&] {
+      detector->detect_group(ref, {first, 16}, surfaces, findings);
+    });
+    std::printf(
+        "cuda, device volume read in place: instruments %.3f ms beside segmentation %.3f ms "
+        "(anchor): %.2fx; the host volume's upload saved %.3f ms\n",
+        in_place, segment, in_place / segment, detect - in_place);
+  }
+#endif
 }
 
 }  // namespace
