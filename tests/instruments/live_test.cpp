@@ -58,7 +58,7 @@ TEST_P(LiveInstruments, TheStatusTheViewSocketAndTheSummaryCarryTheTip) {
 #if IOCT_GPU_WITH_CUDA
   const gpu::cuda::BusTraffic before = gpu::cuda::bus_traffic();
 #endif
-  gpu::live::DeviceLiveVolume live(GetParam().device_volume);
+  gpu::live::FakeLiveVolume live(GetParam().device_volume);
   live.volume = scene.volume.volume;
   for (std::uint32_t first = 0; first < live.volume.bscans(); first += 16) {
     live.written(first, 16);

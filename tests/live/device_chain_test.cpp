@@ -101,7 +101,7 @@ StagesRun run_stages(Backend backend, bool device_source, const std::filesystem:
   config.on_pass = [&gate](const StagesPass& pass) { gate.on_pass(pass); };
   VolumeStages stages(config);
 
-  DeviceLiveVolume live(device_source);
+  FakeLiveVolume live(device_source);
   std::uint64_t handed = 0;
   const auto hand = [&](std::uint32_t first, std::uint32_t count) {
     live.written(first, count);

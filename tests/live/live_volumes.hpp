@@ -20,33 +20,19 @@
 
 namespace ioct::gpu::live {
 
-// A live volume the test writes into: copy_bscans as the pipelines do it.
+// A live volume the test writes into, copied out by copy_bscans as the pipelines do it; with
+// `on_device`, also kept on the device (after each written()) and read there (read_on_device), as
+// the CUDA live pipeline's volume is.
 class FakeLiveVolume final : public LiveVolumeSource {
  public:
-  Volume volume;
-  LiveVolumeShape shape() const override {
-    return {volume.bscans(), volume.ascans(), volume.depth()};
-  }
-  void copy_bscans(std::uint32_t first, std::uint32_t count, Volume& out) override {
-    prepare_bscan_copy(shape(), first, count, out);
-    const std::size_t n = volume.bscan_pixels();
-    std::copy_n(volume.bscan(first).data(), count * n, out.bscan(first).data());
-  }
-};
-
-// A live volume the test writes into and then calls written(); with `on_device`, also kept on
-// the device and read there (read_on_device), as the CUDA live pipeline's volume is; without,
-// a host one like FakeLiveVolume.
-class DeviceLiveVolume final : public LiveVolumeSource {
- public:
-  explicit DeviceLiveVolume(bool on_device) : on_device_(on_device) {}
-  ~DeviceLiveVolume() override {
+  explicit FakeLiveVolume(bool on_device = false) : on_device_(on_device) {}
+  ~FakeLiveVolume() override {
 #if IOCT_GPU_WITH_CUDA
     if (device_ != nullptr) cudaFree(device_);
 #endif
   }
-  DeviceLiveVolume(const DeviceLiveVolume&) = delete;
-  DeviceLiveVolume& operator=(const DeviceLiveVolume&) = delete;
+  FakeLiveVolume(const FakeLiveVolume&) = delete;
+  FakeLiveVolume& operator=(const FakeLiveVolume&) = delete;
 
   Volume volume;
 
