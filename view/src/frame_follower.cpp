@@ -29,6 +29,7 @@ void FrameFollower::run() {
   std::uint64_t next_attach_ns = 0;
   std::uint64_t next_tick_ns = 0;
   auto frame = std::make_shared<shm::Frame>();
+  bool woken = false;  // the last wait ended with news from the writer
   while (!stop_.load(std::memory_order_relaxed)) {
     const std::uint64_t now = ioct::monotonic_ns();
     if (!reader && now >= next_attach_ns) {
@@ -42,12 +43,17 @@ void FrameFollower::run() {
       }
     }
     if (reader) {
+      bool read_one = false;
       while (reader->read_next(*frame)) {
+        read_one = true;
         ++snap.frames_read;
         on_frame_(std::move(frame));
         frame = std::make_shared<shm::Frame>();
       }
       snap.frames_skipped = reader->frames_skipped();
+      // News but no frame: the writer closed the ring (or lapped a copy). Judged now, not at the
+      // next tick, and not woken again and again until then.
+      if (woken && !read_one) next_tick_ns = now;
     }
     if (now >= next_tick_ns) {
       next_tick_ns = now + kTickNs;
@@ -80,8 +86,9 @@ void FrameFollower::run() {
     const std::uint64_t after = ioct::monotonic_ns();
     const std::uint64_t until = reader ? next_tick_ns : std::min(next_tick_ns, next_attach_ns);
     const std::uint64_t rest = until > after ? until - after : 0;
+    woken = false;
     if (reader) {
-      reader->wait_for_frame(rest);
+      woken = reader->wait_for_frame(rest);
     } else {
       std::this_thread::sleep_for(std::chrono::nanoseconds(rest));
     }
