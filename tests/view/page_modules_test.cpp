@@ -184,7 +184,7 @@ TEST_F(PageModules, ParameterChangesGoOutAtMostEvery30MsMergedAndInOrder) {
             type: sent[0].msg.type, replies: replies.length};)");
   EXPECT_GE(r.at("count").get<int>(), 4);
   EXPECT_LE(r.at("count").get<int>(), 15) << "50 changes in ~250 ms: at most one per 30 ms";
-  EXPECT_GE(r.at("minGap").get<double>(), 29.0);
+  EXPECT_GE(r.at("minGap").get<double>(), 29.8) << "by the page's own clock, less the time to hand one message over";
   EXPECT_EQ(r.at("type"), "params");
   EXPECT_EQ(r.at("last").at("changes").at("enhanced").at("threshold"), 0.49)
       << "the last value always goes out";

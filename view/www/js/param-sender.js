@@ -20,6 +20,13 @@ export class ParamSender {
   }
 
   async flush() {
+    // A browser's timer may fire a little early by performance.now()'s clock: wait out the rest
+    // rather than send inside the interval.
+    const early = this.lastSentAt + this.intervalMs - performance.now();
+    if (early > 0) {
+      this.timer = setTimeout(() => this.flush(), early);
+      return;
+    }
     this.timer = null;
     const changes = this.pending;
     this.pending = null;
