@@ -115,7 +115,11 @@ TEST_P(SimulatedFault, DropsEmissionParksWithinTheBoundAndRecovers) {
   fault.set(rig.bench->faults(), true);
   ASSERT_TRUE(rig.reaches(SafetyState::safe)) << to_string(rig.state());
   const SafetyStatus status = rig.supervisor->status();
-  EXPECT_NE(status.record.faults & fault.expected, 0u) << describe_faults(status.record.faults);
+  // Without real-time scheduling (a sanitizer's build, a loaded CI machine) the acquisition thread
+  // can miss its deadlines before the injected fault is seen: a safe stop for another true reason.
+  // Real-time runs must name the fault itself.
+  const std::uint32_t accepted = fault.expected | (rig.realtime() ? 0u : kFaultDeadlineMisses);
+  EXPECT_NE(status.record.faults & accepted, 0u) << describe_faults(status.record.faults);
   EXPECT_FALSE(rig.bench->emission_on()) << "no light reaches the sample";
   EXPECT_FALSE(rig.bench->emission_commanded());
   EXPECT_TRUE(rig.galvo.status().parked);
