@@ -26,6 +26,7 @@
 #include "ioct/shm/ring_writer.hpp"
 #include "ioct/shm/shm_object.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
+#include "rt_keys.hpp"
 #include "rt_options.hpp"
 #include "run_summary.hpp"
 #include "safety_supervisor.hpp"
@@ -505,6 +506,10 @@ int run(const rt::RtOptions& options) {
   const rt::ShutdownSignals signals;  // before any thread, so every thread inherits the mask
   // A closed stderr must not kill the process before it has closed the ring.
   std::signal(SIGPIPE, SIG_IGN);
+  if (options.config_keys) {
+    std::fputs(rt::rt_keys().markdown().c_str(), stdout);
+    return 0;
+  }
   if (options.check_config) return check_config(options);
   if (options.self_test) return run_self_test(options);
   Process process(options, signals);
@@ -520,7 +525,6 @@ int main(int argc, char** argv) {
   rt::RtOptions options;
   rt::add_rt_options(app, options);
   CLI11_PARSE(app, argc, argv);
-  rt::note_given_options(app, options);
 
   try {
     return run(options);
@@ -534,15 +538,13 @@ int main(int argc, char** argv) {
     say(std::string("error: invalid configuration: ") + e.what());
     return kExitBadConfig;
   } catch (const ioct::ConfigError& e) {
-    const std::string option = rt::option_for_error(e.what());
+    const std::string option = rt::option_for_key(e.key());
     say(std::string("error: invalid configuration: ") + e.what() +
         (option.empty() ? "" : " (option " + option + ")"));
     return kExitBadConfig;
   } catch (const shm::RingError& e) {
     if (e.code() == shm::RingErrc::bad_config) {
-      const std::string option = rt::option_for_error(e.what());
-      say(std::string("error: invalid configuration: ") + e.what() +
-          (option.empty() ? "" : " (option " + option + ")"));
+      say(std::string("error: invalid configuration: ") + e.what());
       return kExitBadConfig;
     }
     say(std::string("error: ") + e.what());

@@ -1,14 +1,14 @@
-// Everything ioct-rt is configured with, as one validated struct: read from a TOML file (every key
-// documented in docs/operations.md), then overridden by command-line flags. Unknown keys are
-// refused; every error names the key, the value, what is allowed and, for a file, file:line.
+// Everything ioct-rt is configured with, as one validated struct: read from a TOML file, then
+// overridden by command-line flags; each key is declared once, in rt_keys.cpp
+// (docs/config-keys.md). Unknown keys are refused; every error names the key, the value, what is
+// allowed and, for a file, file:line.
 #pragma once
 
 #include <cstdint>
-#include <map>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "ioct/config/config_file_error.hpp"
 #include "ioct/hal/digitizer_config.hpp"
 #include "ioct/hal/galvo_output.hpp"
 #include "ioct/hal/lines.hpp"
@@ -104,7 +104,8 @@ struct RtConfig {
   // The worker count this host runs with (defined with the simulator's setup, rt_options.cpp).
   std::uint32_t resolved_simulation_workers() const noexcept;
 
-  // Cross-checks and each part's own validate(); throws ConfigError naming the key.
+  // Every key's range (rt_keys()), the cross-checks and each part's own validate(); throws
+  // ConfigError naming the key.
   void validate() const;
 
   int effective_safety_priority() const noexcept;
@@ -113,27 +114,11 @@ struct RtConfig {
   std::uint64_t effective_stall_timeout_ms() const noexcept;
 };
 
-// Where each key came from in a file: "scan.extent_x" -> line 12, column 1.
-struct SourcePosition {
-  std::uint32_t line = 0;
-  std::uint32_t column = 0;
-};
-using KeyPositions = std::map<std::string, SourcePosition>;
-
-// A configuration file's error: "<file>:<line>:<column>: <ConfigError text>".
-class ConfigFileError : public std::runtime_error {
- public:
-  ConfigFileError(const std::string& file, SourcePosition position, const std::string& message);
-  const std::string& file() const noexcept { return file_; }
-  SourcePosition position() const noexcept { return position_; }
-
- private:
-  std::string file_;
-  SourcePosition position_;
-};
-
-// The most bytes a configuration file may have.
-inline constexpr std::uint64_t kMaxConfigBytes = 1 << 20;
+// The file's errors and where its keys were: the configuration library's (config/).
+using config::ConfigFileError;
+using config::KeyPositions;
+using config::kMaxConfigBytes;
+using config::SourcePosition;
 
 // The keys a file must set itself when any backend is real hardware (docs/operations.md).
 extern const std::vector<const char*> kSafetyKeysOnHardware;

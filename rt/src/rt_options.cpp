@@ -7,6 +7,7 @@
 
 #include "ioct/common/config_error.hpp"
 #include "ioct/sim/instrument_spec.hpp"
+#include "rt_keys.hpp"
 #include "scan/scan_builder.hpp"
 #include "scan/scan_infeasible.hpp"
 
@@ -24,67 +25,14 @@ namespace {
 // A bound for typing errors: at 1000x a default group (86 ms) is paced every 86 us.
 constexpr double kMaxReplaySpeed = 1000.0;
 
-// A flag that overrides a configuration key.
-struct Override {
-  const char* option;
-  const char* key;
-  void (*apply)(RtConfig&, const RtOptions&);
-};
-
-const std::array<Override, 16> kOverrides{{
-    {"--ring", "ring.name", [](RtConfig& c, const RtOptions& o) { c.ring_name = o.ring; }},
-    {"--slots", "ring.slots", [](RtConfig& c, const RtOptions& o) { c.ring_slots = o.slots; }},
-    {"--group", "ring.group", [](RtConfig& c, const RtOptions& o) { c.ring_group = o.group; }},
-    {"--samples", "digitizer.samples_per_ascan",
-     [](RtConfig& c, const RtOptions& o) { c.digitizer.samples_per_ascan = o.samples; }},
-    {"--ascans", "digitizer.ascans_per_bscan",
-     [](RtConfig& c, const RtOptions& o) { c.digitizer.ascans_per_bscan = o.ascans; }},
-    {"--flyback", "digitizer.flyback_sweeps",
-     [](RtConfig& c, const RtOptions& o) { c.digitizer.flyback_sweeps = o.flyback; }},
-    {"--bscans-per-group", "digitizer.bscans_per_group",
-     [](RtConfig& c, const RtOptions& o) { c.digitizer.bscans_per_group = o.bscans_per_group; }},
-    {"--ascan-rate", "digitizer.ascan_rate_hz",
-     [](RtConfig& c, const RtOptions& o) { c.digitizer.ascan_rate_hz = o.ascan_rate; }},
-    {"--bscans-per-volume", "scan.bscans_per_volume",
-     [](RtConfig& c, const RtOptions& o) { c.bscans_per_volume = o.bscans_per_volume; }},
-    {"--pattern", "scan.pattern",
-     [](RtConfig& c, const RtOptions& o) {
-       const std::optional<ScanKind> kind = scan_kind_from_string(o.pattern);
-       if (!kind) {
-         throw ConfigError("scan.pattern", "\"" + o.pattern + "\"",
-                           "must be one of raster, bidirectional, crosshair, radial");
-       }
-       c.scan.kind = *kind;
-     }},
-    {"--seed", "simulation.seed",
-     [](RtConfig& c, const RtOptions& o) { c.simulation_seed = o.seed; }},
-    {"--sim-instrument", "simulation.instruments",
-     [](RtConfig& c, const RtOptions& o) { c.simulation_instruments = o.sim_instruments; }},
-    {"--status-interval", "status.interval_s",
-     [](RtConfig& c, const RtOptions& o) { c.status_interval_s = o.status_interval; }},
-    {"--rt-priority", "realtime.priority",
-     [](RtConfig& c, const RtOptions& o) { c.rt_priority = o.rt_priority; }},
-    {"--cpu", "realtime.cpu", [](RtConfig& c, const RtOptions& o) { c.rt_cpu = o.cpu; }},
-    {"--control-socket", "control.socket",
-     [](RtConfig& c, const RtOptions& o) { c.control_socket = o.control_socket; }},
-}};
-
-bool given(const RtOptions& options, const char* option) {
-  return !options.given || options.given->count(option) != 0;
-}
-
 // The error in the file's terms when the key came from the file and no flag overrode it.
 [[noreturn]] void rethrow_located(const RtOptions& options, const KeyPositions& positions,
                                   const std::string& key) {
   if (!options.config.empty()) {
     // An item of a list ("simulation.instruments[1].x") is placed where the list is.
     const std::string placed = key.substr(0, key.find('['));
-    bool overridden = false;
-    for (const Override& o : kOverrides) {
-      if (placed == o.key && given(options, o.option)) overridden = true;
-    }
     const auto at = positions.find(placed);
-    if (!overridden && at != positions.end()) {
+    if (options.overrides.count(placed) == 0 && at != positions.end()) {
       try {
         throw;
       } catch (const std::exception& e) {
@@ -127,49 +75,7 @@ void add_rt_options(CLI::App& app, RtOptions& options) {
                  "pace the replay at this multiple of the recorded group rate (> 0, up to "
                  "1000; e.g. 2, 8): step it up to find the fastest rate the readers keep up with")
       ->capture_default_str();
-  app.add_option("--ring", options.ring, "ring.name: the shared-memory ring (POSIX shm, no '/')")
-      ->capture_default_str();
-  app.add_option("--slots", options.slots, "ring.slots: slots in the ring, each one group")
-      ->capture_default_str();
-  app.add_option("--samples", options.samples,
-                 "digitizer.samples_per_ascan: k-clock samples per A-scan (even)")
-      ->capture_default_str();
-  app.add_option("--ascans", options.ascans,
-                 "digitizer.ascans_per_bscan: recorded A-scans per B-scan")
-      ->capture_default_str();
-  app.add_option("--flyback", options.flyback,
-                 "digitizer.flyback_sweeps: sweeps between B-scans while the galvo returns")
-      ->capture_default_str();
-  app.add_option("--bscans-per-group", options.bscans_per_group,
-                 "digitizer.bscans_per_group: B-scans per ring slot")
-      ->capture_default_str();
-  app.add_option("--bscans-per-volume", options.bscans_per_volume,
-                 "scan.bscans_per_volume: B-scans per volume")
-      ->capture_default_str();
-  app.add_option("--ascan-rate", options.ascan_rate, "digitizer.ascan_rate_hz: sweep rate, Hz")
-      ->capture_default_str();
-  app.add_option("--pattern", options.pattern,
-                 "scan.pattern: raster, bidirectional, crosshair or radial")
-      ->capture_default_str();
-  app.add_option("--group", options.group,
-                 "ring.group: group that owns the ring (readers need it); default: this process's");
-  app.add_option("--seed", options.seed, "simulation.seed: same seed, same bytes")
-      ->capture_default_str();
-  app.add_option("--sim-instrument", options.sim_instruments,
-                 "simulation.instruments: an instrument in the simulated scene, "
-                 "KIND[:name=value,...] with KIND forceps, needle or scraper and names " +
-                     std::string(sim::kInstrumentSpecNames) + "; repeatable");
-  app.add_option("--status-interval", options.status_interval,
-                 "status.interval_s: seconds between status lines on stderr")
-      ->capture_default_str();
-  app.add_option("--rt-priority", options.rt_priority,
-                 "realtime.priority: SCHED_FIFO priority of the acquisition thread; 0: none")
-      ->capture_default_str();
-  app.add_option("--cpu", options.cpu,
-                 "realtime.cpu: CPU to pin the acquisition thread to; -1: none")
-      ->capture_default_str();
-  app.add_option("--control-socket", options.control_socket,
-                 "control.socket: Unix socket of the control channel (JSON lines); default: none");
+  rt_keys().add_flags_to(app, options.overrides);
   app.add_option("--seconds", options.seconds, "run this long, then stop; 0: until SIGINT/SIGTERM")
       ->check(CLI::Range(0.0, 1e9))
       ->capture_default_str();
@@ -178,6 +84,9 @@ void add_rt_options(CLI::App& app, RtOptions& options) {
   app.add_flag(
       "--check-config", options.check_config,
       "validate the configuration (and the scan against the galvo limits), print it, exit");
+  app.add_flag("--config-keys", options.config_keys,
+               "print every configuration key (flag, allowed values, default, meaning) as the "
+               "Markdown table of docs/config-keys.md, and exit");
   app.add_flag("--self-test", options.self_test,
                "measure the wake-up latency of a real-time thread (like cyclictest) and exit");
   app.add_option("--self-test-seconds", options.self_test_seconds, "length of the self-test")
@@ -193,28 +102,12 @@ void add_rt_options(CLI::App& app, RtOptions& options) {
       ->capture_default_str();
 }
 
-void note_given_options(const CLI::App& app, RtOptions& options) {
-  std::set<std::string> names;
-  for (const Override& o : kOverrides) {
-    if (app.get_option(o.option)->count() > 0) names.insert(o.option);
-  }
-  options.given = std::move(names);
-}
-
 RtSetup make_setup(const RtOptions& options) {
   RtSetup setup;
   RtConfig& config = setup.config;
   KeyPositions positions;
   if (!options.config.empty()) load_config_file(options.config, config, &positions);
-  for (const Override& o : kOverrides) {
-    if (!given(options, o.option)) continue;
-    // Options filled by a program all count, but an empty socket means "none", as by default.
-    if (!options.given && std::string_view(o.option) == "--control-socket" &&
-        options.control_socket.empty() && !options.config.empty()) {
-      continue;
-    }
-    o.apply(config, options);
-  }
+  rt_keys().apply(options.overrides, config);
 
   try {
     config.validate();
@@ -273,29 +166,11 @@ RtSetup make_setup(const RtOptions& options) {
   return setup;
 }
 
-std::string option_for_error(const std::string& message) {
-  static constexpr std::array<std::pair<const char*, const char*>, 6> kRingKeys{{
-      {"ring: name", "--ring"},
-      {"slot_count", "--slots"},
-      {"samples_per_ascan", "--samples"},
-      {"bscans_per_group", "--bscans-per-group"},
-      {"bscans_per_volume", "--bscans-per-volume"},
-      {"ascans_per_bscan", "--ascans"},
-  }};
-  if (message.find("digitizer.samples_per_group") != std::string::npos) {
-    return "--samples x --ascans x --bscans-per-group";
-  }
-  for (const Override& o : kOverrides) {
-    if (message.rfind(std::string(o.key) + " ", 0) == 0 ||
-        message.find(std::string(o.key) + " =") != std::string::npos) {
-      return o.option;
-    }
-  }
-  if (message.find("scan.ascans_per_bscan") != std::string::npos) return "--ascans";
-  for (const auto& [key, option] : kRingKeys) {
-    if (message.find(key) != std::string::npos) return option;
-  }
-  return {};
+std::string option_for_key(const std::string& key) {
+  // Keys that no flag sets alone but a product of flags does (hal::DigitizerConfig::validate).
+  if (key == "digitizer.samples_per_group") return "--samples x --ascans x --bscans-per-group";
+  if (key == "scan.ascans_per_bscan") return "--ascans";  // the simulator's raster
+  return rt_keys().flag_for(key);
 }
 
 }  // namespace ioct::rt

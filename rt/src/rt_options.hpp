@@ -4,11 +4,10 @@
 
 #include <CLI/CLI.hpp>
 #include <cstdint>
-#include <optional>
-#include <set>
 #include <string>
 #include <vector>
 
+#include "ioct/config/key_spec.hpp"
 #include "ioct/hal/digitizer_config.hpp"
 #include "ioct/shm/ring_writer.hpp"
 #include "ioct/sim/simulation_config.hpp"
@@ -19,22 +18,8 @@ namespace ioct::rt {
 
 struct RtOptions {
   std::string config;  // TOML file; empty: the built-in defaults
-  std::string ring = "ioct-ring";
-  std::uint64_t slots = 8;
-  std::uint32_t samples = 1376;
-  std::uint32_t ascans = 512;
-  std::uint32_t flyback = 26;
-  std::uint32_t bscans_per_group = 16;
-  std::uint32_t bscans_per_volume = 128;
-  double ascan_rate = 100'000.0;
-  std::string group;  // group owning the ring; empty: the process's
-  std::uint64_t seed = 1;
-  double status_interval = 1.0;
-  int rt_priority = 80;
-  int cpu = -1;
-  std::string pattern = "raster";
-  std::string control_socket;                // empty: none
-  std::vector<std::string> sim_instruments;  // simulation.instruments
+  // Configuration keys set by flags (rt_keys(): --slots sets ring.slots), over the file's.
+  config::Overrides overrides;
   // Run-time only (not configuration keys).
   std::string replay;         // play this recording (HDF5 ring or raw) instead of acquiring
   bool replay_once = false;   // stop at the recording's end instead of starting it again
@@ -42,18 +27,21 @@ struct RtOptions {
   double seconds = 0.0;       // 0: until SIGINT or SIGTERM
   std::string summary;        // JSON file written at exit; empty: none
   bool check_config = false;
+  bool config_keys = false;  // print every key as docs/config-keys.md shows it, exit
   bool self_test = false;
   double self_test_seconds = 10.0;
   std::uint64_t self_test_interval_us = 1000;
   std::uint64_t self_test_threshold_us = 100;
-  // The long option names given on the command line. nullopt (a program filling the struct):
-  // every field counts, as if all were given.
-  std::optional<std::set<std::string>> given;
+
+  // Sets a configuration key as its flag would ("ring.slots", "4").
+  RtOptions& set(const std::string& key, std::string value) {
+    overrides[key] = {std::move(value)};
+    return *this;
+  }
 };
 
+// The run-time options and a flag for each configuration key that has one (rt_keys()).
 void add_rt_options(CLI::App& app, RtOptions& options);
-// Records in options.given which of the overriding options the command line had.
-void note_given_options(const CLI::App& app, RtOptions& options);
 
 struct RtSetup {
   RtConfig config;
@@ -68,12 +56,13 @@ struct RtSetup {
 
 // Reads the file (if any), applies the given flags, validates everything and derives each part's
 // config. Throws ConfigFileError ("file:line:col: key = value: allowed") for what the file got
-// wrong, ioct::ConfigError or shm::RingError(bad_config) naming the key otherwise (see
-// option_for_error()), ScanInfeasible for a pattern the galvo cannot follow.
+// wrong, ioct::ConfigError naming the key otherwise (see option_for_key()), shm::RingError
+// (bad_config) for a ring the shm layer refuses, ScanInfeasible for a pattern the galvo cannot
+// follow.
 RtSetup make_setup(const RtOptions& options);
 
-// The command-line option behind the config key that a validation error's message names
-// ("--samples" for "digitizer.samples_per_ascan = 7: ..."), or empty when none does.
-std::string option_for_error(const std::string& message);
+// The command-line option that sets the key a ConfigError names ("--samples" for
+// "digitizer.samples_per_ascan"), or empty when none does.
+std::string option_for_key(const std::string& key);
 
 }  // namespace ioct::rt

@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 
+#include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -28,20 +30,18 @@ using test_support::ChildProcess;
 // A small raster at a quarter of the real sweep rate, so that a loaded 2-core CI machine runs
 // both processes with room to spare (timing is the rt and ring tests' business, not this one's):
 // 128 A-scans x 8 B-scans per group (49 ms at 25 kHz), 32 B-scans per volume (4 groups).
-rt::RtOptions small_raster(const std::string& ring) {
-  rt::RtOptions o;
-  o.ring = ring;
-  o.ascans = 128;
-  o.bscans_per_group = 8;
-  o.bscans_per_volume = 32;
-  o.ascan_rate = 25'000.0;
-  o.seconds = 4.0;
-  o.seed = 7;
-  o.rt_priority = 0;  // CI runs unprivileged as often as not; timing is not what this test checks
-  return o;
-}
+struct SmallRaster {
+  std::string ring;
+  std::uint32_t samples = 1376;  // ioct-rt's default
+  std::uint32_t ascans = 128;
+  std::uint32_t bscans_per_group = 8;
+  std::uint32_t bscans_per_volume = 32;
+  double ascan_rate = 25'000.0;
+  double seconds = 4.0;
+  std::uint64_t seed = 7;
+};
 
-std::vector<std::string> rt_arguments(const rt::RtOptions& o, const std::string& summary) {
+std::vector<std::string> rt_arguments(const SmallRaster& o, const std::string& summary) {
   return {"--ring",
           o.ring,
           "--ascans",
@@ -57,7 +57,7 @@ std::vector<std::string> rt_arguments(const rt::RtOptions& o, const std::string&
           "--seed",
           std::to_string(o.seed),
           "--rt-priority",
-          "0",
+          "0",  // CI runs unprivileged as often as not; timing is not what this test checks
           "--summary",
           summary};
 }
@@ -131,7 +131,7 @@ SurfaceErrors surface_errors(const std::filesystem::path& csv,
 
 TEST_F(SimulatedAppliance, BooksBalanceAndTheImageShowsTheRetinaWhereTheTruthIs) {
   const test_support::ScopedShmName ring("e2e");
-  const rt::RtOptions options = small_raster(ring.str());
+  const SmallRaster options{ring.str()};
   const auto rt_summary = out_ / "rt-summary.json";
 
   ChildProcess gpu = ChildProcess::spawn(
@@ -171,7 +171,14 @@ TEST_F(SimulatedAppliance, BooksBalanceAndTheImageShowsTheRetinaWhereTheTruthIs)
   ASSERT_EQ(bscan.height, options.samples / 2);
   const std::uint32_t shown = images.at("bscan_shown");
 
-  const rt::RtSetup setup = rt::make_setup(options);
+  // The simulator's truth for the same command line ioct-rt was given.
+  rt::RtOptions parsed;
+  CLI::App app;
+  rt::add_rt_options(app, parsed);
+  std::vector<std::string> arguments = rt_arguments(options, rt_summary.string());
+  std::reverse(arguments.begin(), arguments.end());  // CLI11 takes them last first
+  app.parse(arguments);
+  const rt::RtSetup setup = rt::make_setup(parsed);
   sim::SimulatedDigitizer truth(setup.simulation);
   truth.prepare(setup.digitizer);
   constexpr std::uint8_t kBright = 128;

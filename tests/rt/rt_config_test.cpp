@@ -17,6 +17,7 @@
 
 #include "effective_config.hpp"
 #include "ioct/common/config_error.hpp"
+#include "rt_keys.hpp"
 #include "rt_options.hpp"
 #include "scan/scan_infeasible.hpp"
 
@@ -44,11 +45,30 @@ TEST(RtConfig, TheSampleConfigsLoadAndValidateAndTheirScansAreFeasible) {
     SCOPED_TRACE(name);
     RtOptions options;
     options.config = sample_config(name);
-    options.given = std::set<std::string>{};
     RtSetup setup;
     ASSERT_NO_THROW(setup = make_setup(options));
     setup.config.validate();
   }
+}
+
+// The simulator's sample lists every key with its default: it cannot drift from the declarations.
+TEST(RtConfig, TheSimulatorSampleSetsEveryKeyToItsDefault) {
+  RtConfig from_file;
+  KeyPositions where;
+  load_config_file(sample_config("simulator.toml"), from_file, &where);
+  for (const config::KeySpec& key : rt_keys().specs()) {
+    EXPECT_EQ(where.count(key.key), 1u) << key.key << " is not in rt/config/simulator.toml";
+  }
+  EXPECT_EQ(rt_keys().to_toml(from_file), rt_keys().to_toml(RtConfig{}));
+}
+
+// docs/config-keys.md holds the table `ioct-rt --config-keys` prints, as it is now.
+TEST(RtConfig, TheDocsKeyTableIsTheDeclarations) {
+  std::ifstream in(IOCT_DOCS_DIR "/config-keys.md");
+  ASSERT_TRUE(in) << IOCT_DOCS_DIR "/config-keys.md";
+  const std::string docs((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(docs.find(rt_keys().markdown()), std::string::npos)
+      << "regenerate the ioct-rt table of docs/config-keys.md with ioct-rt --config-keys";
 }
 
 TEST(RtConfig, ThePaperConfigIsThePapersSystem) {
@@ -81,7 +101,7 @@ TEST(RtConfig, SimulationWorkersAreAutoOrACount) {
   load_config_text("[simulation]\nworkers = \"auto\"\n", "w.toml", config);
   EXPECT_EQ(config.simulation_workers, -1);
   EXPECT_EQ(error_for("[simulation]\nworkers = 65\n"),
-            "bad.toml:2:11: simulation.workers = 65: must be in [0, 64]");
+            "bad.toml:2:11: simulation.workers = 65: must be \"auto\" or an integer in [0, 64]");
   EXPECT_EQ(error_for("[simulation]\nworkers = \"many\"\n"),
             "bad.toml:2:11: simulation.workers = \"many\": must be \"auto\" or an integer in [0, "
             "64]");
@@ -155,7 +175,6 @@ TEST(RtConfig, SemanticErrorsFromTheFileCarryItsLineAndFlagsOverrideTheFile) {
       "[galvo]\nmax_acceleration = 1e8\n");
   RtOptions options;
   options.config = file.str();
-  options.given = std::set<std::string>{};
   try {
     make_setup(options);
     FAIL() << "accepted";
@@ -166,15 +185,12 @@ TEST(RtConfig, SemanticErrorsFromTheFileCarryItsLineAndFlagsOverrideTheFile) {
     EXPECT_NE(std::string(e.what()).find("galvo.max_acceleration"), std::string::npos);
   }
   // A flag overrides the file's key: the same file with --flyback 40 is feasible.
-  options.flyback = 40;
-  options.given = std::set<std::string>{"--flyback"};
+  options.set("digitizer.flyback_sweeps", "40");
   const RtSetup setup = make_setup(options);
   EXPECT_EQ(setup.config.digitizer.flyback_sweeps, 40u);
   EXPECT_EQ(setup.config.bscans_per_volume, 100u) << "from the file";
   EXPECT_EQ(setup.ring.geometry.bscans_per_volume, 100u);
-  // A flag the command line did not give leaves the file's value alone.
-  options.samples = 2048;
-  EXPECT_EQ(make_setup(options).config.digitizer.samples_per_ascan, 1376u);
+  EXPECT_EQ(setup.config.digitizer.samples_per_ascan, 1376u) << "neither in the file nor a flag";
 }
 
 TEST(RtConfig, SimulatedInstrumentsComeFromTheFileOrTheFlagAndBadOnesAreLocated) {
@@ -183,7 +199,6 @@ TEST(RtConfig, SimulatedInstrumentsComeFromTheFileOrTheFlagAndBadOnesAreLocated)
       "\"needle:y=-0.2\"]\n");
   RtOptions options;
   options.config = file.str();
-  options.given = std::set<std::string>{};
   const RtSetup setup = make_setup(options);
   ASSERT_EQ(setup.simulation.instruments.size(), 2u);
   EXPECT_EQ(setup.simulation.instruments[0].kind, sim::InstrumentKind::forceps);
@@ -195,8 +210,7 @@ TEST(RtConfig, SimulatedInstrumentsComeFromTheFileOrTheFlagAndBadOnesAreLocated)
   EXPECT_FLOAT_EQ(setup.simulation.instruments[1].pose.tip_y, -0.2f);
 
   // --sim-instrument replaces the file's list.
-  options.sim_instruments = {"scraper:x=0.3"};
-  options.given = std::set<std::string>{"--sim-instrument"};
+  options.overrides["simulation.instruments"] = {"scraper:x=0.3"};
   const RtSetup flagged = make_setup(options);
   ASSERT_EQ(flagged.simulation.instruments.size(), 1u);
   EXPECT_EQ(flagged.simulation.instruments[0].kind, sim::InstrumentKind::scraper);
@@ -204,7 +218,7 @@ TEST(RtConfig, SimulatedInstrumentsComeFromTheFileOrTheFlagAndBadOnesAreLocated)
   // A bad item in the file is refused at the list's line, naming the item and what is allowed.
   const TempFile bad("[simulation]\nseed = 3\ninstruments = [\"tweezers:x=0\"]\n");
   options.config = bad.str();
-  options.given = std::set<std::string>{};
+  options.overrides.clear();
   try {
     make_setup(options);
     FAIL() << "accepted";
@@ -234,23 +248,32 @@ TEST(RtConfig, SimulatedInstrumentsComeFromTheFileOrTheFlagAndBadOnesAreLocated)
 }
 
 TEST(RtConfig, AFlagsBadValueIsReportedAgainstTheFlag) {
-  RtOptions options;
-  options.samples = 7;
-  try {
-    make_setup(options);
-    FAIL();
-  } catch (const ConfigError& e) {
-    EXPECT_EQ(e.key(), "digitizer.samples_per_ascan");
-    EXPECT_EQ(option_for_error(e.what()), "--samples");
-  }
-  options = RtOptions{};
-  options.pattern = "zigzag";
-  try {
-    make_setup(options);
-    FAIL();
-  } catch (const ConfigError& e) {
-    EXPECT_EQ(option_for_error(e.what()), "--pattern");
-  }
+  const auto error_of = [](const std::string& key, const std::string& text) {
+    RtOptions options;
+    options.set(key, text);
+    try {
+      make_setup(options);
+    } catch (const ConfigError& e) {
+      return std::make_pair(std::string(e.what()), option_for_key(e.key()));
+    }
+    return std::make_pair(std::string("accepted"), std::string());
+  };
+  EXPECT_EQ(error_of("digitizer.samples_per_ascan", "7"),
+            std::make_pair(std::string("digitizer.samples_per_ascan = 7: must be in [16, 16384]"),
+                           std::string("--samples")));
+  EXPECT_EQ(error_of("digitizer.samples_per_ascan", "12x"),
+            std::make_pair(std::string("digitizer.samples_per_ascan = \"12x\": must be an "
+                                       "integer in [16, 16384]"),
+                           std::string("--samples")));
+  EXPECT_EQ(error_of("scan.pattern", "zigzag"),
+            std::make_pair(std::string("scan.pattern = \"zigzag\": must be one of raster, "
+                                       "bidirectional, crosshair, radial"),
+                           std::string("--pattern")));
+  EXPECT_EQ(error_of("status.interval_s", "nan").second, "--status-interval");
+  // A key only a product of flags sets is looked up as well.
+  EXPECT_EQ(option_for_key("digitizer.samples_per_group"),
+            "--samples x --ascans x --bscans-per-group");
+  EXPECT_EQ(option_for_key("galvo.max_velocity"), "") << "set in the file only";
 }
 
 TEST(RtConfig, ReplaySpeedIsAPositiveMultipleAndOnlyForAReplay) {

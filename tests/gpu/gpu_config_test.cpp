@@ -1,0 +1,116 @@
+// ioct-gpu's configuration: its file, its flags and the setup they resolve to, all from the one
+// declaration of each key (gpu/app/src/gpu_config.cpp).
+#include "gpu_config.hpp"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+
+#include "ioct/common/config_error.hpp"
+
+namespace ioct::gpu {
+namespace {
+
+class TempToml {
+ public:
+  explicit TempToml(const std::string& text)
+      : path_(std::filesystem::temp_directory_path() /
+              ("ioct-gpu-config-" + std::to_string(::getpid()) + "-" + std::to_string(count_++) +
+               ".toml")) {
+    std::ofstream(path_) << text;
+  }
+  ~TempToml() { std::filesystem::remove(path_); }
+  std::string str() const { return path_.string(); }
+
+ private:
+  static inline int count_ = 0;
+  std::filesystem::path path_;
+};
+
+std::string error_for(const std::string& file, const config::Overrides& overrides = {}) {
+  try {
+    make_gpu_setup(file, overrides);
+  } catch (const std::exception& e) {
+    return e.what();
+  }
+  return "accepted";
+}
+
+TEST(GpuConfig, TheAppliancesFileResolvesToItsRingFramesAndViewSocket) {
+  const GpuSetup setup = make_gpu_setup(IOCT_GPU_CONFIG_DIR "/appliance.toml", {});
+  EXPECT_EQ(setup.live.ring_name, "/dev/shm/ioct/ring");
+  EXPECT_EQ(setup.live.wait_s, 3600.0);
+  EXPECT_EQ(setup.live.out_dir, "/var/lib/ioct/frames");
+  ASSERT_TRUE(setup.stages);
+  EXPECT_EQ(setup.stages->frame_ring, "/dev/shm/ioct-frames/frames");
+  EXPECT_EQ(setup.stages->frame_group, "ioct-frames");
+  EXPECT_TRUE(setup.stages->instruments.enabled);
+  EXPECT_EQ(setup.stages->live_image, "/var/lib/ioct/frames/render.png");
+  ASSERT_TRUE(setup.socket);
+  EXPECT_EQ(setup.socket->path, "/run/ioct-gpu/view.sock");
+  EXPECT_EQ(setup.socket->snapshot_dir, "/var/lib/ioct/frames/snapshots");
+}
+
+TEST(GpuConfig, FlagsOverrideTheFileAndTheDefaultsFillTheRest) {
+  const TempToml file(
+      "[processing]\nthreads = 3\nbackend = \"cpu\"\n[render]\nmode = \"la-mip\"\n");
+  const GpuSetup setup = make_gpu_setup(
+      file.str(), {{"processing.threads", {"4"}}, {"stages.filter", {"median-bscan"}}});
+  EXPECT_EQ(setup.live.processing.threads, 4u) << "the flag wins";
+  EXPECT_EQ(setup.live.backend, Backend::cpu) << "the file's";
+  ASSERT_TRUE(setup.stages);
+  EXPECT_EQ(setup.stages->backend, Backend::cpu) << "the stages run where processing does";
+  EXPECT_EQ(setup.stages->render.mode, render::RenderMode::la_mip_composite);
+  EXPECT_FALSE(setup.stages->filter.gaussian) << "median-bscan";
+  EXPECT_EQ(setup.stages->frame_ring, "ioct-ring.frames") << "the ring's name + .frames";
+  EXPECT_FALSE(setup.socket);
+  EXPECT_FALSE(make_gpu_setup("", {{"stages.enabled", {"false"}}}).stages);
+}
+
+TEST(GpuConfig, AFilesErrorIsLocatedAndAFlagsNamesItsKey) {
+  const TempToml range("[processing]\nthreads = 0\n");
+  EXPECT_EQ(error_for(range.str()),
+            range.str() + ":2:11: processing.threads = 0: must be in [1, 16]");
+  const TempToml unknown("[render]\nmode = \"enhanced\"\nthreshold = 0.3\n");
+  EXPECT_EQ(
+      error_for(unknown.str()),
+      unknown.str() + ":3:1: render.threshold: unknown key; [render] takes mode, width, height");
+  // A component's own check of a key the file set is placed at the key's line as well.
+  const TempToml spacing("[sampling]\naxial_um_per_px = 0.01\n");
+  EXPECT_EQ(
+      error_for(spacing.str()).rfind(spacing.str() + ":2:19: sampling.axial_um_per_px = 0.01", 0),
+      0u)
+      << error_for(spacing.str());
+  EXPECT_EQ(error_for("", {{"render.width", {"wide"}}}),
+            "render.width = \"wide\": must be an integer in [1, 8192]");
+  EXPECT_EQ(gpu_keys().flag_for("render.width"), "--render-width");
+  const TempToml socket("[stages]\nenabled = false\n[view]\nsocket = \"/tmp/v.sock\"\n");
+  EXPECT_EQ(error_for(socket.str()),
+            socket.str() +
+                ":4:10: view.socket = \"/tmp/v.sock\": needs the live stages (stages.enabled = "
+                "true, not --no-stages)");
+}
+
+TEST(GpuConfig, ThePrintedConfigurationReadsBackAsTheSame) {
+  const TempToml file("[processing]\ndispersion_c2 = -12.5\nresample_poly = \"0,1\"\n");
+  const GpuSetup setup = make_gpu_setup(file.str(), {});
+  const std::string printed = gpu_keys().to_toml(setup.config);
+  const TempToml again(printed);
+  EXPECT_EQ(gpu_keys().to_toml(make_gpu_setup(again.str(), {}).config), printed);
+}
+
+// docs/config-keys.md holds the table `ioct-gpu --config-keys` prints, as it is now.
+TEST(GpuConfig, TheDocsKeyTableIsTheDeclarations) {
+  std::ifstream in(IOCT_DOCS_DIR "/config-keys.md");
+  ASSERT_TRUE(in) << IOCT_DOCS_DIR "/config-keys.md";
+  const std::string docs((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(docs.find(gpu_keys().markdown()), std::string::npos)
+      << "regenerate the ioct-gpu table of docs/config-keys.md with ioct-gpu --config-keys";
+}
+
+}  // namespace
+}  // namespace ioct::gpu
