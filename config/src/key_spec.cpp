@@ -150,10 +150,13 @@ void refuse_unknown(const toml::table& table, const std::string& prefix,
   for (auto&& [key, node] : table) {
     const std::string full =
         prefix.empty() ? std::string(key.str()) : prefix + "." + std::string(key.str());
-    const bool declared =
-        std::any_of(specs.begin(), specs.end(), [&](const KeySpec& s) { return s.key == full; });
+    // A quoted key with a dot in it ("realtime.priority" = 0) names no declared key: were it
+    // taken for one, its value would be ignored without a word.
+    const bool dotted = key.str().find('.') != std::string_view::npos;
+    const bool declared = !dotted && std::any_of(specs.begin(), specs.end(),
+                                                 [&](const KeySpec& s) { return s.key == full; });
     if (declared) continue;
-    if (is_table_of(specs, full)) {
+    if (!dotted && is_table_of(specs, full)) {
       if (const auto* sub = node.as_table()) refuse_unknown(*sub, full, specs, origin);
       continue;  // not a table: refused where its keys were looked for
     }
@@ -182,6 +185,39 @@ const toml::node* find_node(const toml::table& root, const KeySpec& spec,
     if (table == nullptr) wrong_type(origin, path, *node, "a table");
     begin = dot + 1;
   }
+}
+
+// Text in a Markdown table cell: its bars escaped, so the row keeps its columns.
+std::string cell(std::string_view text) {
+  std::string out;
+  for (const char c : text) {
+    if (c == '|') out += '\\';
+    out += c;
+  }
+  return out;
+}
+
+// Whether `text` is UTF-8, as a TOML string must be.
+bool is_utf8(std::string_view text) {
+  for (std::size_t i = 0; i < text.size();) {
+    const auto byte = static_cast<unsigned char>(text[i]);
+    std::size_t length = 0;
+    if (byte < 0x80) {
+      length = 1;
+    } else if ((byte >> 5) == 0x6) {
+      length = 2;
+    } else if ((byte >> 4) == 0xE) {
+      length = 3;
+    } else if ((byte >> 3) == 0x1E) {
+      length = 4;
+    }
+    if (length == 0 || i + length > text.size()) return false;
+    for (std::size_t k = 1; k < length; ++k) {
+      if ((static_cast<unsigned char>(text[i + k]) & 0xC0) != 0x80) return false;
+    }
+    i += length;
+  }
+  return true;
 }
 
 std::string toml_string(std::string_view text) {
@@ -271,6 +307,10 @@ void check_value(const KeySpec& spec, const Value& value) {
 }
 
 Value value_from_texts(const KeySpec& spec, const std::vector<std::string>& texts) {
+  for (const std::string& text : texts) {
+    // The printed configuration must read back; a file's strings are UTF-8 already (TOML).
+    if (!is_utf8(text)) throw ConfigError(spec.key, shown_text(text), "must be UTF-8 text");
+  }
   if (spec.kind == KeyKind::text_list) return texts;
   if (texts.size() != 1) {
     throw ConfigError(spec.key, format_value(std::uint64_t{texts.size()}) + " values",
@@ -411,10 +451,8 @@ std::string markdown_table(const std::vector<KeySpec>& specs, const std::vector<
     const KeySpec& s = specs[i];
     std::string allowed = s.allowed_text();
     if (allowed.rfind("must be ", 0) == 0) allowed = allowed.substr(8);
-    std::string shown = toml_text(s, defaults[i]);
-    std::replace(shown.begin(), shown.end(), '|', '/');
-    out += "| `" + s.key + "` | " + (s.flag.empty() ? "" : "`" + s.flag + "`") + " | " + allowed +
-           " | `" + shown + "` | " + s.doc + " |\n";
+    out += "| `" + s.key + "` | " + (s.flag.empty() ? "" : "`" + s.flag + "`") + " | " +
+           cell(allowed) + " | `" + cell(toml_text(s, defaults[i])) + "` | " + cell(s.doc) + " |\n";
   }
   return out;
 }
@@ -427,11 +465,14 @@ void add_flags(CLI::App& app, const std::vector<KeySpec>& specs, const std::vect
     const std::string help = s.key + ": " + s.doc;
     const std::string key = s.key;
     if (s.kind == KeyKind::boolean) {
-      // "--no-x" sets its key false, any other boolean flag true.
+      // "--no-x" sets its key false, any other boolean flag true; "--x=false" (CLI11 gives a
+      // negative count) the opposite.
       const bool sets = s.flag.rfind("--no-", 0) != 0;
       app.add_flag_function(
           s.flag,
-          [&overrides, key, sets](std::int64_t) { overrides[key] = {sets ? "true" : "false"}; },
+          [&overrides, key, sets](std::int64_t count) {
+            overrides[key] = {(count > 0) == sets ? "true" : "false"};
+          },
           help);
     } else if (s.kind == KeyKind::text_list) {
       app.add_option_function<std::vector<std::string>>(
@@ -467,6 +508,9 @@ void check_declarations(const std::vector<KeySpec>& specs) {
     }
     if (!s.flag.empty() && !flags.insert(s.flag).second) {
       throw std::logic_error("flag " + s.flag + " sets two keys");
+    }
+    if (s.table().empty() && !first && !table.empty()) {
+      throw std::logic_error(s.key + ": a key outside any table must come before every table");
     }
     if (first || s.table() != table) {
       if (!first) closed.insert(table);

@@ -11,8 +11,9 @@ void GalvoOutputConfig::validate() const {
   require_real_in_range("galvo.sample_rate_hz", sample_rate_hz, 1.0, 10e6);
   require_integer_in_range("galvo.fifo_capacity", fifo_capacity, 16, 1u << 24);
   require_integer_in_range("galvo.lead_samples", lead_samples, 0, fifo_capacity / 2);
-  require_real_in_range("galvo.park.x", park.x, -1.0, 1.0);
-  require_real_in_range("galvo.park.y", park.y, -1.0, 1.0);
+  // Named as ioct-rt's file names them, so an error of these is placed at the file's line.
+  require_real_in_range("galvo.park_x", park.x, -1.0, 1.0);
+  require_real_in_range("galvo.park_y", park.y, -1.0, 1.0);
 }
 
 void GalvoOutput::prepare(const GalvoOutputConfig& config) {

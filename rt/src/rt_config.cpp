@@ -14,6 +14,7 @@
 
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/input_file.hpp"
+#include "ioct/shm/shm_object.hpp"
 #include "rt_keys.hpp"
 
 namespace ioct::rt {
@@ -46,6 +47,10 @@ std::uint64_t RtConfig::effective_stall_timeout_ms() const noexcept {
 void RtConfig::validate() const {
   rt_keys().check_ranges(*this);
   if (ring_name.empty()) throw ConfigError("ring.name", "\"\"", "must name the ring");
+  // The ring's own check, under its key: so a bad name is placed in the file and its flag named.
+  if (const std::string problem = shm::object_name_problem(ring_name); !problem.empty()) {
+    throw ConfigError("ring.name", quoted(ring_name), problem);
+  }
   digitizer.validate();
   scan.validate();
   hal::GalvoOutputConfig g = galvo;

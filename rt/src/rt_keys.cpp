@@ -1,5 +1,7 @@
 #include "rt_keys.hpp"
 
+#include "ioct/shm/ring_geometry.hpp"
+
 #include <limits>
 #include <string>
 
@@ -34,8 +36,9 @@ config::KeyTable<RtConfig> make_keys() {
                "recorded sweeps (A-scans) per B-scan", "--ascans")
       .integer("digitizer.flyback_sweeps", IOCT_MEMBER(digitizer.flyback_sweeps), 0, 65536,
                "unrecorded sweeps after each B-scan while the galvo turns", "--flyback")
-      .integer("digitizer.bscans_per_group", IOCT_MEMBER(digitizer.bscans_per_group), 1, 1024,
-               "B-scans per ring slot (at most 64: the ring's markers)", "--bscans-per-group")
+      .integer("digitizer.bscans_per_group", IOCT_MEMBER(digitizer.bscans_per_group), 1,
+               shm::kMaxBscansPerGroup, "B-scans per ring slot (the ring's markers hold 64)",
+               "--bscans-per-group")
       .real("digitizer.ascan_rate_hz", IOCT_MEMBER(digitizer.ascan_rate_hz),
             "sweep rate, Hz (1 to 1e7); one galvo sample per sweep", "--ascan-rate")
       .integer("digitizer.sample_bits", IOCT_MEMBER(digitizer.sample_bits), 8, 16,

@@ -112,6 +112,14 @@ TEST(KeyTable, AFilesErrorNamesFileLineColumnKeyValueAndWhatIsAllowed) {
             "p.toml:2:1: the configuration is empty (no table, no key): refusing it rather than "
             "running on defaults");
   EXPECT_EQ(error_reading("[ring]\nslots = \n").rfind("p.toml:2:", 0), 0u);
+  // A quoted key with a dot is not the key its text spells: refused, never ignored.
+  EXPECT_EQ(error_reading("\"ring.slots\" = 4\n"),
+            "p.toml:1:1: ring.slots: unknown key; the file takes name, tags, ring");
+  EXPECT_EQ(error_reading("[ring]\n\"line.offset\" = 4\n")
+                .rfind("p.toml:2:1: ring.line.offset: "
+                       "unknown key; [ring] takes",
+                       0),
+            0u);
 }
 
 TEST(KeyTable, TheRangesAreCheckedOnAConfigFilledInCode) {
@@ -149,6 +157,20 @@ TEST(KeyTable, FlagsGoThroughTheCommandLineToTheirKeysAndAreCheckedAlike) {
   EXPECT_EQ(p.tags, (std::vector<std::string>{"y", "x"}));
   EXPECT_EQ(overrides.count("ring.verbose"), 0u) << "only the flags given";
 
+  // A boolean flag's explicit value is its value; "--no-x=false" means x.
+  CLI::App explicit_values;
+  Overrides given;
+  keys.add_flags_to(explicit_values, given);
+  std::vector<std::string> values{"--verbose=false", "--no-stages=false"};
+  std::reverse(values.begin(), values.end());
+  explicit_values.parse(values);
+  p = Probe{};
+  p.verbose = true;
+  p.stages = false;
+  keys.apply(given, p);
+  EXPECT_FALSE(p.verbose);
+  EXPECT_TRUE(p.stages);
+
   const auto error_for = [&](const std::string& key, const std::string& text) {
     try {
       keys.apply({{key, {text}}}, p);
@@ -161,6 +183,7 @@ TEST(KeyTable, FlagsGoThroughTheCommandLineToTheirKeysAndAreCheckedAlike) {
   EXPECT_EQ(error_for("ring.slots", "99"), "ring.slots = 99: must be in [2, 64]");
   EXPECT_EQ(error_for("ring.gain", "inf"), "ring.gain = \"inf\": must be a finite number");
   EXPECT_EQ(error_for("ring.backend", "tpu"), "ring.backend = \"tpu\": must be one of cpu, cuda");
+  EXPECT_EQ(error_for("name", "bad \xff byte"), "name = \"bad \\xff byte\": must be UTF-8 text");
   EXPECT_EQ(keys.flag_for("ring.slots"), "--slots");
   EXPECT_EQ(keys.flag_for("ring.shape"), "");
   EXPECT_NE(app.help().find("ring.slots: slots in the ring"), std::string::npos) << app.help();
@@ -192,6 +215,10 @@ TEST(KeyTable, TheMarkdownTableHasARowPerKeyWithItsFlagRangeAndDefault) {
   EXPECT_NE(table.find("| `ring.shape` |  | one of round, square | `\"round\"` | its shape |"),
             std::string::npos)
       << table;
+  KeyTable<Probe> barred;
+  barred.text("name", MEMBER(name), "a | b");
+  EXPECT_NE(barred.markdown().find("| a \\| b |"), std::string::npos)
+      << "a bar in a cell is escaped: " << barred.markdown();
 }
 
 TEST(KeyTable, AMistakeInTheDeclarationsIsCaughtBeforeAnyFileIsRead) {
@@ -203,6 +230,10 @@ TEST(KeyTable, AMistakeInTheDeclarationsIsCaughtBeforeAnyFileIsRead) {
   apart.integer("ring.more", MEMBER(slots), 2, 64, "after [ring.line]");
   EXPECT_THROW(apart.read_text("name = \"x\"\n", "p.toml", p), std::logic_error)
       << "[ring]'s keys split: the printed file would define [ring] twice";
+  KeyTable<Probe> late_top = probe_keys();
+  late_top.text("late", MEMBER(name), "after the tables");
+  EXPECT_THROW(late_top.read_text("name = \"x\"\n", "p.toml", p), std::logic_error)
+      << "it would print inside the last table";
   KeyTable<Probe> same_flag = probe_keys();
   same_flag.integer("other", MEMBER(slots), 2, 64, "x", "--slots");
   CLI::App app;

@@ -85,6 +85,15 @@ TEST(GpuConfig, AFilesErrorIsLocatedAndAFlagsNamesItsKey) {
       error_for(spacing.str()).rfind(spacing.str() + ":2:19: sampling.axial_um_per_px = 0.01", 0),
       0u)
       << error_for(spacing.str());
+  // A component's older name for a key is told as the file's key, at its line.
+  const TempToml ring("[ring]\nname = \"a/b\"\n");
+  EXPECT_EQ(error_for(ring.str()).rfind(ring.str() + ":2:8: ring.name = 'a/b': ", 0), 0u)
+      << error_for(ring.str());
+  const TempToml db("[processing]\ndb_min = 50\ndb_max = 40\n");
+  EXPECT_EQ(error_for(db.str()).rfind(
+                db.str() + ":3:10: processing.db_max = 40: must be at least 1 dB", 0),
+            0u)
+      << error_for(db.str());
   EXPECT_EQ(error_for("", {{"render.width", {"wide"}}}),
             "render.width = \"wide\": must be an integer in [1, 8192]");
   EXPECT_EQ(gpu_keys().flag_for("render.width"), "--render-width");

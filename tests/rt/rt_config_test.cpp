@@ -274,6 +274,29 @@ TEST(RtConfig, AFlagsBadValueIsReportedAgainstTheFlag) {
   EXPECT_EQ(option_for_key("digitizer.samples_per_group"),
             "--samples x --ascans x --bscans-per-group");
   EXPECT_EQ(option_for_key("galvo.max_velocity"), "") << "set in the file only";
+  // What the ring itself would refuse is refused under its key first.
+  EXPECT_EQ(error_of("digitizer.bscans_per_group", "65"),
+            std::make_pair(std::string("digitizer.bscans_per_group = 65: must be in [1, 64]"),
+                           std::string("--bscans-per-group")));
+  EXPECT_EQ(error_of("ring.name", "a/b").second, "--ring");
+}
+
+TEST(RtConfig, APartsOwnCheckOfAFileKeyIsPlacedAtItsLine) {
+  const auto located = [](const std::string& text) {
+    const TempFile file(text);
+    RtOptions options;
+    options.config = file.str();
+    try {
+      make_setup(options);
+    } catch (const std::exception& e) {
+      const std::string what = e.what();
+      return what.rfind(file.str(), 0) == 0 ? what.substr(file.str().size()) : what;
+    }
+    return std::string("accepted");
+  };
+  EXPECT_EQ(located("[galvo]\npark_x = 2.0\n"), ":2:10: galvo.park_x = 2: must be in [-1, 1]");
+  EXPECT_EQ(located("[ring]\nname = \"a/b\"\n").rfind(":2:8: ring.name = \"a/b\": ", 0), 0u)
+      << located("[ring]\nname = \"a/b\"\n");
 }
 
 TEST(RtConfig, ReplaySpeedIsAPositiveMultipleAndOnlyForAReplay) {

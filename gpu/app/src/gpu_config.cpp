@@ -1,5 +1,7 @@
 #include "gpu_config.hpp"
 
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "ioct/common/config_error.hpp"
@@ -79,8 +81,8 @@ config::KeyTable<GpuConfig> make_keys() {
                "threads of each CPU stage (filters, segmentation, rendering)", "--stage-threads")
       .choice("stages.filter", IOCT_MEMBER(filter), {"median-gauss", "median-bscan", "none"},
               "the live volume's filter: median-gauss (3x3x3 median + 5x5 Gaussian, Viehland "
-              "2016) or median-bscan (3x3 median per B-scan, Weiss 2019: for the layer-aware "
-              "modes)",
+              "2016), median-bscan (3x3 median per B-scan, Weiss 2019: for the layer-aware "
+              "modes) or none",
               "--filter")
       .real_in("stages.cpu_render_interval_s", IOCT_MEMBER(stages.cpu_render_interval_s), 0.0,
                3600.0, "seconds between live renders on the CPU (the GPU renders every group)",
@@ -119,8 +121,8 @@ config::KeyTable<GpuConfig> make_keys() {
             "--instruments-warn-rpe-um");
 
   k.text("view.frames", IOCT_MEMBER(frames),
-         "frame ring for ioct-view (shm name or absolute path); <ring>.frames: the ring's name "
-         "+ .frames; none: no frames",
+         "frame ring for ioct-view (shm name or absolute path); `<ring>.frames`: the ring's "
+         "name + .frames; none: no frames",
          "--frames")
       .text("view.group", IOCT_MEMBER(view_group),
             "group of the frame ring and the view socket (ioct-view's); empty: this process's",
@@ -129,7 +131,7 @@ config::KeyTable<GpuConfig> make_keys() {
             "Unix socket for ioct-view's render-parameter requests (JSON lines); empty: none",
             "--view-socket")
       .text("view.snapshot_dir", IOCT_MEMBER(snapshot_dir),
-            "folder the view socket's snapshots go to; <out>/snapshots: under output.dir",
+            "folder the view socket's snapshots go to; `<out>/snapshots`: under output.dir",
             "--snapshot-dir");
   return k;
 }
@@ -178,6 +180,32 @@ GpuSetup resolve(const GpuConfig& c) {
   return setup;
 }
 
+// The names the components' own validate() give keys that the file calls otherwise (they serve the
+// offline commands' flags too): an error of theirs is told under the file's key.
+constexpr std::pair<std::string_view, std::string_view> kComponentKeys[] = {
+    {"ring", "ring.name"},
+    {"out", "output.dir"},
+    {"db_min", "processing.db_min"},
+    {"db_max", "processing.db_max"},
+    {"resample", "processing.resample"},
+    {"resampling", "processing.resample"},
+    {"resampling_coefficients", "processing.resample_poly"},
+    {"fft_wisdom", "processing.fft_wisdom"},
+    {"stages.frames", "view.frames"},
+};
+
+ConfigError in_file_terms(const ConfigError& e) {
+  const std::string_view key = std::string_view(e.key()).substr(0, e.key().find('['));
+  for (const auto& [component, declared] : kComponentKeys) {
+    if (key != component) continue;
+    const std::string what = e.what();
+    const std::string said = e.key() + " = " + e.value() + ": ";
+    return ConfigError(std::string(declared), e.value(),
+                       what.rfind(said, 0) == 0 ? what.substr(said.size()) : what);
+  }
+  return e;
+}
+
 }  // namespace
 
 const config::KeyTable<GpuConfig>& gpu_keys() {
@@ -192,10 +220,11 @@ GpuSetup make_gpu_setup(const std::string& file, const config::Overrides& overri
   gpu_keys().apply(overrides, c);
   try {
     return resolve(c);
-  } catch (const ConfigError& e) {
-    // The error in the file's terms when the key came from the file and no flag overrode it.
+  } catch (const ConfigError& component_error) {
+    const ConfigError e = in_file_terms(component_error);
+    // Placed in the file when the key came from it and no flag overrode it.
     const auto at = positions.find(e.key());
-    if (at == positions.end() || overrides.count(e.key()) != 0) throw;
+    if (at == positions.end() || overrides.count(e.key()) != 0) throw e;
     throw config::ConfigFileError(file, at->second, e.what());
   }
 }
