@@ -227,7 +227,7 @@ void DeviceStageChain::download(Volume& filtered, segmentation::Surfaces& surfac
 }
 
 void DeviceStageChain::download_bscan(std::uint32_t bscan, Volume& filtered,
-                                      segmentation::Surfaces& surfaces) {
+                                      segmentation::Surfaces* surfaces) {
   Impl& m = *impl_;
   const VolumeDims& d = m.input_dims;
   if (filtered.bscans() != d.bscans || filtered.ascans() != d.ascans ||
@@ -239,7 +239,11 @@ void DeviceStageChain::download_bscan(std::uint32_t bscan, Volume& filtered,
   cuda::copy_async(filtered.bscan(bscan).data(), m.filtered.data() + bscan * n, n,
                    cudaMemcpyDeviceToHost, m.stream.get(), cuda::Payload::volume,
                    "copy of the B-scan shown to the host");
-  m.segmenter.download_surfaces(surfaces, m.stream.get());  // waits for both
+  if (surfaces != nullptr) {
+    m.segmenter.download_surfaces(*surfaces, m.stream.get());  // waits for both
+  } else {
+    IOCT_CUDA_CHECK(cudaStreamSynchronize(m.stream.get()));
+  }
 }
 
 void DeviceStageChain::download_surfaces(segmentation::Surfaces& surfaces) {
@@ -282,7 +286,7 @@ DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t, std::uint3
 void DeviceStageChain::download(Volume&, segmentation::Surfaces&) {
   throw std::logic_error("live stages: built without CUDA");
 }
-void DeviceStageChain::download_bscan(std::uint32_t, Volume&, segmentation::Surfaces&) {
+void DeviceStageChain::download_bscan(std::uint32_t, Volume&, segmentation::Surfaces*) {
   throw std::logic_error("live stages: built without CUDA");
 }
 void DeviceStageChain::download_surfaces(segmentation::Surfaces&) {

@@ -88,9 +88,10 @@ class DeviceStageChain {
   // The filtered volume and the surfaces, to the host (the files at the end).
   void download(Volume& filtered, segmentation::Surfaces& surfaces);
   // B-scan `bscan` of the filtered volume into the same B-scan of `filtered` (reshaped to the
-  // input's dimensions; its other B-scans are left as they are) and the surfaces, to the host:
-  // the B-scan a frame shows beside the render.
-  void download_bscan(std::uint32_t bscan, Volume& filtered, segmentation::Surfaces& surfaces);
+  // input's dimensions; its other B-scans are left as they are) and, unless `surfaces` is null
+  // (the host has this pass's already), the surfaces, to the host: the B-scan a frame shows
+  // beside the render. Returns once they are there.
+  void download_bscan(std::uint32_t bscan, Volume& filtered, segmentation::Surfaces* surfaces);
   // The surfaces alone, to the host (the instrument's distances after a pass).
   void download_surfaces(segmentation::Surfaces& surfaces);
   // The passes' input (the unfiltered B-scans) as a device ref on the chain's stream: what the

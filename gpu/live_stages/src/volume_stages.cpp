@@ -289,6 +289,7 @@ bool VolumeStages::make_backends() {
     auto device = DeviceStageChain::make(*filter_, *segmenter_, *renderer_, detector_.get());
     std::lock_guard lock(mutex_);
     device_ = std::move(device);
+    surfaces_on_host_ = false;  // none of this chain's yet
     views_.set_timing(view_timing(config_, cpu_renderer));
     backends_ = "filter " + std::string(filters::filter_name(config_.filter)) + " " +
                 std::string(filter_->backend_name()) + ", segmentation " +
@@ -371,7 +372,10 @@ void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered
     const std::uint32_t bscan = shown_bscan(render.config.slice, bscans);
     if (bscan_stale_ || bscan != bscan_shown_) {
       // On the device path only the B-scan shown (and the surfaces) come to the host.
-      if (device_ != nullptr) device_->download_bscan(bscan, filtered_, surfaces_);
+      if (device_ != nullptr) {
+        device_->download_bscan(bscan, filtered_, surfaces_on_host_ ? nullptr : &surfaces_);
+        surfaces_on_host_ = true;
+      }
       publisher_->set_bscan(segmentation::make_overlay(filtered_, bscan, surfaces_), bscan,
                             filtered_.bscans());
       bscan_stale_ = false;
@@ -541,11 +545,13 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
       publisher_ != nullptr || !waiters.empty() || live_image_due(ioct::monotonic_ns());
   const DeviceStageChain::PassTimes t =
       device_->run_pass(first, count, shared.config, frame_wanted ? &image_ : nullptr);
+  surfaces_on_host_ = false;
   if (detector_ != nullptr) {
     // After the frame, before it is published: the frame carries the instrument of the volume
     // state it shows. The classes come from the input in place; the surfaces come to the host
-    // for the tips' distances (a few hundred kB).
+    // for the tips' distances (a few hundred kB), and the B-scan shown then needs no second copy.
     device_->download_surfaces(surfaces_);
+    surfaces_on_host_ = true;
     detect_instruments(device_->input(), first, count);
   }
   last_render_ns_ = t.rendered_ns;
