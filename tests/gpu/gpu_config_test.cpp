@@ -11,25 +11,14 @@
 #include <string>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/test_support/temp_path.hpp"
 
 namespace ioct::gpu {
 namespace {
 
-class TempToml {
- public:
-  explicit TempToml(const std::string& text)
-      : path_(std::filesystem::temp_directory_path() /
-              ("ioct-gpu-config-" + std::to_string(::getpid()) + "-" + std::to_string(count_++) +
-               ".toml")) {
-    std::ofstream(path_) << text;
-  }
-  ~TempToml() { std::filesystem::remove(path_); }
-  std::string str() const { return path_.string(); }
-
- private:
-  static inline int count_ = 0;
-  std::filesystem::path path_;
-};
+test_support::TempPath config_file(const std::string& text) {
+  return test_support::TempPath::with_text("gpu-config", ".toml", text);
+}
 
 std::string error_for(const std::string& file, const config::Overrides& overrides = {}) {
   try {
@@ -56,8 +45,8 @@ TEST(GpuConfig, TheAppliancesFileResolvesToItsRingFramesAndViewSocket) {
 }
 
 TEST(GpuConfig, FlagsOverrideTheFileAndTheDefaultsFillTheRest) {
-  const TempToml file(
-      "[processing]\nthreads = 3\nbackend = \"cpu\"\n[render]\nmode = \"la-mip\"\n");
+  const auto file =
+      config_file("[processing]\nthreads = 3\nbackend = \"cpu\"\n[render]\nmode = \"la-mip\"\n");
   const GpuSetup setup = make_gpu_setup(
       file.str(), {{"processing.threads", {"4"}}, {"stages.filter", {"median-bscan"}}});
   EXPECT_EQ(setup.live.processing.threads, 4u) << "the flag wins";
@@ -72,24 +61,24 @@ TEST(GpuConfig, FlagsOverrideTheFileAndTheDefaultsFillTheRest) {
 }
 
 TEST(GpuConfig, AFilesErrorIsLocatedAndAFlagsNamesItsKey) {
-  const TempToml range("[processing]\nthreads = 0\n");
+  const auto range = config_file("[processing]\nthreads = 0\n");
   EXPECT_EQ(error_for(range.str()),
             range.str() + ":2:11: processing.threads = 0: must be in [1, 16]");
-  const TempToml unknown("[render]\nmode = \"enhanced\"\nthreshold = 0.3\n");
+  const auto unknown = config_file("[render]\nmode = \"enhanced\"\nthreshold = 0.3\n");
   EXPECT_EQ(
       error_for(unknown.str()),
       unknown.str() + ":3:1: render.threshold: unknown key; [render] takes mode, width, height");
   // A component's own check of a key the file set is placed at the key's line as well.
-  const TempToml spacing("[sampling]\naxial_um_per_px = 0.01\n");
+  const auto spacing = config_file("[sampling]\naxial_um_per_px = 0.01\n");
   EXPECT_EQ(
       error_for(spacing.str()).rfind(spacing.str() + ":2:19: sampling.axial_um_per_px = 0.01", 0),
       0u)
       << error_for(spacing.str());
   // A component's older name for a key is told as the file's key, at its line.
-  const TempToml ring("[ring]\nname = \"a/b\"\n");
+  const auto ring = config_file("[ring]\nname = \"a/b\"\n");
   EXPECT_EQ(error_for(ring.str()).rfind(ring.str() + ":2:8: ring.name = 'a/b': ", 0), 0u)
       << error_for(ring.str());
-  const TempToml db("[processing]\ndb_min = 50\ndb_max = 40\n");
+  const auto db = config_file("[processing]\ndb_min = 50\ndb_max = 40\n");
   EXPECT_EQ(error_for(db.str()).rfind(
                 db.str() + ":3:10: processing.db_max = 40: must be at least 1 dB", 0),
             0u)
@@ -97,7 +86,7 @@ TEST(GpuConfig, AFilesErrorIsLocatedAndAFlagsNamesItsKey) {
   EXPECT_EQ(error_for("", {{"render.width", {"wide"}}}),
             "render.width = \"wide\": must be an integer in [1, 8192]");
   EXPECT_EQ(gpu_keys().flag_for("render.width"), "--render-width");
-  const TempToml socket("[stages]\nenabled = false\n[view]\nsocket = \"/tmp/v.sock\"\n");
+  const auto socket = config_file("[stages]\nenabled = false\n[view]\nsocket = \"/tmp/v.sock\"\n");
   EXPECT_EQ(error_for(socket.str()),
             socket.str() +
                 ":4:10: view.socket = \"/tmp/v.sock\": needs the live stages (stages.enabled = "
@@ -105,10 +94,10 @@ TEST(GpuConfig, AFilesErrorIsLocatedAndAFlagsNamesItsKey) {
 }
 
 TEST(GpuConfig, ThePrintedConfigurationReadsBackAsTheSame) {
-  const TempToml file("[processing]\ndispersion_c2 = -12.5\nresample_poly = \"0,1\"\n");
+  const auto file = config_file("[processing]\ndispersion_c2 = -12.5\nresample_poly = \"0,1\"\n");
   const GpuSetup setup = make_gpu_setup(file.str(), {});
   const std::string printed = gpu_keys().to_toml(setup.config);
-  const TempToml again(printed);
+  const auto again = config_file(printed);
   EXPECT_EQ(gpu_keys().to_toml(make_gpu_setup(again.str(), {}).config), printed);
 }
 

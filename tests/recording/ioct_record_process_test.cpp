@@ -26,6 +26,7 @@
 #include "ioct/shm/ring_reader.hpp"
 #include "ioct/test_support/child_process.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"
+#include "ioct/test_support/temp_path.hpp"
 #include "recording_processes.hpp"
 
 namespace ioct::ringrec {
@@ -124,16 +125,6 @@ bool wait_for_groups_written(ChildProcess& recorder, std::uint64_t groups, std::
   return false;
 }
 
-struct TempPath {
-  explicit TempPath(const std::string& tag)
-      : path(fs::temp_directory_path() /
-             ("ioct-record-" + tag + "-" + std::to_string(::getpid()) + ".h5")) {
-    fs::remove(path);
-  }
-  ~TempPath() { fs::remove(path); }
-  fs::path path;
-};
-
 // Every group in the file is intact (checksum), and equal to the ring's where the second reader
 // copied it too. Returns how many were compared with the ring.
 std::uint64_t compare_with_ring(const RingRecordingReader& reader, RingCapture& capture) {
@@ -160,15 +151,15 @@ std::uint64_t compare_with_ring(const RingRecordingReader& reader, RingCapture& 
 
 TEST(IoctRecord, RecordsTheRingsGroupsByteForByteAndFinishesCleanlyOnSigterm) {
   const test_support::ScopedShmName ring("record");
-  const TempPath out("sigterm");
+  const test_support::TempPath out("record-sigterm", ".h5");
   ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
   RingCapture capture(ring.str(), 400);
-  ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
+  ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path()));
   std::string lines;
   ASSERT_TRUE(wait_for_groups_written(recorder, 40, lines)) << lines;
   {
     // A viewer reads the file while it grows (SWMR), and sees the groups appended since.
-    RingRecordingReader live(out.path);
+    RingRecordingReader live(out.path());
     EXPECT_FALSE(live.finished());
     const std::uint64_t seen = live.group_count();
     ASSERT_GE(seen, 40u);
@@ -183,7 +174,7 @@ TEST(IoctRecord, RecordsTheRingsGroupsByteForByteAndFinishesCleanlyOnSigterm) {
   const std::optional<int> status = recorder.wait_for(30s);
   ASSERT_EQ(exit_code(status), 0) << (status ? test_support::describe_wait_status(*status) : "");
 
-  const RingRecordingReader reader(out.path);
+  const RingRecordingReader reader(out.path());
   EXPECT_TRUE(reader.finished());
   EXPECT_GE(reader.group_count(), 40u);
   EXPECT_EQ(counter(reader, Counter::groups_written), reader.group_count());
@@ -198,15 +189,15 @@ TEST(IoctRecord, RecordsTheRingsGroupsByteForByteAndFinishesCleanlyOnSigterm) {
 
 TEST(IoctRecord, SigkillLeavesAFileWithEveryGroupWrittenBeforeIt) {
   const test_support::ScopedShmName ring("record-kill");
-  const TempPath out("sigkill");
+  const test_support::TempPath out("record-sigkill", ".h5");
   ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
   RingCapture capture(ring.str(), 400);
-  ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
+  ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path()));
   std::string lines;
   ASSERT_TRUE(wait_for_groups_written(recorder, 20, lines)) << lines;
   recorder.kill_and_wait();
 
-  const RingRecordingReader reader(out.path);  // opens with no h5clear: SWMR read
+  const RingRecordingReader reader(out.path());  // opens with no h5clear: SWMR read
   EXPECT_FALSE(reader.finished());
   // Every group the last status line counted was flushed before that line was printed.
   EXPECT_GE(reader.group_count(), 20u);
@@ -217,11 +208,11 @@ TEST(IoctRecord, SigkillLeavesAFileWithEveryGroupWrittenBeforeIt) {
 
 TEST(IoctRecord, AFullDiskGivesCountedDropsAndAClearMessage) {
   const test_support::ScopedShmName ring("record-full");
-  const TempPath out("full");
+  const test_support::TempPath out("record-full", ".h5");
   ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
   // Room for 5 groups of 262144 + 2136 bytes.
   ChildProcess recorder =
-      start("ioct-record", record_args(ring.str(), out.path, {"--max-mb", "1.4"}));
+      start("ioct-record", record_args(ring.str(), out.path(), {"--max-mb", "1.4"}));
   std::string lines;
   bool said = false;
   while (std::optional<std::string> line = recorder.read_line(60s)) {
@@ -237,7 +228,7 @@ TEST(IoctRecord, AFullDiskGivesCountedDropsAndAClearMessage) {
   recorder.send_signal(SIGTERM);
   ASSERT_EQ(exit_code(recorder.wait_for(30s)), 0);
 
-  const RingRecordingReader reader(out.path);
+  const RingRecordingReader reader(out.path());
   EXPECT_TRUE(reader.finished());
   EXPECT_EQ(reader.group_count(), 5u);
   EXPECT_GT(counter(reader, Counter::dropped_disk_full), 0u);
@@ -246,9 +237,9 @@ TEST(IoctRecord, AFullDiskGivesCountedDropsAndAClearMessage) {
 
 TEST(IoctRecord, FollowsARestartedProducerIntoTheSameFile) {
   const test_support::ScopedShmName ring("record-restart");
-  const TempPath out("restart");
+  const test_support::TempPath out("record-restart", ".h5");
   std::optional<ChildProcess> rt(start("ioct-rt", small_rt(ring.str())));
-  ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
+  ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path()));
   std::string lines;
   ASSERT_TRUE(wait_for_groups_written(recorder, 10, lines)) << lines;
   rt->send_signal(SIGTERM);
@@ -266,7 +257,7 @@ TEST(IoctRecord, FollowsARestartedProducerIntoTheSameFile) {
   recorder.send_signal(SIGINT);
   ASSERT_EQ(exit_code(recorder.wait_for(30s)), 0);
 
-  const RingRecordingReader reader(out.path);
+  const RingRecordingReader reader(out.path());
   EXPECT_GE(counter(reader, Counter::producer_restarts), 1u);
   std::vector<std::byte> payload(reader.group_bytes());
   shm::SlotHeader first{}, last{};
@@ -300,9 +291,9 @@ std::map<std::uint64_t, std::uint64_t> groups_by_first_sweep(const RingRecording
 TEST(IoctRecord, ReplayThroughIoctRtPublishesTheRecordedGroupsBitForBit) {
   const test_support::ScopedShmName ring("record-live");
   const test_support::ScopedShmName replay_ring("record-replay");
-  const TempPath out("replay");
-  ASSERT_NO_FATAL_FAILURE(record_simulated_run(ring.str(), out.path, 60));
-  const RingRecordingReader recorded(out.path);
+  const test_support::TempPath out("record-replay", ".h5");
+  ASSERT_NO_FATAL_FAILURE(record_simulated_run(ring.str(), out.path(), 60));
+  const RingRecordingReader recorded(out.path());
   const std::map<std::uint64_t, std::uint64_t> by_sweep = groups_by_first_sweep(recorded);
   shm::SlotHeader header{};
 
@@ -311,7 +302,7 @@ TEST(IoctRecord, ReplayThroughIoctRtPublishesTheRecordedGroupsBitForBit) {
   // config), so that this reader, slow under ThreadSanitizer, keeps up with most groups; the
   // replay outlasts the safety's 2 s arming timeout, so the loop must reach scanning.
   arguments.insert(arguments.end(),
-                   {"--replay", out.path.string(), "--replay-once", "--ascan-rate", "20000"});
+                   {"--replay", out.path().string(), "--replay-once", "--ascan-rate", "20000"});
   ChildProcess replay = start("ioct-rt", arguments);
   std::optional<shm::RingReader> reader;
   for (int tries = 0; tries < 3000 && !reader; ++tries) {
@@ -364,17 +355,17 @@ TEST(IoctRecord, ReplayThroughIoctRtPublishesTheRecordedGroupsBitForBit) {
 TEST(IoctRecord, ReplaySpeedPacesTheGroupsFasterAndKeepsThemBitForBit) {
   const test_support::ScopedShmName ring("record-speed-live");
   const test_support::ScopedShmName replay_ring("record-speed");
-  const TempPath out("speed");
-  ASSERT_NO_FATAL_FAILURE(record_simulated_run(ring.str(), out.path, 40));
-  const RingRecordingReader recorded(out.path);
+  const test_support::TempPath out("record-speed", ".h5");
+  ASSERT_NO_FATAL_FAILURE(record_simulated_run(ring.str(), out.path(), 40));
+  const RingRecordingReader recorded(out.path());
   const std::map<std::uint64_t, std::uint64_t> by_sweep = groups_by_first_sweep(recorded);
   shm::SlotHeader header{};
 
   constexpr double kSpeed = 4.0;
   constexpr double kAscanRateHz = 10000.0;  // recorded rate: 1 group per 64 ms or more
   std::vector<std::string> arguments = small_rt(replay_ring.str());
-  arguments.insert(arguments.end(), {"--replay", out.path.string(), "--replay-once", "--ascan-rate",
-                                     "10000", "--replay-speed", "4"});
+  arguments.insert(arguments.end(), {"--replay", out.path().string(), "--replay-once",
+                                     "--ascan-rate", "10000", "--replay-speed", "4"});
   ChildProcess replay = start("ioct-rt", arguments);
   std::optional<shm::RingReader> reader;
   for (int tries = 0; tries < 3000 && !reader; ++tries) {
@@ -428,10 +419,10 @@ TEST(IoctRecord, ReplaySpeedPacesTheGroupsFasterAndKeepsThemBitForBit) {
 
 TEST(IoctRecord, ReplayOfAnotherGeometryIsRefusedNamingBothValues) {
   const test_support::ScopedShmName ring("record-geometry");
-  const TempPath out("geometry");
+  const test_support::TempPath out("record-geometry", ".h5");
   {
     ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
-    ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path));
+    ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path()));
     std::string lines;
     ASSERT_TRUE(wait_for_groups_written(recorder, 2, lines)) << lines;
     recorder.send_signal(SIGTERM);
@@ -439,7 +430,7 @@ TEST(IoctRecord, ReplayOfAnotherGeometryIsRefusedNamingBothValues) {
   }
   std::vector<std::string> arguments = small_rt(ring.str());
   arguments[3] = "512";  // --samples
-  arguments.insert(arguments.end(), {"--replay", out.path.string()});
+  arguments.insert(arguments.end(), {"--replay", out.path().string()});
   ChildProcess replay = start("ioct-rt", arguments);
   EXPECT_NE(exit_code(replay.wait_for(30s)), 0);
 }

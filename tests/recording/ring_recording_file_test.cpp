@@ -15,6 +15,7 @@
 
 #include "ioct/ringrec/ring_recording_reader.hpp"
 #include "ioct/ringrec/ring_recording_writer.hpp"
+#include "ioct/test_support/temp_path.hpp"
 
 namespace ioct::ringrec {
 namespace {
@@ -29,20 +30,6 @@ shm::RingGeometry small_geometry() {
   g.bscans_per_volume = 8;
   return g;
 }
-
-class TempFile {
- public:
-  explicit TempFile(const std::string& tag)
-      : path_(fs::temp_directory_path() /
-              ("ioct-ringrec-" + tag + "-" + std::to_string(::getpid()) + ".h5")) {
-    fs::remove(path_);
-  }
-  ~TempFile() { fs::remove(path_); }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
 
 // A group whose bytes depend on its index, and its slot header.
 std::vector<std::byte> make_group(const shm::RingGeometry& g, std::uint64_t index) {
@@ -96,7 +83,7 @@ std::uint64_t chunk_address(const fs::path& path, std::uint64_t index) {
 }
 
 TEST(RingRecordingFile, GroupsAndSlotHeadersReadBackBitForBit) {
-  const TempFile file("roundtrip");
+  const test_support::TempPath file("ringrec-roundtrip", ".h5");
   const shm::RingGeometry g = small_geometry();
   write_groups(file.path(), g, 5);
 
@@ -120,7 +107,7 @@ TEST(RingRecordingFile, GroupsAndSlotHeadersReadBackBitForBit) {
 }
 
 TEST(RingRecordingFile, RefusesToOverwriteUnlessAsked) {
-  const TempFile file("exists");
+  const test_support::TempPath file("ringrec-exists", ".h5");
   write_groups(file.path(), small_geometry(), 1);
   RecordingDescription description;
   description.geometry = small_geometry();
@@ -134,7 +121,7 @@ TEST(RingRecordingFile, RefusesToOverwriteUnlessAsked) {
 }
 
 TEST(RingRecordingFile, CorruptedChunkIsNamedByGroupAndOffset) {
-  const TempFile file("corrupt");
+  const test_support::TempPath file("ringrec-corrupt", ".h5");
   const shm::RingGeometry g = small_geometry();
   write_groups(file.path(), g, 4);
   const std::uint64_t address = chunk_address(file.path(), 2);
@@ -161,7 +148,7 @@ TEST(RingRecordingFile, CorruptedChunkIsNamedByGroupAndOffset) {
 }
 
 TEST(RingRecordingFile, TruncatedFileIsRefusedOrShortened) {
-  const TempFile file("truncated");
+  const test_support::TempPath file("ringrec-truncated", ".h5");
   const shm::RingGeometry g = small_geometry();
   write_groups(file.path(), g, 6);
   const std::uint64_t address = chunk_address(file.path(), 3);
@@ -180,7 +167,7 @@ TEST(RingRecordingFile, TruncatedFileIsRefusedOrShortened) {
 }
 
 TEST(RingRecordingFile, ForeignAndWrongGeometryFilesAreRefusedNamingBothValues) {
-  const TempFile file("foreign");
+  const test_support::TempPath file("ringrec-foreign", ".h5");
   const hid_t h5 = H5Fcreate(file.path().c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
   ASSERT_GE(h5, 0);
   H5Fclose(h5);
@@ -193,7 +180,7 @@ TEST(RingRecordingFile, ForeignAndWrongGeometryFilesAreRefusedNamingBothValues) 
   }
 
   // A recording whose geometry attribute disagrees with the groups dataset's shape.
-  const TempFile wrong("geometry");
+  const test_support::TempPath wrong("ringrec-geometry", ".h5");
   write_groups(wrong.path(), small_geometry(), 2);
   {
     const hid_t f = H5Fopen(wrong.path().c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
@@ -213,7 +200,7 @@ TEST(RingRecordingFile, ForeignAndWrongGeometryFilesAreRefusedNamingBothValues) 
         << message;
   }
 
-  const TempFile text("text");
+  const test_support::TempPath text("ringrec-text", ".h5");
   std::ofstream(text.path()) << "not hdf5";
   EXPECT_THROW(RingRecordingReader{text.path()}, RingRecordingError);
 }

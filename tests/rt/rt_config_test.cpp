@@ -17,6 +17,7 @@
 
 #include "effective_config.hpp"
 #include "ioct/common/config_error.hpp"
+#include "ioct/test_support/temp_path.hpp"
 #include "rt_keys.hpp"
 #include "rt_options.hpp"
 #include "scan/scan_infeasible.hpp"
@@ -153,24 +154,13 @@ TEST(RtConfig, CrossChecksNameTheKey) {
             0u);
 }
 
-class TempFile {
- public:
-  explicit TempFile(const std::string& text)
-      : path_(std::filesystem::temp_directory_path() /
-              ("ioct-rt-config-" + std::to_string(::getpid()) + "-" + std::to_string(counter_++) +
-               ".toml")) {
-    std::ofstream(path_) << text;
-  }
-  ~TempFile() { std::filesystem::remove(path_); }
-  std::string str() const { return path_.string(); }
-
- private:
-  static inline int counter_ = 0;
-  std::filesystem::path path_;
-};
+// A configuration file for one test.
+test_support::TempPath config_file(const std::string& text) {
+  return test_support::TempPath::with_text("rt-config", ".toml", text);
+}
 
 TEST(RtConfig, SemanticErrorsFromTheFileCarryItsLineAndFlagsOverrideTheFile) {
-  const TempFile file(
+  const auto file = config_file(
       "[scan]\nbscans_per_volume = 100\n[digitizer]\nbscans_per_group = 16\n"
       "[galvo]\nmax_acceleration = 1e8\n");
   RtOptions options;
@@ -194,7 +184,7 @@ TEST(RtConfig, SemanticErrorsFromTheFileCarryItsLineAndFlagsOverrideTheFile) {
 }
 
 TEST(RtConfig, SimulatedInstrumentsComeFromTheFileOrTheFlagAndBadOnesAreLocated) {
-  const TempFile file(
+  const auto file = config_file(
       "[simulation]\ninstruments = [\"forceps:x=0.1,depth=0.3,tremor-depth=0.05,tremor-hz=0.1\", "
       "\"needle:y=-0.2\"]\n");
   RtOptions options;
@@ -216,7 +206,7 @@ TEST(RtConfig, SimulatedInstrumentsComeFromTheFileOrTheFlagAndBadOnesAreLocated)
   EXPECT_EQ(flagged.simulation.instruments[0].kind, sim::InstrumentKind::scraper);
 
   // A bad item in the file is refused at the list's line, naming the item and what is allowed.
-  const TempFile bad("[simulation]\nseed = 3\ninstruments = [\"tweezers:x=0\"]\n");
+  const auto bad = config_file("[simulation]\nseed = 3\ninstruments = [\"tweezers:x=0\"]\n");
   options.config = bad.str();
   options.overrides.clear();
   try {
@@ -228,7 +218,7 @@ TEST(RtConfig, SimulatedInstrumentsComeFromTheFileOrTheFlagAndBadOnesAreLocated)
                                          "start with forceps, needle or scraper")
         << e.what();
   }
-  const TempFile range("[simulation]\ninstruments = [\"needle:pitch=120\"]\n");
+  const auto range = config_file("[simulation]\ninstruments = [\"needle:pitch=120\"]\n");
   options.config = range.str();
   try {
     make_setup(options);
@@ -283,7 +273,7 @@ TEST(RtConfig, AFlagsBadValueIsReportedAgainstTheFlag) {
 
 TEST(RtConfig, APartsOwnCheckOfAFileKeyIsPlacedAtItsLine) {
   const auto located = [](const std::string& text) {
-    const TempFile file(text);
+    const auto file = config_file(text);
     RtOptions options;
     options.config = file.str();
     try {
@@ -345,12 +335,12 @@ std::string file_error_for(const std::string& path) {
 // Issue F7: an empty file, or one with nothing but comments, is refused rather than run on
 // defaults; so is a file cut off inside a line.
 TEST(RtConfigSafety, EmptyAndCutOffFilesAreRefused) {
-  const TempFile empty("");
+  const auto empty = config_file("");
   EXPECT_NE(file_error_for(empty.str()).find("the configuration is empty"), std::string::npos)
       << file_error_for(empty.str());
-  const TempFile comments("# a header comment\n\n");
+  const auto comments = config_file("# a header comment\n\n");
   EXPECT_NE(file_error_for(comments.str()).find("the configuration is empty"), std::string::npos);
-  const TempFile cut("[ring]\nname = \"x\"\n[control]\nstart_scan");
+  const auto cut = config_file("[ring]\nname = \"x\"\n[control]\nstart_scan");
   const std::string message = file_error_for(cut.str());
   EXPECT_NE(message.find(cut.str() + ":4:1: the file does not end with a newline"),
             std::string::npos)
@@ -364,7 +354,7 @@ TEST(RtConfigSafety, HardwareFileMustSetEverySafetyKey) {
   const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const auto control = text.find("[control]");
   ASSERT_NE(control, std::string::npos);
-  const TempFile cut(text.substr(0, control));
+  const auto cut = config_file(text.substr(0, control));
   const std::string message = file_error_for(cut.str());
   EXPECT_NE(message.find("with real hardware (digitizer.backend = \"usb\")"), std::string::npos)
       << message;
@@ -380,7 +370,7 @@ TEST(RtConfigSafety, HardwareFileMustSetEverySafetyKey) {
     const auto at = text.find("\n" + name + " = ");
     ASSERT_NE(at, std::string::npos) << "the paper config sets " << key;
     const auto end = text.find('\n', at + 1);
-    const TempFile without(text.substr(0, at) + text.substr(end));
+    const auto without = config_file(text.substr(0, at) + text.substr(end));
     EXPECT_NE(file_error_for(without.str()).find(key), std::string::npos)
         << file_error_for(without.str());
   }
@@ -400,7 +390,7 @@ TEST(RtConfigSafety, ConfigMustBeARegularFileOfBoundedSize) {
   std::filesystem::remove(fifo);
   EXPECT_NE(file_error_for("/dev/zero").find("it is a character device"), std::string::npos)
       << file_error_for("/dev/zero");
-  const TempFile huge(std::string(kMaxConfigBytes + 1, '#'));
+  const auto huge = config_file(std::string(kMaxConfigBytes + 1, '#'));
   EXPECT_NE(file_error_for(huge.str()).find("more than the"), std::string::npos);
 }
 
