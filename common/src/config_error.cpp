@@ -8,7 +8,7 @@ namespace ioct {
 
 ConfigError::ConfigError(std::string key, std::string value, std::string_view allowed)
     : std::invalid_argument(key + " = " + value + ": " + std::string(allowed)),
-      key_(std::move(key)),
+      Error(ErrorCategory::config, std::move(key)),
       value_(std::move(value)) {}
 
 std::string format_value(std::uint64_t value) {

@@ -60,6 +60,7 @@ class RegularFile {
 InputFileError::InputFileError(std::string_view what, const std::string& path, std::string reason)
     : std::runtime_error("cannot read " + std::string(what) + " '" + quote_input(path, 200) +
                          "': " + reason),
+      Error(ErrorCategory::data),
       reason_(std::move(reason)) {}
 
 std::uint64_t regular_file_size(const std::string& path, std::string_view what) {

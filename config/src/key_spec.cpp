@@ -243,6 +243,7 @@ ConfigFileError::ConfigFileError(const std::string& file, SourcePosition positio
                                  const std::string& message)
     : std::runtime_error(file + ":" + std::to_string(position.line) + ":" +
                          std::to_string(position.column) + ": " + message),
+      Error(ErrorCategory::config),
       file_(file),
       position_(position) {}
 
@@ -419,8 +420,17 @@ void read_toml(const std::string& text, const std::string& origin,
   refuse_unknown(root, "", specs, origin);
 }
 
+ConfigFileError::ConfigFileError(const std::string& file, const std::string& message)
+    : std::runtime_error(message), Error(ErrorCategory::config), file_(file) {}
+
 std::string read_config_file(const std::string& path) {
-  std::string text = read_small_file(path, "the configuration file", kMaxConfigBytes);
+  std::string text;
+  try {
+    text = read_small_file(path, "the configuration file", kMaxConfigBytes);
+  } catch (const InputFileError& e) {
+    // The configuration, not the data, is what cannot be used: refused as a configuration is.
+    throw ConfigFileError(path, e.what());
+  }
   // A file cut off part-way (a partial copy) mostly ends inside a line: refused. One cut at a
   // line end still misses its later keys, which a process may require (ioct-rt with hardware).
   if (!text.empty() && text.back() != '\n') {

@@ -10,6 +10,7 @@
 #include <string>
 #include <thread>
 
+#include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/line_server.hpp"
 #include "ioct/common/stop_signals.hpp"
@@ -87,7 +88,7 @@ int main(int argc, char** argv) {
   app.add_option("--label", config.label, "the name this reader shows to ioct-rt");
   CLI11_PARSE(app, argc, argv);
 
-  try {
+  return ioct::run_command("ioct-record", [&]() -> int {
     config.out = out;
     if (max_mb < 0 || max_mb > 1e12) {
       throw ioct::ConfigError("max-mb", ioct::format_value(max_mb), "must be in [0, 1e12]");
@@ -136,14 +137,5 @@ int main(int argc, char** argv) {
       return 3;
     }
     return 0;
-  } catch (const ioct::ConfigError& e) {
-    std::cerr << "ioct-record: " << e.what() << std::endl;
-    return 2;
-  } catch (const ioct::shm::RingError& e) {
-    std::cerr << "ioct-record: " << e.what() << std::endl;
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "ioct-record: " << e.what() << std::endl;
-    return 1;
-  }
+  });
 }

@@ -18,6 +18,7 @@
 #include "backends.hpp"
 #include "control_protocol.hpp"
 #include "effective_config.hpp"
+#include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/input_file.hpp"
 #include "ioct/concurrency/monotonic_clock.hpp"
@@ -40,9 +41,6 @@
 namespace {
 
 using namespace ioct;
-
-constexpr int kExitRuntimeError = 1;
-constexpr int kExitBadConfig = 2;
 
 void say(const std::string& line) {
   std::fprintf(stderr, "ioct-rt: %s\n", line.c_str());
@@ -462,7 +460,7 @@ int Process::run() {
   if (loop_->failed()) {
     say("error: acquisition failed: " + loop_->failure());
     say(rt::format_summary(last, first, budget_ns_) + " | ring '" + setup_.ring.name + "' closed");
-    return kExitRuntimeError;
+    return ioct::kExitFailed;
   }
   say(reason + " | " + rt::format_summary(last, first, budget_ns_) + " | ring '" +
       setup_.ring.name + "' closed");
@@ -490,10 +488,10 @@ int check_config(const rt::RtOptions& options) {
       setup.ring.geometry, setup.ring.slot_count, setup.ring.slot_payload_capacity);
   const std::optional<std::uint64_t> room = shm::room_for_object(setup.ring.name);
   if (room && layout.total_bytes > *room) {
-    say("error: invalid configuration: ring.slots = " + std::to_string(c.ring_slots) +
+    say("invalid configuration: ring.slots = " + std::to_string(c.ring_slots) +
         ": the ring needs " + std::to_string(layout.total_bytes) + " bytes, " +
         shm::object_path(setup.ring.name) + " has room for " + std::to_string(*room));
-    return kExitBadConfig;
+    return ioct::kExitRefused;
   }
   std::printf("ring: %llu bytes, %s bytes free where it lives\n%s",
               static_cast<unsigned long long>(layout.total_bytes),
@@ -526,31 +524,7 @@ int main(int argc, char** argv) {
   rt::add_rt_options(app, options);
   CLI11_PARSE(app, argc, argv);
 
-  try {
-    return run(options);
-  } catch (const rt::ConfigFileError& e) {
-    say(std::string("error: invalid configuration: ") + e.what());
-    return kExitBadConfig;
-  } catch (const ioct::InputFileError& e) {
-    say(std::string("error: invalid configuration: ") + e.what());
-    return kExitBadConfig;
-  } catch (const rt::ScanInfeasible& e) {
-    say(std::string("error: invalid configuration: ") + e.what());
-    return kExitBadConfig;
-  } catch (const ioct::ConfigError& e) {
-    const std::string option = rt::option_for_key(e.key());
-    say(std::string("error: invalid configuration: ") + e.what() +
-        (option.empty() ? "" : " (option " + option + ")"));
-    return kExitBadConfig;
-  } catch (const shm::RingError& e) {
-    if (e.code() == shm::RingErrc::bad_config) {
-      say(std::string("error: invalid configuration: ") + e.what());
-      return kExitBadConfig;
-    }
-    say(std::string("error: ") + e.what());
-    return kExitRuntimeError;
-  } catch (const std::exception& e) {
-    say(std::string("error: ") + e.what());
-    return kExitRuntimeError;
-  }
+  return ioct::run_command(
+      "ioct-rt", [&]() -> int { return run(options); },
+      [](const std::string& key) { return rt::option_for_key(key); });
 }

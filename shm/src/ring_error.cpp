@@ -34,4 +34,18 @@ std::string_view to_string(RingErrc code) noexcept {
   return "unknown";
 }
 
+ErrorCategory category_of(RingErrc code) noexcept {
+  switch (code) {
+    case RingErrc::bad_config:
+      return ErrorCategory::config;
+    case RingErrc::too_small:
+    case RingErrc::foreign:
+    case RingErrc::wrong_version:
+    case RingErrc::corrupt:
+      return ErrorCategory::data;
+    default:
+      return ErrorCategory::environment;
+  }
+}
+
 }  // namespace ioct::shm

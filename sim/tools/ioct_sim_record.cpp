@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/recording/recording_writer.hpp"
@@ -266,16 +267,5 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);  // prints help or the error
     return code == 0 ? 0 : kExitBadConfig;
   }
-  try {
-    return run(o);
-  } catch (const ConfigError& e) {
-    std::fprintf(stderr, "ioct-sim-record: error: invalid configuration: %s\n", e.what());
-    return kExitBadConfig;
-  } catch (const recording::RecordingError& e) {
-    std::fprintf(stderr, "ioct-sim-record: error: %s\n", e.what());
-    return kExitIoError;
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "ioct-sim-record: error: %s\n", e.what());
-    return kExitIoError;
-  }
+  return ioct::run_command("ioct-sim-record", [&]() -> int { return run(o); });
 }

@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <iostream>
 
+#include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "operator_token.hpp"
 #include "view_config.hpp"
@@ -60,7 +61,7 @@ int main(int argc, char** argv) {
                  "toggle-stereo");
   CLI11_PARSE(app, argc, argv);
 
-  try {
+  return ioct::run_command("ioct-view", [&]() -> int {
     const auto colon = listen.rfind(':');
     if (colon == std::string::npos) {
       throw ioct::ConfigError("view.listen", "'" + listen + "'", "must be HOST:PORT");
@@ -100,11 +101,5 @@ int main(int argc, char** argv) {
     server.run();
     std::cerr << "ioct-view: stopped\n";
     return EXIT_SUCCESS;
-  } catch (const ioct::ConfigError& e) {
-    std::cerr << "ioct-view: invalid option: " << e.what() << "\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "ioct-view: " << e.what() << "\n";
-    return 1;
-  }
+  });
 }

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "ioct/common/atomic_file.hpp"
+#include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/offline/calibration_file.hpp"
@@ -177,7 +178,7 @@ int main(int argc, char** argv) {
   poly_option->excludes(calibration_option);
   CLI11_PARSE(app, argc, argv);
 
-  try {
+  return ioct::run_command("ioct-dispersion", [&]() -> int {
     if (file.path.empty() == ring.empty()) {
       throw ioct::ConfigError("source", "''", "give exactly one of --group-file or --ring");
     }
@@ -265,11 +266,5 @@ int main(int argc, char** argv) {
       ioct::write_text_file_atomically(json_path, j.dump(2) + "\n");
     }
     return EXIT_SUCCESS;
-  } catch (const ioct::ConfigError& e) {
-    std::cerr << "ioct-dispersion: invalid option: " << e.what() << "\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "ioct-dispersion: error: " << e.what() << "\n";
-    return 1;
-  }
+  });
 }

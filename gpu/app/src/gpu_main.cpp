@@ -12,6 +12,7 @@
 #include <string>
 
 #include "gpu_config.hpp"
+#include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/input_file.hpp"
 #include "ioct/common/stop_signals.hpp"
@@ -61,78 +62,61 @@ int main(int argc, char** argv) {
                "print every configuration key as the Markdown table of docs/config-keys.md, exit");
   CLI11_PARSE(app, argc, argv);
 
-  try {
-    if (config_keys) {
-      std::cout << gpu_keys().markdown();
-      return EXIT_SUCCESS;
-    }
-    GpuSetup setup = make_gpu_setup(config_file, overrides);
-    if (check_config) {
-      std::cout << "# effective configuration (file, then flags, then defaults)\n"
-                << gpu_keys().to_toml(setup.config);
-      return EXIT_SUCCESS;
-    }
-    LiveConfig& config = setup.live;
-    config.run_s = run_s;
-    config.exit_when_producer_gone = exit_when_producer_gone;
-    config.validate();
-    LiveProcessor processor(config);
-    if (config.backend == Backend::cuda) {
-      (void)make_oct_processor(config.backend, config.processing);  // fail before waiting
-    }
-    // "auto" is resolved once the ring is attached (LiveProcessor), with one warning when it
-    // falls back to the CPU.
-    std::unique_ptr<live::VolumeStages> volume_stages;
-    if (setup.stages) {
-      volume_stages = std::make_unique<live::VolumeStages>(*setup.stages);
-      processor.set_stage(volume_stages.get());
-    }
-    std::unique_ptr<live::ProcessingViewControl> controls;
-    std::unique_ptr<live::ViewSocket> socket;
-    if (setup.socket) {
-      // The views' parameters and the processing's dB range, as the viewers change them.
-      controls = std::make_unique<live::ProcessingViewControl>(
-          *volume_stages, [&processor] { return processor.db_range(); },
-          [&processor](const DbScaleConfig& scale) { processor.set_db_range(scale); });
-      socket = std::make_unique<live::ViewSocket>(*setup.socket, *controls);
-    }
-    processor.set_status_stream(&std::cerr);
-    g_processor = &processor;
-    ioct::install_stop_handler(on_stop_signal);
-    const RunSummary summary = processor.run();
-    g_processor = nullptr;
-    socket.reset();
+  return ioct::run_command(
+      "ioct-gpu",
+      [&]() -> int {
+        if (config_keys) {
+          std::cout << gpu_keys().markdown();
+          return EXIT_SUCCESS;
+        }
+        GpuSetup setup = make_gpu_setup(config_file, overrides);
+        if (check_config) {
+          std::cout << "# effective configuration (file, then flags, then defaults)\n"
+                    << gpu_keys().to_toml(setup.config);
+          return EXIT_SUCCESS;
+        }
+        LiveConfig& config = setup.live;
+        config.run_s = run_s;
+        config.exit_when_producer_gone = exit_when_producer_gone;
+        config.validate();
+        LiveProcessor processor(config);
+        if (config.backend == Backend::cuda) {
+          (void)make_oct_processor(config.backend, config.processing);  // fail before waiting
+        }
+        // "auto" is resolved once the ring is attached (LiveProcessor), with one warning when it
+        // falls back to the CPU.
+        std::unique_ptr<live::VolumeStages> volume_stages;
+        if (setup.stages) {
+          volume_stages = std::make_unique<live::VolumeStages>(*setup.stages);
+          processor.set_stage(volume_stages.get());
+        }
+        std::unique_ptr<live::ProcessingViewControl> controls;
+        std::unique_ptr<live::ViewSocket> socket;
+        if (setup.socket) {
+          // The views' parameters and the processing's dB range, as the viewers change them.
+          controls = std::make_unique<live::ProcessingViewControl>(
+              *volume_stages, [&processor] { return processor.db_range(); },
+              [&processor](const DbScaleConfig& scale) { processor.set_db_range(scale); });
+          socket = std::make_unique<live::ViewSocket>(*setup.socket, *controls);
+        }
+        processor.set_status_stream(&std::cerr);
+        g_processor = &processor;
+        ioct::install_stop_handler(on_stop_signal);
+        const RunSummary summary = processor.run();
+        g_processor = nullptr;
+        socket.reset();
 
-    std::cerr << "ioct-gpu: stopped (" << to_string(summary.stop_reason) << ") after "
-              << summary.counters.groups_processed << " groups, "
-              << summary.counters.volumes_completed << " volumes" << std::endl;
-    if (summary.images) {
-      std::cout << "bscan:   " << summary.images->bscan_png.string() << "\n"
-                << "enface:  " << summary.images->enface_png.string() << "\n";
-    } else {
-      std::cout << "no images: no B-scan was processed\n";
-    }
-    std::cout << "summary: " << summary.summary_json.string() << std::endl;
-    return EXIT_SUCCESS;
-  } catch (const ioct::config::ConfigFileError& e) {
-    std::cerr << "ioct-gpu: invalid configuration: " << e.what() << "\n";
-    return 2;
-  } catch (const ioct::InputFileError& e) {
-    std::cerr << "ioct-gpu: invalid configuration: " << e.what() << "\n";
-    return 2;
-  } catch (const ioct::ConfigError& e) {
-    const std::string flag = gpu_keys().flag_for(e.key());
-    std::cerr << "ioct-gpu: invalid configuration: " << e.what()
-              << (flag.empty() ? "" : " (option " + flag + ")") << "\n";
-    return 2;
-  } catch (const BackendUnavailable& e) {
-    std::cerr << "ioct-gpu: " << e.what() << "\n";
-    return 2;
-  } catch (const ioct::shm::RingError& e) {
-    std::cerr << "ioct-gpu: " << e.what() << "\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "ioct-gpu: error: " << e.what() << "\n";
-    return 1;
-  }
+        std::cerr << "ioct-gpu: stopped (" << to_string(summary.stop_reason) << ") after "
+                  << summary.counters.groups_processed << " groups, "
+                  << summary.counters.volumes_completed << " volumes" << std::endl;
+        if (summary.images) {
+          std::cout << "bscan:   " << summary.images->bscan_png.string() << "\n"
+                    << "enface:  " << summary.images->enface_png.string() << "\n";
+        } else {
+          std::cout << "no images: no B-scan was processed\n";
+        }
+        std::cout << "summary: " << summary.summary_json.string() << std::endl;
+        return EXIT_SUCCESS;
+      },
+      [](const std::string& key) { return gpu_keys().flag_for(key); });
 }

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "ioct/common/atomic_file.hpp"
+#include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/offline/calibration_file.hpp"
 #include "ioct/gpu/offline/input_file_error.hpp"
@@ -135,7 +136,7 @@ int main(int argc, char** argv) {
   app.add_option("--png", png, "also write the centre B-scan as PNG");
   CLI11_PARSE(app, argc, argv);
 
-  try {
+  return ioct::run_command("ioct-process", [&]() -> int {
     layout.byte_order = parse_byte_order(byte_order);
     std::string warning;
     settings.backend = resolve_backend(parse_backend(backend), &warning);
@@ -263,23 +264,5 @@ int main(int argc, char** argv) {
               << ")\n";
     if (!png.empty()) std::cout << "bscan:  " << png << "\n";
     return EXIT_SUCCESS;
-  } catch (const ioct::ConfigError& e) {
-    std::cerr << "ioct-process: invalid option: " << e.what() << "\n";
-    return 2;
-  } catch (const BackendUnavailable& e) {
-    std::cerr << "ioct-process: " << e.what() << "\n";
-    return 2;
-  } catch (const ioct::recording::RecordingError& e) {
-    std::cerr << "ioct-process: bad input: " << e.what() << "\n";
-    return 1;
-  } catch (const ioct::ringrec::RingRecordingError& e) {
-    std::cerr << "ioct-process: bad input: " << e.what() << "\n";
-    return 1;
-  } catch (const InputFileError& e) {
-    std::cerr << "ioct-process: bad input: " << e.what() << "\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "ioct-process: error: " << e.what() << "\n";
-    return 1;
-  }
+  });
 }

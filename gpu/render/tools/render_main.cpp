@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "ioct/common/atomic_file.hpp"
+#include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
 #include "ioct/gpu/offline/input_file_error.hpp"
@@ -144,7 +145,7 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : 2;
   }
 
-  try {
+  return ioct::run_command("ioct-render", [&]() -> int {
     if (width < 1 || width > 8192) {
       throw ioct::ConfigError("render.view.output_width", ioct::format_value(width),
                               "must be in [1, 8192]");
@@ -255,17 +256,5 @@ int main(int argc, char** argv) {
               << "), reference: " << reference << ", " << renderer->backend_name() << ", "
               << written.size() << " outputs in " << seconds << " s -> " << out << "\n";
     return 0;
-  } catch (const ioct::ConfigError& e) {
-    std::cerr << "ioct-render: " << e.what() << "\n";
-    return 2;
-  } catch (const BackendUnavailable& e) {
-    std::cerr << "ioct-render: " << e.what() << "\n";
-    return 2;
-  } catch (const offline::InputFileError& e) {
-    std::cerr << "ioct-render: " << e.what() << "\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "ioct-render: " << input << ": " << e.what() << "\n";
-    return 1;
-  }
+  });
 }

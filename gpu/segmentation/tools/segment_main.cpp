@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "ioct/common/atomic_file.hpp"
+#include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
 #include "ioct/gpu/offline/input_file_error.hpp"
@@ -90,7 +91,7 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : 2;
   }
 
-  try {
+  return ioct::run_command("ioct-segment", [&]() -> int {
     const Backend backend = parse_backend(backend_text);
     if (filter != "auto" && filter != "yes" && filter != "no") {
       throw ioct::ConfigError("filter", "'" + filter + "'", "must be auto, yes or no");
@@ -179,20 +180,5 @@ int main(int argc, char** argv) {
               << counts[static_cast<int>(SurfaceState::none)] << "; " << segmenter->backend_name()
               << ", " << seconds << " s -> " << csv.string() << "\n";
     return 0;
-  } catch (const ioct::ConfigError& e) {
-    std::cerr << "ioct-segment: " << e.what() << "\n";
-    return 2;
-  } catch (const BackendUnavailable& e) {
-    std::cerr << "ioct-segment: " << e.what() << "\n";
-    return 2;
-  } catch (const offline::InputFileError& e) {
-    std::cerr << "ioct-segment: " << e.what() << "\n";
-    return 1;
-  } catch (const std::invalid_argument& e) {
-    std::cerr << "ioct-segment: " << input << ": " << e.what() << "\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "ioct-segment: " << e.what() << "\n";
-    return 1;
-  }
+  });
 }

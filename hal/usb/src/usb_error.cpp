@@ -9,7 +9,7 @@
 namespace ioct::hal::usb {
 
 UsbError::UsbError(const std::string& what, int libusb_code)
-    : std::runtime_error(what), libusb_code_(libusb_code) {}
+    : std::runtime_error(what), Error(ErrorCategory::device), libusb_code_(libusb_code) {}
 
 std::string usbfs_memory_advice(std::uint64_t bytes_in_flight, std::string_view limit_file) {
   std::string limit = "unreadable";

@@ -5,14 +5,18 @@
 #include <stdexcept>
 #include <string>
 
+#include "ioct/common/error.hpp"
+
 namespace ioct::rt {
 
-class ScanInfeasible : public std::invalid_argument {
+// Category config; its key is the limit's.
+class ScanInfeasible : public std::invalid_argument, public Error {
  public:
   // `limit`: the config key of the limit ("galvo.max_acceleration", "scan.field", ...);
   // `required` and `allowed` in the limit's units; `message` the whole sentence.
   ScanInfeasible(std::string limit, double required, double allowed, const std::string& message)
       : std::invalid_argument(message),
+        Error(ErrorCategory::config, limit),
         limit_(std::move(limit)),
         required_(required),
         allowed_(allowed) {}

@@ -7,19 +7,20 @@
 #include <string>
 #include <string_view>
 
+#include "ioct/common/error.hpp"
+
 namespace ioct {
 
-class ConfigError : public std::invalid_argument {
+// Category config (error.hpp); key() is the key it names.
+class ConfigError : public std::invalid_argument, public Error {
  public:
   // what(): "<key> = <value>: <allowed>", e.g. "digitizer.samples_per_ascan = 0: must be in
   // [64, 16384]".
   ConfigError(std::string key, std::string value, std::string_view allowed);
 
-  const std::string& key() const noexcept { return key_; }
   const std::string& value() const noexcept { return value_; }
 
  private:
-  std::string key_;
   std::string value_;
 };
 

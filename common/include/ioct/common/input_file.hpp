@@ -8,10 +8,13 @@
 #include <string>
 #include <string_view>
 
+#include "ioct/common/error.hpp"
+
 namespace ioct {
 
 // "cannot read <what> '<path>': <reason>".
-class InputFileError : public std::runtime_error {
+// Category data (error.hpp).
+class InputFileError : public std::runtime_error, public Error {
  public:
   InputFileError(std::string_view what, const std::string& path, std::string reason);
   // Why, without the file: "it is a FIFO, not a regular file".

@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "ioct/common/error.hpp"
+
 namespace ioct::config {
 
 // Where a key came from in a file: "scan.extent_x" -> line 12, column 1.
@@ -15,10 +17,12 @@ struct SourcePosition {
 };
 using KeyPositions = std::map<std::string, SourcePosition>;
 
-// A configuration file's error: "<file>:<line>:<column>: <ConfigError text>".
-class ConfigFileError : public std::runtime_error {
+// A configuration file's error: "<file>:<line>:<column>: <ConfigError text>". Category config.
+class ConfigFileError : public std::runtime_error, public Error {
  public:
   ConfigFileError(const std::string& file, SourcePosition position, const std::string& message);
+  // An error of the file as a whole (it could not be read): `message` as it is.
+  ConfigFileError(const std::string& file, const std::string& message);
   const std::string& file() const noexcept { return file_; }
   SourcePosition position() const noexcept { return position_; }
 

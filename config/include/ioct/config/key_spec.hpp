@@ -67,8 +67,7 @@ void read_toml(const std::string& text, const std::string& origin,
                const std::function<void(std::size_t, Value)>& found, KeyPositions* positions);
 
 // A configuration file's text: a regular file of at most kMaxConfigBytes that ends with a newline
-// (one that does not was most likely cut off part-way: refused). Throws ConfigFileError or
-// ioct::InputFileError.
+// (one that does not was most likely cut off part-way: refused). Throws ConfigFileError.
 std::string read_config_file(const std::string& path);
 
 // The keys and their values as a TOML document, table by table, in declaration order.

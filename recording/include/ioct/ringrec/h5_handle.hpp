@@ -7,13 +7,15 @@
 
 #include <stdexcept>
 #include <string>
+#include "ioct/common/error.hpp"
 
 namespace ioct::ringrec {
 
 // An HDF5 call that failed, with what the library said (the innermost messages of its stack).
-class H5Error : public std::runtime_error {
+class H5Error : public std::runtime_error, public Error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit H5Error(const std::string& what)
+      : std::runtime_error(what), Error(ErrorCategory::data) {}
 };
 
 // The library's own error stack, as one line ("H5Dwrite_chunk: ... ; ..."); empty when none.

@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "ioct/common/error.hpp"
 #include "ioct/ringrec/h5_handle.hpp"
 #include "ioct/ringrec/ring_recording_format.hpp"
 #include "ioct/shm/ring_geometry.hpp"
@@ -19,9 +20,10 @@
 
 namespace ioct::ringrec {
 
-class RingRecordingError : public std::runtime_error {
+class RingRecordingError : public std::runtime_error, public Error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit RingRecordingError(const std::string& what)
+      : std::runtime_error(what), Error(ErrorCategory::data) {}
 };
 
 class RingRecordingReader {

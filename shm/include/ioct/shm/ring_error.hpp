@@ -5,6 +5,8 @@
 #include <string>
 #include <string_view>
 
+#include "ioct/common/error.hpp"
+
 namespace ioct::shm {
 
 enum class RingErrc {
@@ -25,9 +27,14 @@ enum class RingErrc {
 
 std::string_view to_string(RingErrc code) noexcept;
 
-class RingError : public std::runtime_error {
+// The category (ioct/common/error.hpp) of a ring error with this code: bad_config is config, a
+// damaged or foreign object is data, the rest (missing, not ready, rights, room) environment.
+ErrorCategory category_of(RingErrc code) noexcept;
+
+class RingError : public std::runtime_error, public Error {
  public:
-  RingError(RingErrc code, const std::string& message) : std::runtime_error(message), code_(code) {}
+  RingError(RingErrc code, const std::string& message)
+      : std::runtime_error(message), Error(category_of(code)), code_(code) {}
   RingErrc code() const noexcept { return code_; }
 
  private:

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include "ioct/common/error.hpp"
 
 namespace ioct::recording {
 
@@ -37,9 +38,10 @@ inline constexpr std::uint32_t kStatusTimeout = 1u << 3;
 inline constexpr std::uint32_t kStatusDeviceLost = 1u << 4;
 
 // Any problem with a recording's files: the message names the file and what is wrong with it.
-class RecordingError : public std::runtime_error {
+class RecordingError : public std::runtime_error, public Error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit RecordingError(const std::string& what)
+      : std::runtime_error(what), Error(ErrorCategory::data) {}
 };
 
 struct RecordingGeometry {

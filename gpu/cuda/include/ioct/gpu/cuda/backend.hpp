@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include "ioct/common/error.hpp"
 
 namespace ioct::gpu {
 
@@ -33,9 +34,10 @@ Backend resolve_backend(Backend requested, std::string* warning = nullptr);
 // code for, with the rebuild flag), or nothing when it can. Only in builds with CUDA.
 std::optional<std::string> cuda_device_problem();
 
-class BackendUnavailable : public std::runtime_error {
+class BackendUnavailable : public std::runtime_error, public Error {
  public:
-  using std::runtime_error::runtime_error;
+  explicit BackendUnavailable(const std::string& what)
+      : std::runtime_error(what), Error(ErrorCategory::config) {}
 };
 
 }  // namespace ioct::gpu

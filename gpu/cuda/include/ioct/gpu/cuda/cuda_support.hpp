@@ -15,33 +15,54 @@
 #include <string>
 #include <utility>
 
+#include "ioct/common/error.hpp"
+
 namespace ioct::gpu::cuda {
 
 std::string describe(cudaError_t status);
 std::string describe(cufftResult status);
 
-// Throws std::runtime_error "<what> failed: <error name> (<error text>)".
+// A CUDA runtime or cuFFT call that failed: category device (ioct/common/error.hpp), with the
+// status it returned so a caller can tell an out-of-memory from a lost device.
+class CudaError : public std::runtime_error, public Error {
+ public:
+  CudaError(const std::string& message, cudaError_t status)
+      : std::runtime_error(message), Error(ErrorCategory::device), status_(status) {}
+  CudaError(const std::string& message, cufftResult status)
+      : std::runtime_error(message), Error(ErrorCategory::device), cufft_status_(status) {}
+  // cudaSuccess for a cuFFT error, and CUFFT_SUCCESS for a runtime one.
+  cudaError_t status() const noexcept { return status_; }
+  cufftResult cufft_status() const noexcept { return cufft_status_; }
+
+ private:
+  cudaError_t status_ = cudaSuccess;
+  cufftResult cufft_status_ = CUFFT_SUCCESS;
+};
+
+// Throws CudaError "<what> failed: <error name> (<error text>)".
 inline void check(cudaError_t status, const char* what) {
   if (status != cudaSuccess)
-    throw std::runtime_error(std::string(what) + " failed: " + describe(status));
+    throw CudaError(std::string(what) + " failed: " + describe(status), status);
 }
 inline void check(cufftResult status, const char* what) {
   if (status != CUFFT_SUCCESS) {
-    throw std::runtime_error(std::string(what) + " failed: " + describe(status));
+    throw CudaError(std::string(what) + " failed: " + describe(status), status);
   }
 }
 
-// Throws std::runtime_error "<file>:<line>: <what> failed: <error name> (<error text>)".
+// Throws CudaError "<file>:<line>: <what> failed: <error name> (<error text>)".
 inline void check(cudaError_t status, const char* what, const char* file, int line) {
   if (status != cudaSuccess) {
-    throw std::runtime_error(std::string(file) + ":" + std::to_string(line) + ": " + what +
-                             " failed: " + describe(status));
+    throw CudaError(std::string(file) + ":" + std::to_string(line) + ": " + what +
+                        " failed: " + describe(status),
+                    status);
   }
 }
 inline void check(cufftResult status, const char* what, const char* file, int line) {
   if (status != CUFFT_SUCCESS) {
-    throw std::runtime_error(std::string(file) + ":" + std::to_string(line) + ": " + what +
-                             " failed: " + describe(status));
+    throw CudaError(std::string(file) + ":" + std::to_string(line) + ": " + what +
+                        " failed: " + describe(status),
+                    status);
   }
 }
 

@@ -13,10 +13,13 @@
 
 namespace ioct::gpu::offline {
 
-class InputFileError : public std::runtime_error {
+// Category data (ioct/common/error.hpp).
+class InputFileError : public std::runtime_error, public Error {
  public:
   InputFileError(const std::filesystem::path& path, std::string_view problem)
-      : std::runtime_error(path.string() + ": " + std::string(problem)), path_(path) {}
+      : std::runtime_error(path.string() + ": " + std::string(problem)),
+        Error(ErrorCategory::data),
+        path_(path) {}
   const std::filesystem::path& path() const noexcept { return path_; }
 
  private:

@@ -6,9 +6,12 @@
 #include <string>
 #include <string_view>
 
+#include "ioct/common/error.hpp"
+
 namespace ioct::hal::usb {
 
-class UsbError : public std::runtime_error {
+// Category device (ioct/common/error.hpp).
+class UsbError : public std::runtime_error, public Error {
  public:
   // libusb_code: a LIBUSB_ERROR_* value, or 0 where the failure is not libusb's (a protocol
   // mismatch, a missing endpoint).
