@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "ioct/common/command_main.hpp"
+#include "ioct/common/error.hpp"
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/gpu/offline/bioptigen_oct.hpp"
 #include "ioct/gpu/offline/heidelberg_vol.hpp"
@@ -39,13 +41,13 @@ int import_bioptigen(const Options& o, std::vector<fs::path>& committed) {
   const BioptigenOct oct = read_bioptigen_oct(o.input);
   const BioptigenHeader& h = oct.header;
   if (o.repeat && *o.repeat >= oct.repeats) {
-    std::cerr << "ioct-vol-import: invalid option: --repeat " << *o.repeat << " (the file has "
+    std::cerr << "ioct-vol-import: invalid configuration: --repeat " << *o.repeat << " (the file has "
               << oct.repeats << " frame(s) per position)\n";
     return 2;
   }
   const int bscan = o.bscan < 0 ? static_cast<int>(oct.positions / 2) : o.bscan;
   if (bscan >= static_cast<int>(oct.positions)) {
-    std::cerr << "ioct-vol-import: invalid option: --bscan " << bscan << " (the file has "
+    std::cerr << "ioct-vol-import: invalid configuration: --bscan " << bscan << " (the file has "
               << oct.positions << " B-scan positions)\n";
     return 2;
   }
@@ -138,7 +140,7 @@ int main(int argc, char** argv) {
                            "Bioptigen .OCT (magic number 0x0C7DA7A5) file");
     }
     if (o.repeat) {
-      std::cerr << "ioct-vol-import: invalid option: --repeat applies to Bioptigen .OCT files "
+      std::cerr << "ioct-vol-import: invalid configuration: --repeat applies to Bioptigen .OCT files "
                    "only\n";
       return 2;
     }
@@ -146,7 +148,7 @@ int main(int argc, char** argv) {
     const VolHeader& h = vol.header;
     if (bscan < 0) bscan = static_cast<int>(h.bscans / 2);
     if (bscan >= static_cast<int>(h.bscans)) {
-      std::cerr << "ioct-vol-import: invalid option: --bscan " << bscan << " (the file has "
+      std::cerr << "ioct-vol-import: invalid configuration: --bscan " << bscan << " (the file has "
                 << h.bscans << " B-scans)\n";
       return 2;
     }
@@ -219,14 +221,14 @@ int main(int argc, char** argv) {
               << "\nbscan:  " << bscan_path.string() << "\n";
     if (h.slo_width > 0 && h.slo_height > 0) std::cout << "slo:    " << slo_path.string() << "\n";
     return EXIT_SUCCESS;
-  } catch (const InputFileError& e) {
-    std::cerr << "ioct-vol-import: bad input: " << e.what() << "\n";
   } catch (const std::exception& e) {
-    std::cerr << "ioct-vol-import: error: " << e.what() << "\n";
+    // Told as every command tells it; the files already written go first, so nothing half
+    // imported is left.
+    std::cerr << ioct::describe_failure("ioct-vol-import", e) << "\n";
+    for (const fs::path& path : committed) {
+      std::error_code ignored;
+      fs::remove(path, ignored);
+    }
+    return ioct::exit_status(ioct::category_of(e));
   }
-  for (const fs::path& path : committed) {
-    std::error_code ignored;
-    fs::remove(path, ignored);
-  }
-  return 1;
 }
