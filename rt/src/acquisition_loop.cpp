@@ -69,7 +69,7 @@ double paced_sweep_period_ns(const LoopSettings& settings) noexcept {
 }  // namespace
 
 AcquisitionLoop::AcquisitionLoop(shm::RingWriter& ring, hal::Digitizer& digitizer,
-                                 hal::GalvoOutput& galvo, const ScanPattern* initial,
+                                 hal::GalvoOutput& galvo, const scan::ScanPattern* initial,
                                  LoopSettings settings)
     : ring_(ring),
       digitizer_(digitizer),
@@ -129,12 +129,12 @@ LoopReport AcquisitionLoop::report() const noexcept {
   return r;
 }
 
-bool AcquisitionLoop::offer_pattern(const ScanPattern* pattern) noexcept {
+bool AcquisitionLoop::offer_pattern(const scan::ScanPattern* pattern) noexcept {
   return pattern != nullptr && offered_.push(pattern);
 }
 
-const ScanPattern* AcquisitionLoop::take_retired() noexcept {
-  const std::optional<const ScanPattern*> p = retired_.pop();
+const scan::ScanPattern* AcquisitionLoop::take_retired() noexcept {
+  const std::optional<const scan::ScanPattern*> p = retired_.pop();
   return p ? *p : nullptr;
 }
 
@@ -222,16 +222,16 @@ void AcquisitionLoop::run() noexcept {
   if (streaming_.load(std::memory_order_relaxed)) park();
 }
 
-const ScanPattern* AcquisitionLoop::take_offered() noexcept {
-  const ScanPattern* newest = nullptr;
-  while (const std::optional<const ScanPattern*> p = offered_.pop()) {
+const scan::ScanPattern* AcquisitionLoop::take_offered() noexcept {
+  const scan::ScanPattern* newest = nullptr;
+  while (const std::optional<const scan::ScanPattern*> p = offered_.pop()) {
     if (newest != nullptr) retire(newest);  // superseded before it was ever scanned
     newest = *p;
   }
   return newest;
 }
 
-void AcquisitionLoop::retire(const ScanPattern* pattern) noexcept {
+void AcquisitionLoop::retire(const scan::ScanPattern* pattern) noexcept {
   // Flush the backlog first so patterns come back in order.
   while (retire_backlog_count_ > 0 && retired_.push(retire_backlog_[0])) {
     std::copy(retire_backlog_.begin() + 1, retire_backlog_.begin() + retire_backlog_count_,
@@ -260,7 +260,7 @@ void AcquisitionLoop::arm() noexcept {
     return;
   }
 
-  if (const ScanPattern* offered = take_offered()) {
+  if (const scan::ScanPattern* offered = take_offered()) {
     retire(current_);
     current_ = offered;
     add(counters_.scan_changes, std::uint64_t{1});
@@ -307,8 +307,8 @@ void AcquisitionLoop::feed(bool streaming) noexcept {
     }
   }
   std::uint64_t wanted = fill < feed_target_ ? feed_target_ - fill : 0;
-  const auto offer = [this]() -> const ScanPattern* {
-    const ScanPattern* next = take_offered();
+  const auto offer = [this]() -> const scan::ScanPattern* {
+    const scan::ScanPattern* next = take_offered();
     if (next != nullptr) {
       add(counters_.scan_changes, std::uint64_t{1});
       event(LoopEventKind::scan_changed, schedule_.newest().generation + 1);
@@ -362,7 +362,7 @@ void AcquisitionLoop::park() noexcept {
   // The next arming continues the volume count and scans the newest pattern.
   next_volume_ = schedule_.volume_at(last_group_sweep_) + 1;
   current_ = schedule_.newest().pattern;
-  std::array<const ScanPattern*, ScanSchedule::kMaxEntries> retired{};
+  std::array<const scan::ScanPattern*, ScanSchedule::kMaxEntries> retired{};
   const std::size_t n = schedule_.retire_before(schedule_.newest().first_sweep, retired);
   for (std::size_t i = 0; i < n; ++i) retire(retired[i]);
   add(counters_.parks, std::uint64_t{1});
@@ -481,7 +481,7 @@ void AcquisitionLoop::acquire_one_group() noexcept {
     counters_.page_faults_baseline.store(page_faults, std::memory_order_relaxed);
     counters_.steady.store(true, std::memory_order_relaxed);
   }
-  std::array<const ScanPattern*, ScanSchedule::kMaxEntries> retired{};
+  std::array<const scan::ScanPattern*, ScanSchedule::kMaxEntries> retired{};
   const std::size_t n = schedule_.retire_before(info.first_sweep_counter, retired);
   for (std::size_t i = 0; i < n; ++i) retire(retired[i]);
   if (retire_backlog_count_ > 0) retire(nullptr);

@@ -27,9 +27,9 @@
 #include "ioct/concurrency/spsc_queue.hpp"
 #include "ioct/hal/digitizer.hpp"
 #include "ioct/hal/galvo_output.hpp"
+#include "ioct/scan/scan_pattern.hpp"
 #include "ioct/shm/ring_writer.hpp"
 #include "realtime_setup.hpp"
-#include "scan/scan_pattern.hpp"
 #include "scan_schedule.hpp"
 #include "sweep_clock.hpp"
 
@@ -112,7 +112,7 @@ class AcquisitionLoop {
   // `ring`, `digitizer` (prepared with settings.geometry), `galvo` (prepared) and `initial` must
   // outlive the loop. `initial` is the pattern scanned until another is offered.
   AcquisitionLoop(shm::RingWriter& ring, hal::Digitizer& digitizer, hal::GalvoOutput& galvo,
-                  const ScanPattern* initial, LoopSettings settings);
+                  const scan::ScanPattern* initial, LoopSettings settings);
   AcquisitionLoop(const AcquisitionLoop&) = delete;
   AcquisitionLoop& operator=(const AcquisitionLoop&) = delete;
   ~AcquisitionLoop();
@@ -133,8 +133,8 @@ class AcquisitionLoop {
 
   // The housekeeping side. A pattern for the same timing, alive until handed back by
   // take_retired(); false when the mailbox is full (a change is already pending).
-  bool offer_pattern(const ScanPattern* pattern) noexcept;
-  const ScanPattern* take_retired() noexcept;
+  bool offer_pattern(const scan::ScanPattern* pattern) noexcept;
+  const scan::ScanPattern* take_retired() noexcept;
   std::optional<LoopEvent> take_event() noexcept { return events_.pop(); }
   LoopCounters counters() const noexcept;
   // A snapshot (a copy) of the histogram the acquisition thread fills.
@@ -153,8 +153,8 @@ class AcquisitionLoop {
   void park() noexcept;
   // Tops the DAC FIFO up to its target; `streaming`: note the fill it found as the margin.
   void feed(bool streaming) noexcept;
-  const ScanPattern* take_offered() noexcept;
-  void retire(const ScanPattern* pattern) noexcept;
+  const scan::ScanPattern* take_offered() noexcept;
+  void retire(const scan::ScanPattern* pattern) noexcept;
   void post_fault(std::uint32_t faults) noexcept;
   void wait_for_park_command() noexcept;
   // Sleeps until `deadline_ns` in slices; false when the command changed meanwhile.
@@ -182,14 +182,14 @@ class AcquisitionLoop {
   std::atomic<std::uint64_t> clock_start_ns_{0};
 
   // Housekeeping ↔ thread.
-  SpscQueue<const ScanPattern*> offered_{4};
-  SpscQueue<const ScanPattern*> retired_{16};
+  SpscQueue<const scan::ScanPattern*> offered_{4};
+  SpscQueue<const scan::ScanPattern*> retired_{16};
   SpscQueue<LoopEvent> events_{256};
   std::atomic<bool> failed_{false};
   std::string failure_;  // written by the thread before failed_ (release)
 
   // The thread's own state.
-  const ScanPattern* current_;
+  const scan::ScanPattern* current_;
   ScanSchedule schedule_;
   SweepClock clock_;
   std::uint32_t generation_ = 0;
@@ -204,7 +204,7 @@ class AcquisitionLoop {
   bool deadline_faults_ = true;    // decided when the thread starts (see LoopSettings)
   std::uint64_t groups_this_cycle_ = 0;
   std::uint64_t last_group_sweep_ = 0;
-  std::array<const ScanPattern*, 16> retire_backlog_{};
+  std::array<const scan::ScanPattern*, 16> retire_backlog_{};
   std::size_t retire_backlog_count_ = 0;
 
   struct AtomicCounters {

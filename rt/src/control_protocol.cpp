@@ -127,13 +127,14 @@ std::variant<ControlRequest, ControlParseError> parse_control_line(std::string_v
   return request;
 }
 
-ScanSpec apply_scan_changes(const ScanSpec& base, const nlohmann::json& changes) {
-  ScanSpec spec = base;
+scan::ScanSpec apply_scan_changes(const scan::ScanSpec& base, const nlohmann::json& changes) {
+  scan::ScanSpec spec = base;
   for (const auto& [member, value] : changes.items()) {
     const std::string key = "scan." + member;
     if (member == "pattern") {
       if (!value.is_string()) throw ConfigError(key, shown(value), "must be a string");
-      const std::optional<ScanKind> kind = scan_kind_from_string(value.get<std::string>());
+      const std::optional<scan::ScanKind> kind =
+          scan::scan_kind_from_string(value.get<std::string>());
       if (!kind) {
         throw ConfigError(key, shown(value),
                           "must be one of raster, bidirectional, crosshair, radial");

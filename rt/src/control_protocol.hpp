@@ -16,7 +16,7 @@
 #include <variant>
 
 #include "ioct/common/line_server.hpp"
-#include "scan/scan_spec.hpp"
+#include "ioct/scan/scan_spec.hpp"
 
 namespace ioct::rt {
 
@@ -43,6 +43,6 @@ std::variant<ControlRequest, ControlParseError> parse_control_line(std::string_v
 // `base` with the members of `changes` applied (pattern, repeats, extent_x, extent_y, offset_x,
 // offset_y, rotation_deg, inactive_ascans) and validated. Throws ConfigError naming "scan.<key>"
 // for an unknown key, a wrong type or a value out of range.
-ScanSpec apply_scan_changes(const ScanSpec& base, const nlohmann::json& changes);
+scan::ScanSpec apply_scan_changes(const scan::ScanSpec& base, const nlohmann::json& changes);
 
 }  // namespace ioct::rt

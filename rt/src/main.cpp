@@ -22,6 +22,8 @@
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/input_file.hpp"
 #include "ioct/concurrency/monotonic_clock.hpp"
+#include "ioct/scan/scan_builder.hpp"
+#include "ioct/scan/scan_infeasible.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_layout.hpp"
 #include "ioct/shm/ring_writer.hpp"
@@ -31,8 +33,6 @@
 #include "rt_options.hpp"
 #include "run_summary.hpp"
 #include "safety_supervisor.hpp"
-#include "scan/scan_builder.hpp"
-#include "scan/scan_infeasible.hpp"
 #include "sd_notify.hpp"
 #include "self_test.hpp"
 #include "shutdown_signals.hpp"
@@ -60,21 +60,21 @@ double ms(std::uint64_t ns) {
 // hands them back.
 class PatternStore {
  public:
-  const rt::ScanPattern* add(rt::ScanPattern pattern) {
-    patterns_.push_back(std::make_unique<rt::ScanPattern>(std::move(pattern)));
+  const scan::ScanPattern* add(scan::ScanPattern pattern) {
+    patterns_.push_back(std::make_unique<scan::ScanPattern>(std::move(pattern)));
     return patterns_.back().get();
   }
-  void release(const rt::ScanPattern* pattern) {
+  void release(const scan::ScanPattern* pattern) {
     std::erase_if(patterns_, [&](const auto& p) { return p.get() == pattern; });
   }
   std::size_t size() const noexcept { return patterns_.size(); }
 
  private:
-  std::vector<std::unique_ptr<rt::ScanPattern>> patterns_;
+  std::vector<std::unique_ptr<scan::ScanPattern>> patterns_;
 };
 
 std::string describe_startup(const shm::RingWriter& ring, const rt::RtSetup& setup,
-                             const rt::Backends& backends, const rt::ScanPattern& pattern) {
+                             const rt::Backends& backends, const scan::ScanPattern& pattern) {
   const hal::DigitizerConfig& d = setup.digitizer;
   const double group_ms = static_cast<double>(d.sweeps_per_group()) * d.sweep_period_ns() * 1e-6;
   const char* action = ring.startup_action() == shm::StartupAction::created ? "created"
@@ -208,8 +208,8 @@ class Process {
   rt::RtSetup setup_;
   PatternStore patterns_;
   rt::Backends backends_;  // before the threads that use it, so it is destroyed after them
-  rt::ScanTiming timing_;
-  rt::ScanSpec current_spec_;
+  scan::ScanTiming timing_;
+  scan::ScanSpec current_spec_;
   std::optional<shm::RingWriter> ring_;
   std::unique_ptr<rt::AcquisitionLoop> loop_;
   std::unique_ptr<rt::SafetySupervisor> supervisor_;
@@ -279,10 +279,11 @@ std::string Process::handle(const std::string& line) {
       case rt::ControlVerb::stop:
         return wait_for_request(false, supervisor_->request_stop(), request.id);
       case rt::ControlVerb::scan: {
-        const rt::ScanSpec spec = rt::apply_scan_changes(current_spec_, request.scan_changes);
-        rt::ScanPattern built = rt::build_scan_pattern(spec, timing_, setup_.config.galvo_limits);
+        const scan::ScanSpec spec = rt::apply_scan_changes(current_spec_, request.scan_changes);
+        scan::ScanPattern built =
+            scan::build_scan_pattern(spec, timing_, setup_.config.galvo_limits);
         const std::string description = built.describe();
-        const rt::ScanPattern* pattern = patterns_.add(std::move(built));
+        const scan::ScanPattern* pattern = patterns_.add(std::move(built));
         if (!loop_->offer_pattern(pattern)) {
           patterns_.release(pattern);
           return rt::error_reply(
@@ -314,7 +315,7 @@ void Process::drain_events() {
     say(describe_transition(*first, status));
     while (const auto t = supervisor_->take_transition()) say(describe_transition(*t, status));
   }
-  while (const rt::ScanPattern* retired = loop_->take_retired()) patterns_.release(retired);
+  while (const scan::ScanPattern* retired = loop_->take_retired()) patterns_.release(retired);
 }
 
 bool Process::healthy(std::uint64_t now) const {
@@ -331,8 +332,8 @@ int Process::run() {
   timing_ = {config.digitizer.ascans_per_bscan, config.digitizer.flyback_sweeps,
              config.bscans_per_volume, config.digitizer.ascan_rate_hz};
   current_spec_ = config.scan;
-  const rt::ScanPattern* initial =
-      patterns_.add(rt::build_scan_pattern(current_spec_, timing_, config.galvo_limits));
+  const scan::ScanPattern* initial =
+      patterns_.add(scan::build_scan_pattern(current_spec_, timing_, config.galvo_limits));
 
   // The hardware first: a config it refuses leaves any ring under the name untouched.
   backends_ = rt::make_backends(setup_);
@@ -470,9 +471,9 @@ int Process::run() {
 int check_config(const rt::RtOptions& options) {
   const rt::RtSetup setup = rt::make_setup(options);
   const rt::RtConfig& c = setup.config;
-  const rt::ScanTiming timing{c.digitizer.ascans_per_bscan, c.digitizer.flyback_sweeps,
-                              c.bscans_per_volume, c.digitizer.ascan_rate_hz};
-  const rt::ScanPattern pattern = rt::build_scan_pattern(c.scan, timing, c.galvo_limits);
+  const scan::ScanTiming timing{c.digitizer.ascans_per_bscan, c.digitizer.flyback_sweeps,
+                                c.bscans_per_volume, c.digitizer.ascan_rate_hz};
+  const scan::ScanPattern pattern = scan::build_scan_pattern(c.scan, timing, c.galvo_limits);
   std::printf(
       "configuration ok: ring '%s', %u samples x %u A-scans (+%u flyback) x %u per group "
       "at %.0f Hz, %u B-scans per volume; scan %s; galvo peak %.4g of %.4g units/s, "

@@ -12,7 +12,7 @@
 #include "ioct/hal/digitizer_config.hpp"
 #include "ioct/hal/galvo_output.hpp"
 #include "ioct/hal/lines.hpp"
-#include "scan/scan_spec.hpp"
+#include "ioct/scan/scan_spec.hpp"
 
 namespace ioct::rt {
 
@@ -28,7 +28,7 @@ struct RtConfig {
 
   // [scan]
   std::uint32_t bscans_per_volume = 128;
-  ScanSpec scan;
+  scan::ScanSpec scan;
 
   // [galvo]
   std::string galvo_backend = "simulated";
@@ -38,7 +38,7 @@ struct RtConfig {
   // 2 zeta / omega of the simulator's default mirrors (2 kHz, zeta 0.7); measure the real
   // scanner's on the bench.
   double galvo_lead_us = 111.4;
-  GalvoLimits galvo_limits;
+  scan::GalvoLimits galvo_limits;
   std::uint32_t feed_ahead_groups = 3;
 
   // [usb]: the USB instrument (digitizer and galvo DAC) when a backend is "usb".

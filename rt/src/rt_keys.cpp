@@ -69,7 +69,7 @@ config::KeyTable<RtConfig> make_keys() {
   k.choice_of(
        "scan.pattern", {"raster", "bidirectional", "crosshair", "radial"},
        [](const RtConfig& c) { return std::string(to_string(c.scan.kind)); },
-       [](RtConfig& c, const std::string& v) { c.scan.kind = *scan_kind_from_string(v); },
+       [](RtConfig& c, const std::string& v) { c.scan.kind = *scan::scan_kind_from_string(v); },
        "the galvo pattern (rt/README.md)", "--pattern")
       .integer("scan.bscans_per_volume", IOCT_MEMBER(bscans_per_volume), 1, 65536,
                "B-scans per volume, fixed for the ring's life", "--bscans-per-volume")

@@ -6,10 +6,10 @@
 #include <utility>
 
 #include "ioct/common/config_error.hpp"
+#include "ioct/scan/scan_builder.hpp"
+#include "ioct/scan/scan_infeasible.hpp"
 #include "ioct/sim/instrument_spec.hpp"
 #include "rt_keys.hpp"
-#include "scan/scan_builder.hpp"
-#include "scan/scan_infeasible.hpp"
 
 namespace ioct::rt {
 
@@ -111,10 +111,10 @@ RtSetup make_setup(const RtOptions& options) {
 
   try {
     config.validate();
-    ScanTiming timing{config.digitizer.ascans_per_bscan, config.digitizer.flyback_sweeps,
-                      config.bscans_per_volume, config.digitizer.ascan_rate_hz};
+    scan::ScanTiming timing{config.digitizer.ascans_per_bscan, config.digitizer.flyback_sweeps,
+                            config.bscans_per_volume, config.digitizer.ascan_rate_hz};
     // Feasibility: the same check a scan change gets, so a bad config is refused at start-up.
-    (void)build_scan_pattern(config.scan, timing, config.galvo_limits);
+    (void)scan::build_scan_pattern(config.scan, timing, config.galvo_limits);
 
     setup.digitizer = config.digitizer;
 
@@ -153,7 +153,7 @@ RtSetup make_setup(const RtOptions& options) {
     ring.validate();
   } catch (const ConfigError& e) {
     rethrow_located(options, positions, e.key());
-  } catch (const ScanInfeasible& e) {
+  } catch (const scan::ScanInfeasible& e) {
     rethrow_located(options, positions, e.limit());
   }
 

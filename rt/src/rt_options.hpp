@@ -57,8 +57,8 @@ struct RtSetup {
 // Reads the file (if any), applies the given flags, validates everything and derives each part's
 // config. Throws ConfigFileError ("file:line:col: key = value: allowed") for what the file got
 // wrong, ioct::ConfigError naming the key otherwise (see option_for_key()), shm::RingError
-// (bad_config) for a ring the shm layer refuses, ScanInfeasible for a pattern the galvo cannot
-// follow.
+// (bad_config) for a ring the shm layer refuses, scan::ScanInfeasible for a pattern the galvo
+// cannot follow.
 RtSetup make_setup(const RtOptions& options);
 
 // The command-line option that sets the key a ConfigError names ("--samples" for

@@ -4,7 +4,7 @@
 
 namespace ioct::rt {
 
-void ScanSchedule::reset(const ScanPattern* pattern, std::uint32_t generation,
+void ScanSchedule::reset(const scan::ScanPattern* pattern, std::uint32_t generation,
                          std::uint64_t first_volume, std::uint64_t sweeps_per_group,
                          std::uint64_t first_feed_sweep) noexcept {
   entries_[0] = {0, first_volume, generation, pattern};
@@ -20,7 +20,7 @@ void ScanSchedule::reset(const ScanPattern* pattern, std::uint32_t generation,
   }
 }
 
-void ScanSchedule::schedule(const ScanPattern* pattern) noexcept {
+void ScanSchedule::schedule(const scan::ScanPattern* pattern) noexcept {
   const ScheduledScan& last = entries_[count_ - 1];
   const std::uint64_t volumes =
       (feed_sweep_ - last.first_sweep) / last.pattern->timing.sweeps_per_volume();
@@ -40,12 +40,12 @@ std::uint64_t ScanSchedule::volume_at(std::uint64_t sweep) const noexcept {
 }
 
 std::size_t ScanSchedule::retire_before(
-    std::uint64_t sweep, std::array<const ScanPattern*, kMaxEntries>& retired) noexcept {
+    std::uint64_t sweep, std::array<const scan::ScanPattern*, kMaxEntries>& retired) noexcept {
   std::size_t drop = 0;
   while (drop + 1 < count_ && entries_[drop + 1].first_sweep <= sweep) ++drop;
   std::size_t out = 0;
   for (std::size_t i = 0; i < drop; ++i) {
-    const ScanPattern* p = entries_[i].pattern;
+    const scan::ScanPattern* p = entries_[i].pattern;
     bool used = false;
     for (std::size_t j = i + 1; j < count_; ++j) used = used || entries_[j].pattern == p;
     for (std::size_t k = 0; k < out; ++k) used = used || retired[k] == p;

@@ -12,7 +12,7 @@
 #include <cstdint>
 
 #include "ioct/hal/galvo_output.hpp"
-#include "scan/scan_pattern.hpp"
+#include "ioct/scan/scan_pattern.hpp"
 
 namespace ioct::rt {
 
@@ -20,7 +20,7 @@ struct ScheduledScan {
   std::uint64_t first_sweep = 0;
   std::uint64_t first_volume = 0;
   std::uint32_t generation = 0;
-  const ScanPattern* pattern = nullptr;
+  const scan::ScanPattern* pattern = nullptr;
 };
 
 class ScanSchedule {
@@ -29,7 +29,7 @@ class ScanSchedule {
 
   // Starts over at sweep 0 with `pattern`; the feed cursor is placed at trajectory sweep
   // `first_feed_sweep` (the galvo lead).
-  void reset(const ScanPattern* pattern, std::uint32_t generation, std::uint64_t first_volume,
+  void reset(const scan::ScanPattern* pattern, std::uint32_t generation, std::uint64_t first_volume,
              std::uint64_t sweeps_per_group, std::uint64_t first_feed_sweep) noexcept;
 
   // The position for the next trajectory sweep of the feed, then advances. When the sweep
@@ -39,7 +39,7 @@ class ScanSchedule {
     if (countdown_to_boundary_ == 0) {
       countdown_to_boundary_ = boundary_period_;
       if (count_ < kMaxEntries) {
-        if (const ScanPattern* next = offer()) schedule(next);
+        if (const scan::ScanPattern* next = offer()) schedule(next);
       }
     }
     --countdown_to_boundary_;
@@ -54,7 +54,7 @@ class ScanSchedule {
   // Drops the entries that end at or before `sweep` (the digitizer is past them). Returns in
   // `retired` (up to kMaxEntries) the patterns no remaining entry uses; returns their count.
   std::size_t retire_before(std::uint64_t sweep,
-                            std::array<const ScanPattern*, kMaxEntries>& retired) noexcept;
+                            std::array<const scan::ScanPattern*, kMaxEntries>& retired) noexcept;
 
   const ScheduledScan& newest() const noexcept { return entries_[count_ - 1]; }
   std::size_t entries() const noexcept { return count_; }
@@ -63,7 +63,7 @@ class ScanSchedule {
   std::uint64_t volume_at(std::uint64_t sweep) const noexcept;
 
  private:
-  void schedule(const ScanPattern* pattern) noexcept;
+  void schedule(const scan::ScanPattern* pattern) noexcept;
 
   std::array<ScheduledScan, kMaxEntries> entries_{};
   std::size_t count_ = 0;

@@ -15,7 +15,7 @@ std::uint32_t ring_status_flags(const hal::GroupInfo& info, std::uint32_t extra_
 void describe_group(shm::SlotHeader& header, const hal::GroupInfo& info, const GroupTimes& times,
                     const hal::DigitizerConfig& geometry, const ScheduledScan& scan,
                     std::uint32_t extra_status) noexcept {
-  const ScanPattern& pattern = *scan.pattern;
+  const scan::ScanPattern& pattern = *scan.pattern;
   const std::uint32_t bscans_per_volume = pattern.timing.bscans_per_volume;
   header.first_sweep_counter = info.first_sweep_counter;
   header.t_first_sweep_ns = times.first_sweep_ns;
@@ -41,7 +41,7 @@ void describe_group(shm::SlotHeader& header, const hal::GroupInfo& info, const G
     }
     const std::uint64_t bscan = first_bscan + b;
     const std::uint32_t line = static_cast<std::uint32_t>(bscan % bscans_per_volume);
-    const BscanPlan& plan = pattern.bscans[line];
+    const scan::BscanPlan& plan = pattern.bscans[line];
     marker.volume_index = scan.first_volume + bscan / bscans_per_volume;
     marker.bscan_in_volume = line;
     marker.flags = (line == 0 ? shm::kBscanVolumeStart : 0u) |

@@ -24,8 +24,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const auto& request = std::get<ioct::rt::ControlRequest>(parsed);
   if (request.verb == ioct::rt::ControlVerb::scan) {
     ioct::fuzz::expect_accept_or_refuse([&] {
-      const ioct::rt::ScanSpec spec =
-          ioct::rt::apply_scan_changes(ioct::rt::ScanSpec{}, request.scan_changes);
+      const ioct::scan::ScanSpec spec =
+          ioct::rt::apply_scan_changes(ioct::scan::ScanSpec{}, request.scan_changes);
       spec.validate();
     });
   }

@@ -182,7 +182,8 @@ TEST(AcquisitionLoop, FeedsTheDacAheadWithTheLeadShiftedTrajectory) {
 
 TEST(AcquisitionLoop, AScanChangeTakesEffectAtAVolumeBoundaryAndTheOldPatternComesBack) {
   Rig rig("rt-change");
-  const ScanPattern other = test::small_pattern(rig.geometry, 0.3, ScanKind::bidirectional);
+  const scan::ScanPattern other =
+      test::small_pattern(rig.geometry, 0.3, scan::ScanKind::bidirectional);
   shm::RingReader reader = shm::RingReader::attach(rig.name.str(), {.label = "change-test"});
   rig.start_loop();
   rig.loop->command_run(1);
@@ -199,7 +200,7 @@ TEST(AcquisitionLoop, AScanChangeTakesEffectAtAVolumeBoundaryAndTheOldPatternCom
       EXPECT_EQ(h.bscans[0].bscan_in_volume, 0u) << "starts a volume";
       EXPECT_NE(h.bscans[0].flags & shm::kBscanVolumeStart, 0u);
     }
-    const ScanPattern& p = h.scan_generation == 2 ? other : rig.pattern;
+    const scan::ScanPattern& p = h.scan_generation == 2 ? other : rig.pattern;
     EXPECT_EQ(h.scan_pattern_id, p.pattern_id());
     for (std::uint32_t b = 0; b < h.bscan_count; ++b) {
       const std::uint32_t line = h.bscans[b].bscan_in_volume;

@@ -70,7 +70,7 @@ TEST(ControlProtocol, BlankLinesGetAnError) {
 
 std::string scan_error(const std::string& changes) {
   try {
-    apply_scan_changes(ScanSpec{}, nlohmann::json::parse(changes));
+    apply_scan_changes(scan::ScanSpec{}, nlohmann::json::parse(changes));
   } catch (const ConfigError& e) {
     return e.what();
   }
@@ -78,11 +78,11 @@ std::string scan_error(const std::string& changes) {
 }
 
 TEST(ControlProtocol, ScanChangesApplyOverTheCurrentSpecAndAreValidated) {
-  ScanSpec base;
+  scan::ScanSpec base;
   base.extent_x = 0.5;
-  const ScanSpec s = apply_scan_changes(
+  const scan::ScanSpec s = apply_scan_changes(
       base, nlohmann::json::parse(R"({"pattern": "radial", "rotation_deg": 30, "repeats": 2})"));
-  EXPECT_EQ(s.kind, ScanKind::radial);
+  EXPECT_EQ(s.kind, scan::ScanKind::radial);
   EXPECT_EQ(s.rotation_deg, 30.0);
   EXPECT_EQ(s.repeats, 2u);
   EXPECT_EQ(s.extent_x, 0.5) << "unchanged keys keep the current value";

@@ -14,11 +14,11 @@
 #include "acquisition_loop.hpp"
 #include "fake_hal.hpp"
 #include "ioct/concurrency/monotonic_clock.hpp"
+#include "ioct/scan/scan_builder.hpp"
 #include "ioct/shm/ring_reader.hpp"
 #include "ioct/shm/ring_writer.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"
 #include "safety_supervisor.hpp"
-#include "scan/scan_builder.hpp"
 
 namespace ioct::rt::test {
 
@@ -67,16 +67,16 @@ inline hal::DigitizerConfig small_geometry() {
 }
 inline constexpr std::uint32_t kBscansPerVolume = 8;
 
-inline ScanTiming timing_of(const hal::DigitizerConfig& g, std::uint32_t bscans_per_volume) {
+inline scan::ScanTiming timing_of(const hal::DigitizerConfig& g, std::uint32_t bscans_per_volume) {
   return {g.ascans_per_bscan, g.flyback_sweeps, bscans_per_volume, g.ascan_rate_hz};
 }
 
-inline ScanPattern small_pattern(const hal::DigitizerConfig& g, double extent = 0.8,
-                                 ScanKind kind = ScanKind::raster) {
-  ScanSpec s;
+inline scan::ScanPattern small_pattern(const hal::DigitizerConfig& g, double extent = 0.8,
+                                       scan::ScanKind kind = scan::ScanKind::raster) {
+  scan::ScanSpec s;
   s.kind = kind;
   s.extent_x = s.extent_y = extent;
-  return build_scan_pattern(s, timing_of(g, kBscansPerVolume), {1e9, 1e15});
+  return scan::build_scan_pattern(s, timing_of(g, kBscansPerVolume), {1e9, 1e15});
 }
 
 inline shm::RingConfig ring_config(const std::string& name, const hal::DigitizerConfig& g) {
@@ -170,7 +170,7 @@ struct Rig {
   FakeDigitizer digitizer;
   FakeGalvo galvo;
   FakeLines lines;
-  ScanPattern pattern;
+  scan::ScanPattern pattern;
   std::uint32_t lead;
   int priority = test_rt_priority();
   std::unique_ptr<AcquisitionLoop> loop;

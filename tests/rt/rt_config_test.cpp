@@ -17,10 +17,10 @@
 
 #include "effective_config.hpp"
 #include "ioct/common/config_error.hpp"
+#include "ioct/scan/scan_infeasible.hpp"
 #include "ioct/test_support/temp_path.hpp"
 #include "rt_keys.hpp"
 #include "rt_options.hpp"
-#include "scan/scan_infeasible.hpp"
 
 namespace ioct::rt {
 namespace {

@@ -8,26 +8,27 @@
 #include <vector>
 
 #include "ioct/common/config_error.hpp"
-#include "scan/quintic_transition.hpp"
-#include "scan/scan_builder.hpp"
-#include "scan/scan_infeasible.hpp"
+#include "ioct/scan/quintic_transition.hpp"
+#include "ioct/scan/scan_builder.hpp"
+#include "ioct/scan/scan_infeasible.hpp"
 
 namespace ioct::rt {
 namespace {
 
-GalvoLimits unlimited() {
+scan::GalvoLimits unlimited() {
   return {1e9, 1e15};
 }
 
-ScanSpec spec(ScanKind kind, double extent = 0.5) {
-  ScanSpec s;
+scan::ScanSpec spec(scan::ScanKind kind, double extent = 0.5) {
+  scan::ScanSpec s;
   s.kind = kind;
   s.extent_x = extent;
   s.extent_y = extent;
   return s;
 }
 
-void expect_trajectory(const ScanPattern& pattern, const std::vector<hal::GalvoSample>& golden) {
+void expect_trajectory(const scan::ScanPattern& pattern,
+                       const std::vector<hal::GalvoSample>& golden) {
   ASSERT_EQ(pattern.trajectory.size(), golden.size());
   for (std::size_t i = 0; i < golden.size(); ++i) {
     EXPECT_NEAR(pattern.trajectory[i].x, golden[i].x, 2e-6) << "sweep " << i;
@@ -37,7 +38,8 @@ void expect_trajectory(const ScanPattern& pattern, const std::vector<hal::GalvoS
 
 // Golden values computed independently (a separate implementation of the documented rules).
 TEST(ScanPattern, RasterGoldenWaveformAndMarkers) {
-  const ScanPattern p = build_scan_pattern(spec(ScanKind::raster), {5, 3, 2, 1.0}, unlimited());
+  const scan::ScanPattern p =
+      scan::build_scan_pattern(spec(scan::ScanKind::raster), {5, 3, 2, 1.0}, unlimited());
   expect_trajectory(p, {{-0.5f, -0.5f},
                         {-0.25f, -0.5f},
                         {0.0f, -0.5f},
@@ -65,8 +67,8 @@ TEST(ScanPattern, RasterGoldenWaveformAndMarkers) {
 }
 
 TEST(ScanPattern, BidirectionalGoldenWaveformReversesEveryOtherLine) {
-  const ScanPattern p =
-      build_scan_pattern(spec(ScanKind::bidirectional), {4, 2, 2, 1.0}, unlimited());
+  const scan::ScanPattern p =
+      scan::build_scan_pattern(spec(scan::ScanKind::bidirectional), {4, 2, 2, 1.0}, unlimited());
   expect_trajectory(p, {{-0.5f, -0.5f},
                         {-0.166667f, -0.5f},
                         {0.166667f, -0.5f},
@@ -87,11 +89,11 @@ TEST(ScanPattern, BidirectionalGoldenWaveformReversesEveryOtherLine) {
 }
 
 TEST(ScanPattern, CrosshairGoldenWaveformRotatedAndOffset) {
-  ScanSpec s = spec(ScanKind::crosshair);
+  scan::ScanSpec s = spec(scan::ScanKind::crosshair);
   s.rotation_deg = 90.0;
   s.offset_x = 0.1;
   s.offset_y = -0.2;
-  const ScanPattern p = build_scan_pattern(s, {3, 2, 2, 1.0}, unlimited());
+  const scan::ScanPattern p = scan::build_scan_pattern(s, {3, 2, 2, 1.0}, unlimited());
   expect_trajectory(p, {{0.1f, -0.7f},
                         {0.1f, -0.2f},
                         {0.1f, 0.3f},
@@ -106,8 +108,8 @@ TEST(ScanPattern, CrosshairGoldenWaveformRotatedAndOffset) {
 }
 
 TEST(ScanPattern, RadialGoldenWaveform) {
-  const ScanPattern p =
-      build_scan_pattern(spec(ScanKind::radial, 0.4), {3, 3, 2, 1.0}, unlimited());
+  const scan::ScanPattern p =
+      scan::build_scan_pattern(spec(scan::ScanKind::radial, 0.4), {3, 3, 2, 1.0}, unlimited());
   expect_trajectory(p, {{-0.4f, 0.0f},
                         {0.0f, 0.0f},
                         {0.4f, 0.0f},
@@ -124,9 +126,9 @@ TEST(ScanPattern, RadialGoldenWaveform) {
 }
 
 TEST(ScanPattern, InactiveAscansNarrowTheActiveRangeAndJoinTheTransition) {
-  ScanSpec s = spec(ScanKind::raster);
+  scan::ScanSpec s = spec(scan::ScanKind::raster);
   s.inactive_ascans = 1;
-  const ScanPattern p = build_scan_pattern(s, {6, 2, 2, 1.0}, unlimited());
+  const scan::ScanPattern p = scan::build_scan_pattern(s, {6, 2, 2, 1.0}, unlimited());
   expect_trajectory(p, {{-0.67888f, -0.44208f},
                         {-0.5f, -0.5f},
                         {-0.166667f, -0.5f},
@@ -151,18 +153,18 @@ TEST(ScanPattern, InactiveAscansNarrowTheActiveRangeAndJoinTheTransition) {
 }
 
 TEST(ScanPattern, RepeatsScanEachLineSeveralTimes) {
-  ScanSpec s = spec(ScanKind::raster);
+  scan::ScanSpec s = spec(scan::ScanKind::raster);
   s.repeats = 3;
-  const ScanPattern p = build_scan_pattern(s, {8, 4, 6, 1.0}, unlimited());
+  const scan::ScanPattern p = scan::build_scan_pattern(s, {8, 4, 6, 1.0}, unlimited());
   ASSERT_EQ(p.bscans.size(), 6u);
   for (std::uint32_t b = 0; b < 6; ++b) {
     EXPECT_FLOAT_EQ(p.bscans[b].start.y, b < 3 ? -0.5f : 0.5f) << b;
     EXPECT_FLOAT_EQ(p.bscans[b].start.x, -0.5f) << b;
   }
   // Crosshair with repeats: H, H, V, V.
-  ScanSpec c = spec(ScanKind::crosshair);
+  scan::ScanSpec c = spec(scan::ScanKind::crosshair);
   c.repeats = 2;
-  const ScanPattern q = build_scan_pattern(c, {8, 4, 4, 1.0}, unlimited());
+  const scan::ScanPattern q = scan::build_scan_pattern(c, {8, 4, 4, 1.0}, unlimited());
   EXPECT_FLOAT_EQ(q.bscans[1].start.y, 0.0f);
   EXPECT_FLOAT_EQ(q.bscans[2].start.x, 0.0f);
   EXPECT_FLOAT_EQ(q.bscans[2].start.y, -0.5f);
@@ -170,14 +172,14 @@ TEST(ScanPattern, RepeatsScanEachLineSeveralTimes) {
 
 // The default geometry for every kind: one sample per sweep, lines at constant speed, smooth
 // transitions, the markers match the trajectory at the active ends, everything inside the field.
-class EveryKind : public testing::TestWithParam<ScanKind> {};
+class EveryKind : public testing::TestWithParam<scan::ScanKind> {};
 
 TEST_P(EveryKind, DefaultGeometryTrajectoryIsSmoothAndMatchesItsMarkers) {
-  ScanSpec s;
+  scan::ScanSpec s;
   s.kind = GetParam();
-  s.repeats = s.kind == ScanKind::crosshair ? 2 : 1;
-  const ScanTiming timing;  // 512 + 26 sweeps, 128 B-scans, 100 kHz
-  const ScanPattern p = build_scan_pattern(s, timing, GalvoLimits{});
+  s.repeats = s.kind == scan::ScanKind::crosshair ? 2 : 1;
+  const scan::ScanTiming timing;  // 512 + 26 sweeps, 128 B-scans, 100 kHz
+  const scan::ScanPattern p = scan::build_scan_pattern(s, timing, scan::GalvoLimits{});
   ASSERT_EQ(p.trajectory.size(), timing.sweeps_per_volume());
   ASSERT_EQ(p.bscans.size(), 128u);
   std::size_t reversed = 0;
@@ -194,7 +196,7 @@ TEST_P(EveryKind, DefaultGeometryTrajectoryIsSmoothAndMatchesItsMarkers) {
       ASSERT_NEAR(p.trajectory[first + a + 1].y - p.trajectory[first + a].y, dy, 1e-5f) << b;
     }
   }
-  EXPECT_EQ(reversed, s.kind == ScanKind::bidirectional ? 64u : 0u);
+  EXPECT_EQ(reversed, s.kind == scan::ScanKind::bidirectional ? 64u : 0u);
   // Continuity across the whole volume (and across its wrap into the next): the second
   // difference (acceleration per sweep^2) stays within the planned peak.
   const double rate = timing.sweep_rate_hz;
@@ -209,19 +211,19 @@ TEST_P(EveryKind, DefaultGeometryTrajectoryIsSmoothAndMatchesItsMarkers) {
     ASSERT_LE(std::fabs(b.x), 1.0f);
     ASSERT_LE(std::fabs(b.y), 1.0f);
   }
-  EXPECT_LE(p.usage.peak_velocity, GalvoLimits{}.max_velocity);
-  EXPECT_LE(p.usage.peak_acceleration, GalvoLimits{}.max_acceleration);
+  EXPECT_LE(p.usage.peak_velocity, scan::GalvoLimits{}.max_velocity);
+  EXPECT_LE(p.usage.peak_acceleration, scan::GalvoLimits{}.max_acceleration);
 }
 
 INSTANTIATE_TEST_SUITE_P(Kinds, EveryKind,
-                         testing::Values(ScanKind::raster, ScanKind::bidirectional,
-                                         ScanKind::crosshair, ScanKind::radial),
-                         [](const testing::TestParamInfo<ScanKind>& kind) {
+                         testing::Values(scan::ScanKind::raster, scan::ScanKind::bidirectional,
+                                         scan::ScanKind::crosshair, scan::ScanKind::radial),
+                         [](const testing::TestParamInfo<scan::ScanKind>& kind) {
                            return std::string(to_string(kind.param));
                          });
 
 TEST(QuinticTransition, MatchesItsEndsAndFindsItsPeaks) {
-  const QuinticTransition t(1.0, 0.5, -1.0, 0.5, 10.0);
+  const scan::QuinticTransition t(1.0, 0.5, -1.0, 0.5, 10.0);
   EXPECT_DOUBLE_EQ(t.position(0.0), 1.0);
   EXPECT_NEAR(t.position(10.0), -1.0, 1e-12);
   EXPECT_NEAR(t.velocity(0.0), 0.5, 1e-12);
@@ -236,18 +238,18 @@ TEST(QuinticTransition, MatchesItsEndsAndFindsItsPeaks) {
   EXPECT_NEAR(t.peak_velocity(), v, 1e-6);
   EXPECT_NEAR(t.peak_acceleration(), a, 1e-6);
   // Rest to rest: the minimum-jerk profile's known peaks, 1.875 d/T and 5.7735 d/T^2.
-  const QuinticTransition r(0.0, 0.0, 2.0, 0.0, 4.0);
+  const scan::QuinticTransition r(0.0, 0.0, 2.0, 0.0, 4.0);
   EXPECT_NEAR(r.peak_velocity(), 1.875 * 2.0 / 4.0, 1e-12);
   EXPECT_NEAR(r.peak_acceleration(), 10.0 / std::sqrt(3.0) * 2.0 / 16.0, 1e-9);
 }
 
 TEST(ScanPattern, RefusesAnAccelerationBeyondTheLimitSayingByHowMuchAndWhatWouldDo) {
-  GalvoLimits limits;
+  scan::GalvoLimits limits;
   limits.max_acceleration = 1e8;
   try {
-    build_scan_pattern(ScanSpec{}, ScanTiming{}, limits);
+    scan::build_scan_pattern(scan::ScanSpec{}, scan::ScanTiming{}, limits);
     FAIL() << "accepted";
-  } catch (const ScanInfeasible& e) {
+  } catch (const scan::ScanInfeasible& e) {
     EXPECT_EQ(e.limit(), "galvo.max_acceleration");
     EXPECT_DOUBLE_EQ(e.allowed(), 1e8);
     EXPECT_NEAR(e.required(), 1.584e8, 0.001e8);
@@ -256,23 +258,23 @@ TEST(ScanPattern, RefusesAnAccelerationBeyondTheLimitSayingByHowMuchAndWhatWould
     EXPECT_NE(what.find("58."), std::string::npos) << "the excess in percent: " << what;
     EXPECT_NE(what.find("at least 34 flyback sweeps"), std::string::npos) << what;
     // The suggestion holds: with 34 flyback sweeps it is feasible, with 33 not.
-    ScanTiming longer;
+    scan::ScanTiming longer;
     longer.flyback_sweeps = 34;
-    EXPECT_NO_THROW(build_scan_pattern(ScanSpec{}, longer, limits));
+    EXPECT_NO_THROW(scan::build_scan_pattern(scan::ScanSpec{}, longer, limits));
     longer.flyback_sweeps = 33;
-    EXPECT_THROW(build_scan_pattern(ScanSpec{}, longer, limits), ScanInfeasible);
+    EXPECT_THROW(scan::build_scan_pattern(scan::ScanSpec{}, longer, limits), scan::ScanInfeasible);
   }
 }
 
 TEST(ScanPattern, RefusesALineFasterThanTheVelocityLimit) {
-  GalvoLimits limits;
+  scan::GalvoLimits limits;
   limits.max_velocity = 300.0;  // the default line needs 371 units/s
   // A flyback so long that its own peak (89 units/s) stays below the limit: the line is the worst.
-  const ScanTiming slow_flyback{512, 4000, 128, 100'000.0};
+  const scan::ScanTiming slow_flyback{512, 4000, 128, 100'000.0};
   try {
-    build_scan_pattern(ScanSpec{}, slow_flyback, limits);
+    scan::build_scan_pattern(scan::ScanSpec{}, slow_flyback, limits);
     FAIL() << "accepted";
-  } catch (const ScanInfeasible& e) {
+  } catch (const scan::ScanInfeasible& e) {
     EXPECT_EQ(e.limit(), "galvo.max_velocity");
     EXPECT_NEAR(e.required(), 1.9 / 511 * 1e5, 0.01);
     EXPECT_NE(std::string(e.what()).find("line's constant speed"), std::string::npos) << e.what();
@@ -280,48 +282,49 @@ TEST(ScanPattern, RefusesALineFasterThanTheVelocityLimit) {
 }
 
 TEST(ScanPattern, RefusesAFieldThatLeavesTheScannerRange) {
-  ScanSpec s;
-  s.kind = ScanKind::bidirectional;
+  scan::ScanSpec s;
+  s.kind = scan::ScanKind::bidirectional;
   s.extent_x = 1.0;  // the turn-around overshoots the line's end
   try {
-    build_scan_pattern(s, ScanTiming{}, GalvoLimits{});
+    scan::build_scan_pattern(s, scan::ScanTiming{}, scan::GalvoLimits{});
     FAIL() << "accepted";
-  } catch (const ScanInfeasible& e) {
+  } catch (const scan::ScanInfeasible& e) {
     EXPECT_EQ(e.limit(), "scan.field");
     EXPECT_GT(e.required(), 1.0);
     EXPECT_NE(std::string(e.what()).find("beyond the field [-1, 1] by"), std::string::npos);
   }
-  ScanSpec rotated;
+  scan::ScanSpec rotated;
   rotated.extent_x = rotated.extent_y = 0.9;
   rotated.rotation_deg = 45.0;  // the corners reach 0.9 * sqrt(2)
-  EXPECT_THROW(build_scan_pattern(rotated, ScanTiming{}, GalvoLimits{}), ScanInfeasible);
+  EXPECT_THROW(scan::build_scan_pattern(rotated, scan::ScanTiming{}, scan::GalvoLimits{}),
+               scan::ScanInfeasible);
 }
 
 TEST(ScanPattern, RefusesSpecsThatDoNotFitTheVolume) {
-  const auto key_of = [](const ScanSpec& s, const ScanTiming& t) -> std::string {
+  const auto key_of = [](const scan::ScanSpec& s, const scan::ScanTiming& t) -> std::string {
     try {
-      build_scan_pattern(s, t, GalvoLimits{});
+      scan::build_scan_pattern(s, t, scan::GalvoLimits{});
     } catch (const ConfigError& e) {
       return e.key();
     }
     return "accepted";
   };
-  ScanSpec s;
+  scan::ScanSpec s;
   s.repeats = 3;  // 128 is not a multiple of 3
-  EXPECT_EQ(key_of(s, ScanTiming{}), "scan.repeats");
-  s = ScanSpec{};
-  s.kind = ScanKind::crosshair;
+  EXPECT_EQ(key_of(s, scan::ScanTiming{}), "scan.repeats");
+  s = scan::ScanSpec{};
+  s.kind = scan::ScanKind::crosshair;
   s.repeats = 128;  // one line per volume: not a pair
-  EXPECT_EQ(key_of(s, ScanTiming{}), "scan.repeats");
-  s = ScanSpec{};
+  EXPECT_EQ(key_of(s, scan::ScanTiming{}), "scan.repeats");
+  s = scan::ScanSpec{};
   s.inactive_ascans = 256;  // leaves none of 512 active
-  EXPECT_EQ(key_of(s, ScanTiming{}), "scan.inactive_ascans");
-  s = ScanSpec{};
+  EXPECT_EQ(key_of(s, scan::ScanTiming{}), "scan.inactive_ascans");
+  s = scan::ScanSpec{};
   s.extent_x = 1.5;
-  EXPECT_EQ(key_of(s, ScanTiming{}), "scan.extent_x");
-  s = ScanSpec{};
+  EXPECT_EQ(key_of(s, scan::ScanTiming{}), "scan.extent_x");
+  s = scan::ScanSpec{};
   s.rotation_deg = std::nan("");
-  EXPECT_EQ(key_of(s, ScanTiming{}), "scan.rotation_deg");
+  EXPECT_EQ(key_of(s, scan::ScanTiming{}), "scan.rotation_deg");
 }
 
 }  // namespace

@@ -7,25 +7,25 @@
 
 #include <array>
 
-#include "scan/scan_builder.hpp"
+#include "ioct/scan/scan_builder.hpp"
 
 namespace ioct::rt {
 namespace {
 
 // 4 records + 2 flyback = 6 sweeps per B-scan, 4 B-scans per volume = 24 sweeps per volume.
-const ScanTiming kTiming{4, 2, 4, 1000.0};
+const scan::ScanTiming kTiming{4, 2, 4, 1000.0};
 
-ScanPattern pattern(double extent) {
-  ScanSpec s;
+scan::ScanPattern pattern(double extent) {
+  scan::ScanSpec s;
   s.extent_x = s.extent_y = extent;
-  return build_scan_pattern(s, kTiming, {1e9, 1e15});
+  return scan::build_scan_pattern(s, kTiming, {1e9, 1e15});
 }
 
 TEST(ScanSchedule, FeedsTheTrajectoryFromTheLeadOn) {
-  const ScanPattern p = pattern(0.5);
+  const scan::ScanPattern p = pattern(0.5);
   ScanSchedule schedule;
   schedule.reset(&p, 1, 0, 12, 3);
-  const auto none = []() -> const ScanPattern* { return nullptr; };
+  const auto none = []() -> const scan::ScanPattern* { return nullptr; };
   for (std::uint64_t m = 3; m < 3 + 60; ++m) {
     EXPECT_EQ(schedule.next_position(none), p.trajectory[m % 24]) << m;
   }
@@ -33,16 +33,16 @@ TEST(ScanSchedule, FeedsTheTrajectoryFromTheLeadOn) {
 }
 
 TEST(ScanSchedule, ANewPatternStartsWhereAVolumeAndAGroupBegin) {
-  const ScanPattern a = pattern(0.5);
-  const ScanPattern b = pattern(0.25);
+  const scan::ScanPattern a = pattern(0.5);
+  const scan::ScanPattern b = pattern(0.25);
   ScanSchedule schedule;
   // Groups of 16 sweeps, volumes of 24: they meet every 48 sweeps.
   schedule.reset(&a, 7, 100, 16, 0);
-  const ScanPattern* offer = nullptr;
+  const scan::ScanPattern* offer = nullptr;
   int asked = 0;
-  const auto offered = [&]() -> const ScanPattern* {
+  const auto offered = [&]() -> const scan::ScanPattern* {
     ++asked;
-    const ScanPattern* p = offer;
+    const scan::ScanPattern* p = offer;
     offer = nullptr;
     return p;
   };
@@ -50,7 +50,7 @@ TEST(ScanSchedule, ANewPatternStartsWhereAVolumeAndAGroupBegin) {
   offer = &b;  // offered at sweep 10: taken at sweep 48
   for (std::uint64_t m = 10; m < 120; ++m) {
     const hal::GalvoSample s = schedule.next_position(offered);
-    const ScanPattern& expected = m < 48 ? a : b;
+    const scan::ScanPattern& expected = m < 48 ? a : b;
     ASSERT_EQ(s, expected.trajectory[m % 24]) << m;
   }
   EXPECT_EQ(asked, 2) << "asked at sweeps 48 and 96 only";
@@ -62,7 +62,7 @@ TEST(ScanSchedule, ANewPatternStartsWhereAVolumeAndAGroupBegin) {
   EXPECT_EQ(schedule.volume_at(47), 101u);
   EXPECT_EQ(schedule.volume_at(72), 103u);
 
-  std::array<const ScanPattern*, ScanSchedule::kMaxEntries> retired{};
+  std::array<const scan::ScanPattern*, ScanSchedule::kMaxEntries> retired{};
   EXPECT_EQ(schedule.retire_before(32, retired), 0u) << "a is still being described";
   EXPECT_EQ(schedule.retire_before(48, retired), 1u);
   EXPECT_EQ(retired[0], &a);
@@ -71,29 +71,31 @@ TEST(ScanSchedule, ANewPatternStartsWhereAVolumeAndAGroupBegin) {
 }
 
 TEST(ScanSchedule, APatternStillScheduledLaterIsNotRetired) {
-  const ScanPattern a = pattern(0.5);
-  const ScanPattern b = pattern(0.25);
+  const scan::ScanPattern a = pattern(0.5);
+  const scan::ScanPattern b = pattern(0.25);
   ScanSchedule schedule;
   schedule.reset(&a, 1, 0, 24, 0);
-  const ScanPattern* queue[] = {&b, &a};
+  const scan::ScanPattern* queue[] = {&b, &a};
   int next = 0;
-  const auto offered = [&]() -> const ScanPattern* { return next < 2 ? queue[next++] : nullptr; };
+  const auto offered = [&]() -> const scan::ScanPattern* {
+    return next < 2 ? queue[next++] : nullptr;
+  };
   for (int m = 0; m < 24 * 3; ++m) schedule.next_position(offered);
   ASSERT_EQ(schedule.entries(), 3u);  // a, b, a
-  std::array<const ScanPattern*, ScanSchedule::kMaxEntries> retired{};
+  std::array<const scan::ScanPattern*, ScanSchedule::kMaxEntries> retired{};
   EXPECT_EQ(schedule.retire_before(24, retired), 0u) << "a comes back at sweep 48";
   EXPECT_EQ(schedule.retire_before(48, retired), 1u);
   EXPECT_EQ(retired[0], &b);
 }
 
 TEST(ScanSchedule, ALeadOnABoundaryChecksTheMailboxAtOnce) {
-  const ScanPattern a = pattern(0.5);
-  const ScanPattern b = pattern(0.25);
+  const scan::ScanPattern a = pattern(0.5);
+  const scan::ScanPattern b = pattern(0.25);
   ScanSchedule schedule;
   schedule.reset(&a, 1, 0, 24, 24);  // the feed starts one volume ahead
-  const ScanPattern* offer = &b;
-  const hal::GalvoSample first = schedule.next_position([&]() -> const ScanPattern* {
-    const ScanPattern* p = offer;
+  const scan::ScanPattern* offer = &b;
+  const hal::GalvoSample first = schedule.next_position([&]() -> const scan::ScanPattern* {
+    const scan::ScanPattern* p = offer;
     offer = nullptr;
     return p;
   });

@@ -84,7 +84,7 @@ struct SimRig {
   sim::SimulatedDigitizer digitizer;
   sim::SimulatedGalvoOutput galvo;
   sim::SimulatedLines lines;
-  ScanPattern pattern;
+  scan::ScanPattern pattern;
   int priority = test::test_rt_priority();
   std::unique_ptr<AcquisitionLoop> loop;
   std::unique_ptr<SafetySupervisor> supervisor;

@@ -7,7 +7,7 @@
 
 #include <cstring>
 
-#include "scan/scan_builder.hpp"
+#include "ioct/scan/scan_builder.hpp"
 
 namespace ioct::rt {
 namespace {
@@ -23,13 +23,13 @@ hal::DigitizerConfig geometry() {
   return g;
 }
 
-ScanPattern pattern(ScanKind kind, std::uint32_t inactive = 0) {
-  ScanSpec s;
+scan::ScanPattern pattern(scan::ScanKind kind, std::uint32_t inactive = 0) {
+  scan::ScanSpec s;
   s.kind = kind;
   s.extent_x = s.extent_y = 1.0;
   s.inactive_ascans = inactive;
-  if (kind == ScanKind::bidirectional) s.extent_x = 0.5;
-  return build_scan_pattern(s, {8, 2, 6, 100'000.0}, {1e9, 1e15});
+  if (kind == scan::ScanKind::bidirectional) s.extent_x = 0.5;
+  return scan::build_scan_pattern(s, {8, 2, 6, 100'000.0}, {1e9, 1e15});
 }
 
 TEST(GroupTimes, FollowTheSweepCounter) {
@@ -42,7 +42,7 @@ TEST(GroupTimes, FollowTheSweepCounter) {
 }
 
 TEST(SlotDescription, MarkersPlaceEachLineInItsVolume) {
-  const ScanPattern raster = pattern(ScanKind::raster);
+  const scan::ScanPattern raster = pattern(scan::ScanKind::raster);
   const ScheduledScan scan{0, 0, 3, &raster};
   shm::SlotHeader header;
   std::memset(&header, 0xFF, sizeof(header));  // whatever the slot held before
@@ -58,7 +58,7 @@ TEST(SlotDescription, MarkersPlaceEachLineInItsVolume) {
   EXPECT_EQ(header.bscan_count, 4u);
   EXPECT_EQ(header.active_ascan_begin, 0u);
   EXPECT_EQ(header.active_ascan_end, 8u);
-  EXPECT_EQ(header.scan_pattern_id, static_cast<std::uint32_t>(ScanKind::raster));
+  EXPECT_EQ(header.scan_pattern_id, static_cast<std::uint32_t>(scan::ScanKind::raster));
   EXPECT_EQ(header.scan_generation, 3u);
   EXPECT_EQ(header.status_flags, shm::kStatusSimulated | shm::kStatusLaserOn);
   EXPECT_EQ(header.missed_sweeps, 0u);
@@ -86,14 +86,14 @@ TEST(SlotDescription, MarkersPlaceEachLineInItsVolume) {
 }
 
 TEST(SlotDescription, AScheduledPatternCountsItsVolumesFromItsStart) {
-  const ScanPattern bidi = pattern(ScanKind::bidirectional, 1);
+  const scan::ScanPattern bidi = pattern(scan::ScanKind::bidirectional, 1);
   // Scheduled from sweep 120 (line 12 of the run), continuing the volume count at 9.
   const ScheduledScan scan{120, 9, 5, &bidi};
   shm::SlotHeader header{};
   hal::GroupInfo info;
   info.first_sweep_counter = 160;  // lines 16..19: lines 4, 5 of volume 9, 0, 1 of volume 10
   describe_group(header, info, {}, geometry(), scan, 0);
-  EXPECT_EQ(header.scan_pattern_id, static_cast<std::uint32_t>(ScanKind::bidirectional));
+  EXPECT_EQ(header.scan_pattern_id, static_cast<std::uint32_t>(scan::ScanKind::bidirectional));
   EXPECT_EQ(header.scan_generation, 5u);
   EXPECT_EQ(header.active_ascan_begin, 1u);
   EXPECT_EQ(header.active_ascan_end, 7u);
@@ -106,7 +106,7 @@ TEST(SlotDescription, AScheduledPatternCountsItsVolumesFromItsStart) {
     EXPECT_EQ(header.bscans[b].volume_index, volume[b]);
     EXPECT_EQ(header.bscans[b].bscan_in_volume, line[b]);
     EXPECT_EQ(header.bscans[b].flags, flags[b]);
-    const BscanPlan& plan = bidi.bscans[line[b]];
+    const scan::BscanPlan& plan = bidi.bscans[line[b]];
     EXPECT_EQ(header.bscans[b].galvo_start[0], plan.start.x);
     EXPECT_EQ(header.bscans[b].galvo_end[0], plan.end.x);
   }

@@ -89,11 +89,11 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
   hal::GalvoOutputConfig galvo_config;
   galvo.prepare(galvo_config);
   test::FakeLines lines;
-  const ScanPattern pattern =
-      build_scan_pattern(ScanSpec{},
-                         {geometry.ascans_per_bscan, geometry.flyback_sweeps, bscans_per_volume,
-                          geometry.ascan_rate_hz},
-                         GalvoLimits{});
+  const scan::ScanPattern pattern =
+      scan::build_scan_pattern(scan::ScanSpec{},
+                               {geometry.ascans_per_bscan, geometry.flyback_sweeps,
+                                bscans_per_volume, geometry.ascan_rate_hz},
+                               scan::GalvoLimits{});
 
   LoopSettings settings = test::loop_settings(geometry, priority);
   settings.publish_slack_ns = 2'000'000;  // the production default

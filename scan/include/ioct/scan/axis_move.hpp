@@ -13,9 +13,9 @@
 #include <array>
 #include <cstddef>
 
-#include "scan/quintic_transition.hpp"
+#include "ioct/scan/quintic_transition.hpp"
 
-namespace ioct::rt {
+namespace ioct::scan {
 
 class AxisMove {
  public:
@@ -44,4 +44,4 @@ class AxisMove {
   double duration_ = 0.0;
 };
 
-}  // namespace ioct::rt
+}  // namespace ioct::scan

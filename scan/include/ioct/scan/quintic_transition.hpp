@@ -5,7 +5,7 @@
 // the peak velocity and acceleration, which are found exactly (roots of quadratics).
 #pragma once
 
-namespace ioct::rt {
+namespace ioct::scan {
 
 class QuinticTransition {
  public:
@@ -26,4 +26,4 @@ class QuinticTransition {
   double c_[6];  // p(tau) = sum c_i tau^i, tau = t / duration
 };
 
-}  // namespace ioct::rt
+}  // namespace ioct::scan

@@ -9,7 +9,7 @@
 #include <string>
 #include <string_view>
 
-namespace ioct::rt {
+namespace ioct::scan {
 
 // The ring's scan_pattern_id of each kind. Raster keeps hal::ScanPatternKind::raster's value.
 enum class ScanKind : std::uint32_t {
@@ -68,4 +68,4 @@ struct GalvoLimits {
   friend bool operator==(const GalvoLimits&, const GalvoLimits&) = default;
 };
 
-}  // namespace ioct::rt
+}  // namespace ioct::scan

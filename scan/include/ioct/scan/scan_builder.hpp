@@ -3,10 +3,10 @@
 // the flyback sweeps, and checks the result against the field and the galvo's limits.
 #pragma once
 
-#include "scan/scan_pattern.hpp"
-#include "scan/scan_spec.hpp"
+#include "ioct/scan/scan_pattern.hpp"
+#include "ioct/scan/scan_spec.hpp"
 
-namespace ioct::rt {
+namespace ioct::scan {
 
 // Throws ConfigError ("scan.<key>") when the spec does not fit the timing (repeats that do not
 // divide the volume, too many inactive A-scans, ...), and ScanInfeasible when the mirrors would
@@ -16,4 +16,4 @@ namespace ioct::rt {
 ScanPattern build_scan_pattern(const ScanSpec& spec, const ScanTiming& timing,
                                const GalvoLimits& limits);
 
-}  // namespace ioct::rt
+}  // namespace ioct::scan

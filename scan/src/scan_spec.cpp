@@ -1,11 +1,11 @@
-#include "scan/scan_spec.hpp"
+#include "ioct/scan/scan_spec.hpp"
 
 #include <array>
 #include <utility>
 
 #include "ioct/common/config_error.hpp"
 
-namespace ioct::rt {
+namespace ioct::scan {
 namespace {
 
 constexpr std::array<std::pair<ScanKind, std::string_view>, 4> kKindNames{{
@@ -50,4 +50,4 @@ void GalvoLimits::validate() const {
   require_real_in_range("galvo.max_acceleration", max_acceleration, 1e-3, 1e15);
 }
 
-}  // namespace ioct::rt
+}  // namespace ioct::scan

@@ -1,10 +1,10 @@
-#include "scan/axis_move.hpp"
+#include "ioct/scan/axis_move.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
-namespace ioct::rt {
+namespace ioct::scan {
 
 void AxisMove::add(double start, const QuinticTransition& curve) noexcept {
   pieces_[count_++] = {start, curve};
@@ -75,4 +75,4 @@ AxisMove AxisMove::plan(double p0, double v0, double p1, double v1, double durat
   return best;
 }
 
-}  // namespace ioct::rt
+}  // namespace ioct::scan

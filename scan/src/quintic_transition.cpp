@@ -1,9 +1,9 @@
-#include "scan/quintic_transition.hpp"
+#include "ioct/scan/quintic_transition.hpp"
 
 #include <algorithm>
 #include <cmath>
 
-namespace ioct::rt {
+namespace ioct::scan {
 namespace {
 
 // Real roots of a + b x + c x^2 inside [0, 1], passed to `visit`.
@@ -73,4 +73,4 @@ double QuinticTransition::peak_acceleration() const noexcept {
   return peak;
 }
 
-}  // namespace ioct::rt
+}  // namespace ioct::scan

@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "ioct/hal/galvo_output.hpp"
-#include "scan/scan_spec.hpp"
+#include "ioct/scan/scan_spec.hpp"
 
-namespace ioct::rt {
+namespace ioct::scan {
 
 struct BscanPlan {
   bool reversed = false;   // recorded right to left (the ring's kBscanReversed)
@@ -43,4 +43,4 @@ struct ScanPattern {
   std::string describe() const;
 };
 
-}  // namespace ioct::rt
+}  // namespace ioct::scan

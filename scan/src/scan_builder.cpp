@@ -1,4 +1,4 @@
-#include "scan/scan_builder.hpp"
+#include "ioct/scan/scan_builder.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -8,10 +8,10 @@
 #include <string>
 
 #include "ioct/common/config_error.hpp"
-#include "scan/axis_move.hpp"
-#include "scan/scan_infeasible.hpp"
+#include "ioct/scan/axis_move.hpp"
+#include "ioct/scan/scan_infeasible.hpp"
 
-namespace ioct::rt {
+namespace ioct::scan {
 namespace {
 
 struct Point {
@@ -309,4 +309,4 @@ std::string ScanPattern::describe() const {
   return text;
 }
 
-}  // namespace ioct::rt
+}  // namespace ioct::scan

@@ -7,7 +7,7 @@
 
 #include "ioct/common/error.hpp"
 
-namespace ioct::rt {
+namespace ioct::scan {
 
 // Category config; its key is the limit's.
 class ScanInfeasible : public std::invalid_argument, public Error {
@@ -31,4 +31,4 @@ class ScanInfeasible : public std::invalid_argument, public Error {
   double allowed_;
 };
 
-}  // namespace ioct::rt
+}  // namespace ioct::scan
