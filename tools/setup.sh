@@ -16,6 +16,7 @@ ioct_packages=(
   systemd   # systemd-analyze, -sysusers, -tmpfiles: the units' tests (tests/rt, tests/unpriv)
   python3   # tools/ioct-soak
   clang libclang-rt-14-dev  # libFuzzer for the fuzz preset (tools/ioct-fuzz)
+  clang-tidy  # tools/ioct-tidy (.clang-tidy)
 )
 
 ioct_install_packages() {

@@ -524,7 +524,7 @@ void check_declarations(const std::vector<KeySpec>& specs) {
     }
     if (first || s.table() != table) {
       if (!first) closed.insert(table);
-      if (closed.count(s.table()) != 0) {
+      if (closed.contains(s.table())) {
         throw std::logic_error("the keys of [" + s.table() +
                                "] must be declared together, its own before its subtables'");
       }

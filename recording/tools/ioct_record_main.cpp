@@ -23,7 +23,7 @@ namespace {
 
 ioct::ringrec::RingRecorder* g_recorder = nullptr;
 
-extern "C" void on_stop_signal(int) {
+extern "C" void on_stop_signal(int /*signal*/) {
   if (g_recorder != nullptr) g_recorder->request_stop();
 }
 

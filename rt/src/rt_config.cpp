@@ -113,11 +113,11 @@ void require_safety_keys(const RtConfig& c, const std::string& origin, const Key
   if (!drives_hardware(c)) return;
   std::string missing;
   for (const char* key : kSafetyKeysOnHardware) {
-    if (present.count(key) == 0) missing += (missing.empty() ? "" : ", ") + std::string(key);
+    if (!present.contains(key)) missing += (missing.empty() ? "" : ", ") + std::string(key);
   }
   if (c.lines_backend != "simulated") {
     for (const char* key : {"lines.laser_emission.offset", "lines.watchdog.offset"}) {
-      if (present.count(key) == 0) missing += (missing.empty() ? "" : ", ") + std::string(key);
+      if (!present.contains(key)) missing += (missing.empty() ? "" : ", ") + std::string(key);
     }
   }
   if (missing.empty()) return;

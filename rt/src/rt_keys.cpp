@@ -12,13 +12,15 @@ constexpr std::int64_t kU32 = std::numeric_limits<std::uint32_t>::max();
 constexpr std::int64_t kI64 = std::numeric_limits<std::int64_t>::max();
 
 // A field of a member, as KeyTable reaches it: one lambda for a const and a mutable config.
+// `expr` names a member: it cannot be parenthesised.
+// NOLINTBEGIN(bugprone-macro-parentheses)
 #define IOCT_MEMBER(expr) \
   [](auto& c) -> auto& {  \
     return c.expr;        \
   }
+// NOLINTEND(bugprone-macro-parentheses)
 
-config::KeyTable<RtConfig> make_keys() {
-  config::KeyTable<RtConfig> k;
+void add_ring_keys(config::KeyTable<RtConfig>& k) {
   k.text("ring.name", IOCT_MEMBER(ring_name),
          "the ring readers attach to: a POSIX shm name without '/', or an absolute path to a "
          "file in a directory (/dev/shm/ioct/ring on the appliance)",
@@ -27,7 +29,9 @@ config::KeyTable<RtConfig> make_keys() {
                "slots in the ring, one group each; readers may fall this far behind", "--slots")
       .text("ring.group", IOCT_MEMBER(ring_group),
             "group owning the ring (mode 0640: it reads); empty: this process's", "--group");
+}
 
+void add_digitizer_keys(config::KeyTable<RtConfig>& k) {
   k.choice("digitizer.backend", IOCT_MEMBER(digitizer_backend), {"simulated", "usb"},
            "simulated: the simulator's bench (sim/); usb: the instrument of [usb] (hal/usb)")
       .integer("digitizer.samples_per_ascan", IOCT_MEMBER(digitizer.samples_per_ascan), 16, 16384,
@@ -65,7 +69,9 @@ config::KeyTable<RtConfig> make_keys() {
             "trigger level, V (-5 to 5)")
       .integer("digitizer.trigger.delay_samples", IOCT_MEMBER(digitizer.trigger.delay_samples), 0,
                65536, "samples between the trigger and the record");
+}
 
+void add_scan_keys(config::KeyTable<RtConfig>& k) {
   k.choice_of(
        "scan.pattern", {"raster", "bidirectional", "crosshair", "radial"},
        [](const RtConfig& c) { return std::string(to_string(c.scan.kind)); },
@@ -86,7 +92,9 @@ config::KeyTable<RtConfig> make_keys() {
       .integer("scan.inactive_ascans", IOCT_MEMBER(scan.inactive_ascans), 0, 32767,
                "recorded A-scans at each end outside the active range (more time to turn); "
                "fewer than ascans_per_bscan / 2");
+}
 
+void add_galvo_keys(config::KeyTable<RtConfig>& k) {
   k.choice("galvo.backend", IOCT_MEMBER(galvo_backend), {"simulated", "usb"},
            "usb streams through the digitizer's instrument (needs digitizer.backend = usb)")
       .integer("galvo.fifo_capacity", IOCT_MEMBER(galvo.fifo_capacity), 16, 1 << 24,
@@ -104,14 +112,18 @@ config::KeyTable<RtConfig> make_keys() {
             "scan units per second squared, per axis (> 0)")
       .integer("galvo.feed_ahead_groups", IOCT_MEMBER(feed_ahead_groups), 1, 64,
                "the DAC FIFO is topped up to this many groups (capped by the FIFO)");
+}
 
+void add_usb_keys(config::KeyTable<RtConfig>& k) {
   k.integer("usb.vendor_id", IOCT_MEMBER(usb_vendor_id), 1, 0xFFFF,
             "the instrument's USB vendor ID (a placeholder; keep the udev rule equal)")
       .integer("usb.product_id", IOCT_MEMBER(usb_product_id), 0, 0xFFFF,
                "the instrument's USB product ID")
       .text("usb.serial", IOCT_MEMBER(usb_serial),
             "pick one instrument by serial number; empty: the first found");
+}
 
+void add_lines_keys(config::KeyTable<RtConfig>& k) {
   k.choice("lines.backend", IOCT_MEMBER(lines_backend), {"simulated", "gpio"},
            "simulated, or gpio (libgpiod, hal/gpio)")
       .text("lines.chip", IOCT_MEMBER(lines.chip), "GPIO chip name or path")
@@ -129,7 +141,9 @@ config::KeyTable<RtConfig> make_keys() {
   IOCT_WIRING(k_clock_valid, "k-clock valid (in)")
   IOCT_WIRING(footswitch, "footswitch (in)")
 #undef IOCT_WIRING
+}
 
+void add_realtime_keys(config::KeyTable<RtConfig>& k) {
   k.integer("realtime.priority", IOCT_MEMBER(rt_priority), 0, 99,
             "SCHED_FIFO priority of the acquisition thread; 0: none", "--rt-priority")
       .integer("realtime.cpu", IOCT_MEMBER(rt_cpu), -1, 1023,
@@ -149,7 +163,9 @@ config::KeyTable<RtConfig> make_keys() {
                "more in a row is a fault (SCHED_FIFO only)")
       .integer("realtime.stack_prefault_kib", IOCT_MEMBER(stack_prefault_kib), 16, 65536,
                "stack touched before the loop starts");
+}
 
+void add_safety_keys(config::KeyTable<RtConfig>& k) {
   k.integer("safety.poll_interval_us", IOCT_MEMBER(poll_interval_us), 100, 100'000,
             "the safety thread's poll (it also wakes on every input edge)")
       .integer("safety.watchdog_toggle_ms", IOCT_MEMBER(watchdog_toggle_ms), 1, 10'000,
@@ -175,7 +191,9 @@ config::KeyTable<RtConfig> make_keys() {
                "emit only while the footswitch is pressed")
       .integer("safety.auto_rearm_ms", IOCT_MEMBER(auto_rearm_ms), 0, 3'600'000,
                "re-arm from safe by itself after this; 0: only on a start command");
+}
 
+void add_control_keys(config::KeyTable<RtConfig>& k) {
   k.text("control.socket", IOCT_MEMBER(control_socket),
          "Unix socket of the control channel, JSON lines (/run/ioct/rt.sock on the appliance); "
          "empty: none",
@@ -189,10 +207,14 @@ config::KeyTable<RtConfig> make_keys() {
                "clients of the control socket at once")
       .integer("control.idle_timeout_ms", IOCT_MEMBER(idle_timeout_ms), 100, 86'400'000,
                "a client that sends no request for this long is closed");
+}
 
+void add_status_keys(config::KeyTable<RtConfig>& k) {
   k.real_in("status.interval_s", IOCT_MEMBER(status_interval_s), 0.05, 3600.0,
             "seconds between status lines on stderr", "--status-interval");
+}
 
+void add_simulation_keys(config::KeyTable<RtConfig>& k) {
   k.integer("simulation.seed", IOCT_MEMBER(simulation_seed), 0, kI64,
             "the simulator's seed: same seed, same bytes", "--seed")
       .real_in("simulation.mirror_natural_hz", IOCT_MEMBER(mirror_natural_hz), 10.0, 100'000.0,
@@ -210,6 +232,21 @@ config::KeyTable<RtConfig> make_keys() {
                  "each: KIND forceps, needle or scraper, names as sim/instrument_spec.hpp "
                  "lists them",
                  "--sim-instrument");
+}
+
+config::KeyTable<RtConfig> make_keys() {
+  config::KeyTable<RtConfig> k;
+  add_ring_keys(k);
+  add_digitizer_keys(k);
+  add_scan_keys(k);
+  add_galvo_keys(k);
+  add_usb_keys(k);
+  add_lines_keys(k);
+  add_realtime_keys(k);
+  add_safety_keys(k);
+  add_control_keys(k);
+  add_status_keys(k);
+  add_simulation_keys(k);
   return k;
 }
 

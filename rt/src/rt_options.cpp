@@ -32,7 +32,7 @@ constexpr double kMaxReplaySpeed = 1000.0;
     // An item of a list ("simulation.instruments[1].x") is placed where the list is.
     const std::string placed = key.substr(0, key.find('['));
     const auto at = positions.find(placed);
-    if (options.overrides.count(placed) == 0 && at != positions.end()) {
+    if (!options.overrides.contains(placed) && at != positions.end()) {
       try {
         throw;
       } catch (const std::exception& e) {

@@ -12,30 +12,40 @@ namespace ioct::gpu {
 namespace {
 
 // A field of a member, as KeyTable reaches it: one lambda for a const and a mutable config.
+// `expr` names a member: it cannot be parenthesised.
+// NOLINTBEGIN(bugprone-macro-parentheses)
 #define IOCT_MEMBER(expr) \
   [](auto& c) -> auto& {  \
     return c.expr;        \
   }
-// A key kept in an enum member, read and written through the library's own names for it.
+// NOLINTEND(bugprone-macro-parentheses)
+// A key kept in an enum member, read and written through the library's own names for it: the
+// getter and the setter, two arguments (so not one parenthesised expression).
+// NOLINTNEXTLINE(bugprone-macro-parentheses)
 #define IOCT_ENUM(expr, parse)                                       \
   [](const GpuConfig& c) { return std::string(to_string(c.expr)); }, \
       [](GpuConfig& c, const std::string& v) { c.expr = parse(v); }
 
-config::KeyTable<GpuConfig> make_keys() {
-  config::KeyTable<GpuConfig> k;
+void add_ring_keys(config::KeyTable<GpuConfig>& k) {
   k.text("ring.name", IOCT_MEMBER(live.ring_name),
          "the ring ioct-rt fills: a POSIX shm name without '/', or an absolute path", "--ring")
       .real_in("ring.wait_s", IOCT_MEMBER(live.wait_s), 0.0, 1e6,
                "seconds to wait for the ring to appear", "--wait");
+}
 
+void add_output_keys(config::KeyTable<GpuConfig>& k) {
   k.text("output.dir", IOCT_MEMBER(live.out_dir),
          "folder for bscan.png, enface.png, render.png and summary.json", "--out")
       .choice_of("output.enface", {"mean", "max"}, IOCT_ENUM(live.enface, parse_enface_projection),
                  "en face projection of the volume", "--enface");
+}
 
+void add_status_keys(config::KeyTable<GpuConfig>& k) {
   k.real_in("status.interval_s", IOCT_MEMBER(live.status_interval_s), 0.0, 1e6,
             "seconds between status lines on stderr; 0: none", "--status-interval");
+}
 
+void add_processing_keys(config::KeyTable<GpuConfig>& k) {
   k.choice("processing.backend", IOCT_MEMBER(backend), {"auto", "cpu", "cuda"},
            "where processing and the stages run; auto: CUDA when a usable GPU is present",
            "--backend")
@@ -74,7 +84,9 @@ config::KeyTable<GpuConfig> make_keys() {
       .text("processing.fft_wisdom", IOCT_MEMBER(live.processing.fft.wisdom_path),
             "FFTW wisdom file, read before planning and updated after; empty: none",
             "--fft-wisdom");
+}
 
+void add_stages_keys(config::KeyTable<GpuConfig>& k) {
   k.boolean("stages.enabled", IOCT_MEMBER(stages_enabled),
             "filter, segment and render the live volume (false: only process)", "--no-stages")
       .integer("stages.threads", IOCT_MEMBER(stages.cpu_threads), 1, 64,
@@ -94,7 +106,9 @@ config::KeyTable<GpuConfig> make_keys() {
                "CPU renderer: a moving view's frame size as a fraction of the output (full size "
                "once it stops)",
                "--cpu-moving-scale");
+}
 
+void add_render_keys(config::KeyTable<GpuConfig>& k) {
   k.choice_of(
        "render.mode",
        {"basic", "enhanced", "layer-aware", "axial-colorization", "la-mip", "bscan", "en-face"},
@@ -107,19 +121,26 @@ config::KeyTable<GpuConfig> make_keys() {
 
   // Ranges: segmentation::VolumeSampling::validate() and InstrumentConfig::validate(), which
   // name these keys.
+}
+
+void add_sampling_keys(config::KeyTable<GpuConfig>& k) {
   k.real("sampling.axial_um_per_px", IOCT_MEMBER(stages.sampling.axial_um_per_px),
          "depth pixel size, um (0.1 to 1000)", "--axial-um")
       .real("sampling.ascan_spacing_um", IOCT_MEMBER(stages.sampling.ascan_spacing_um),
             "distance between neighbouring A-scans, um (0.1 to 1000)", "--ascan-spacing-um")
       .real("sampling.bscan_spacing_um", IOCT_MEMBER(stages.sampling.bscan_spacing_um),
             "distance between neighbouring B-scans, um (0.1 to 1000)", "--bscan-spacing-um");
+}
 
+void add_instruments_keys(config::KeyTable<GpuConfig>& k) {
   k.boolean("instruments.enabled", IOCT_MEMBER(stages.instruments.enabled),
             "find instruments each pass: tip position, tip-to-ILM/RPE distances", "--instruments")
       .real("instruments.warn_rpe_um", IOCT_MEMBER(stages.instruments.warn_rpe_um),
             "warn when a tip is within this distance of the RPE, um (0 to 10000)",
             "--instruments-warn-rpe-um");
+}
 
+void add_view_keys(config::KeyTable<GpuConfig>& k) {
   k.text("view.frames", IOCT_MEMBER(frames),
          "frame ring for ioct-view (shm name or absolute path); `<ring>.frames`: the ring's "
          "name + .frames; none: no frames",
@@ -133,6 +154,19 @@ config::KeyTable<GpuConfig> make_keys() {
       .text("view.snapshot_dir", IOCT_MEMBER(snapshot_dir),
             "folder the view socket's snapshots go to; `<out>/snapshots`: under output.dir",
             "--snapshot-dir");
+}
+
+config::KeyTable<GpuConfig> make_keys() {
+  config::KeyTable<GpuConfig> k;
+  add_ring_keys(k);
+  add_output_keys(k);
+  add_status_keys(k);
+  add_processing_keys(k);
+  add_stages_keys(k);
+  add_render_keys(k);
+  add_sampling_keys(k);
+  add_instruments_keys(k);
+  add_view_keys(k);
   return k;
 }
 
@@ -224,7 +258,7 @@ GpuSetup make_gpu_setup(const std::string& file, const config::Overrides& overri
     const ConfigError e = in_file_terms(component_error);
     // Placed in the file when the key came from it and no flag overrode it.
     const auto at = positions.find(e.key());
-    if (at == positions.end() || overrides.count(e.key()) != 0) throw e;
+    if (at == positions.end() || overrides.contains(e.key())) throw e;
     throw config::ConfigFileError(file, at->second, e.what());
   }
 }

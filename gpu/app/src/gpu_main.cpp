@@ -27,7 +27,7 @@ namespace {
 // Atomic: the stop signal may be handled on any thread (a lock-free atomic is signal-safe).
 std::atomic<ioct::gpu::LiveProcessor*> g_processor{nullptr};
 
-extern "C" void on_stop_signal(int) {
+extern "C" void on_stop_signal(int /*signal*/) {
   if (ioct::gpu::LiveProcessor* p = g_processor.load()) p->request_stop();
 }
 
