@@ -1,5 +1,6 @@
 #include "ioct/gpu/instruments/cuda_instrument_detector.hpp"
 
+#include <cstdint>
 #include <string>
 
 #include "ioct/gpu/instruments/column_classification.hpp"
@@ -7,33 +8,66 @@
 namespace ioct::gpu::instruments {
 namespace {
 
-constexpr int kThreads = 256;
+// Histogram: blocks of kHistogramThreads, each over kHistogramWords 16-byte words of one B-scan
+// (a B-scan of 512 x 688 px: 22 blocks), so the whole device works on it, not one block per
+// B-scan.
+constexpr int kHistogramThreads = 256;
+constexpr std::size_t kHistogramWords = 4 * kHistogramThreads;
+// Columns: one thread per A-scan, small blocks so a group's 8192 A-scans spread over every SM.
+constexpr int kColumnThreads = 64;
 
-// One block per B-scan of the group: its histogram, its floor, then its A-scans.
-__global__ void classify_bscans(const std::uint8_t* bscans, std::uint32_t ascans,
-                                ColumnParams params, std::uint8_t* kinds, float* reflexes,
-                                std::uint8_t* floors) {
+__device__ __forceinline__ void count_bytes(std::uint32_t* histogram, std::uint32_t word) {
+#pragma unroll
+  for (int k = 0; k < 4; ++k) atomicAdd(&histogram[(word >> (8 * k)) & 0xFFu], 1u);
+}
+
+// Adds part blockIdx.x of B-scan blockIdx.y to histograms[blockIdx.y][256] (zeroed before).
+__global__ void histogram_bscans(const std::uint8_t* bscans, std::size_t pixels,
+                                 std::uint32_t* histograms) {
   __shared__ std::uint32_t histogram[256];
-  __shared__ int floor_level;
-  const std::uint32_t b = blockIdx.x;
-  const std::size_t pixels = std::size_t{ascans} * static_cast<std::size_t>(params.depth);
-  const std::uint8_t* bscan = bscans + b * pixels;
   for (int i = threadIdx.x; i < 256; i += blockDim.x) histogram[i] = 0;
   __syncthreads();
-  for (std::size_t i = threadIdx.x; i < pixels; i += blockDim.x)
+  const std::uint8_t* bscan = bscans + blockIdx.y * pixels;
+  const std::size_t begin = std::size_t{blockIdx.x} * kHistogramWords * 16;
+  const std::size_t end = min(begin + kHistogramWords * 16, pixels);
+  // 16-byte loads where the B-scan is 16-byte aligned (every B-scan of the default geometry).
+  const bool vectorised = reinterpret_cast<std::uintptr_t>(bscan) % 16 == 0;
+  const std::size_t vector_end = vectorised ? begin + (end - begin) / 16 * 16 : begin;
+  for (std::size_t i = begin + 16 * threadIdx.x; i < vector_end; i += 16 * blockDim.x) {
+    const uint4 v = __ldg(reinterpret_cast<const uint4*>(bscan + i));
+    count_bytes(histogram, v.x);
+    count_bytes(histogram, v.y);
+    count_bytes(histogram, v.z);
+    count_bytes(histogram, v.w);
+  }
+  for (std::size_t i = vector_end + threadIdx.x; i < end; i += blockDim.x)
     atomicAdd(&histogram[bscan[i]], 1u);
   __syncthreads();
+  std::uint32_t* total = histograms + 256 * std::size_t{blockIdx.y};
+  for (int i = threadIdx.x; i < 256; i += blockDim.x) {
+    if (histogram[i] != 0) atomicAdd(&total[i], histogram[i]);
+  }
+}
+
+// A-scans of B-scan blockIdx.y, one per thread: the B-scan's floor (its histogram's median), then
+// each column's kind and reflex.
+__global__ void classify_columns(const std::uint8_t* bscans, std::uint32_t ascans,
+                                 ColumnParams params, const std::uint32_t* histograms,
+                                 std::uint8_t* kinds, float* reflexes, std::uint8_t* floors) {
+  __shared__ int floor_level;
+  const std::uint32_t b = blockIdx.y;
+  const std::size_t pixels = std::size_t{ascans} * static_cast<std::size_t>(params.depth);
   if (threadIdx.x == 0) {
-    floor_level = median_of_histogram(histogram, pixels);
-    floors[b] = static_cast<std::uint8_t>(floor_level);
+    floor_level = median_of_histogram(histograms + 256 * std::size_t{b}, pixels);
+    if (blockIdx.x == 0) floors[b] = static_cast<std::uint8_t>(floor_level);
   }
   __syncthreads();
-  for (std::uint32_t a = threadIdx.x; a < ascans; a += blockDim.x) {
-    const ColumnFinding c =
-        classify_column(bscan + std::size_t{a} * params.depth, params, floor_level);
-    kinds[std::size_t{b} * ascans + a] = static_cast<std::uint8_t>(c.kind);
-    reflexes[std::size_t{b} * ascans + a] = c.reflex_px;
-  }
+  const std::uint32_t a = blockIdx.x * blockDim.x + threadIdx.x;
+  if (a >= ascans) return;
+  const ColumnFinding c =
+      classify_column(bscans + b * pixels + std::size_t{a} * params.depth, params, floor_level);
+  kinds[std::size_t{b} * ascans + a] = static_cast<std::uint8_t>(c.kind);
+  reflexes[std::size_t{b} * ascans + a] = c.reflex_px;
 }
 
 // Throws BackendUnavailable without a CUDA device (before any CUDA object is made).
@@ -76,10 +110,21 @@ void CudaInstrumentDetector::classify(VolumeRef volume, BscanSpan group, const C
                      "instruments: the group's B-scans to the device");
     group_pixels = bscans_.data();
   }
-  classify_bscans<<<group.count, kThreads, 0, stream>>>(
-      group_pixels, static_cast<std::uint32_t>(ascans), params, kinds_.data(), reflexes_.data(),
-      floors_.data());
-  cuda::check_launch("instruments: classify_bscans");
+  const std::size_t pixels = ascans * dims.depth;
+  histograms_.resize(std::size_t{group.count} * 256);
+  IOCT_CUDA_CHECK(cudaMemsetAsync(histograms_.data(), 0, histograms_.bytes(), stream));
+  const dim3 parts(static_cast<unsigned>((pixels + kHistogramWords * 16 - 1) /
+                                         (kHistogramWords * 16)),
+                   group.count);
+  histogram_bscans<<<parts, kHistogramThreads, 0, stream>>>(group_pixels, pixels,
+                                                            histograms_.data());
+  cuda::check_launch("instruments: histogram_bscans");
+  const dim3 columns_grid(static_cast<unsigned>((ascans + kColumnThreads - 1) / kColumnThreads),
+                          group.count);
+  classify_columns<<<columns_grid, kColumnThreads, 0, stream>>>(
+      group_pixels, static_cast<std::uint32_t>(ascans), params, histograms_.data(), kinds_.data(),
+      reflexes_.data(), floors_.data());
+  cuda::check_launch("instruments: classify_columns");
   const std::size_t offset = std::size_t{group.first} * ascans;
   cuda::copy_async(host_kinds_.data(), kinds_.data(), columns, cudaMemcpyDeviceToHost, stream,
                    cuda::Payload::other, "instruments: the A-scans' kinds to the host");

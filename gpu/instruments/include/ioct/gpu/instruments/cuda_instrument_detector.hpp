@@ -1,9 +1,9 @@
-// The CUDA implementation of the instrument detection (built only with CUDA): per group, one
-// thread block per B-scan (read in place from a device volume, or uploaded from a host one)
-// builds the B-scan's histogram in shared memory, takes its median as the floor, and classifies its
-// A-scans, one thread each, with the same column code as the CPU reference
-// (column_classification.hpp); the mask and the reflexes come back (a few bytes per A-scan) and the
-// tips are found on the host, as for the CPU.
+// The CUDA implementation of the instrument detection (built only with CUDA): per group, the
+// B-scans (read in place from a device volume, or uploaded from a host one) are histogrammed by
+// many blocks each (shared-memory histograms summed into one per B-scan), then every A-scan is
+// classified, one thread each, against its B-scan's floor (the histogram's median) with the same
+// column code as the CPU reference (column_classification.hpp); the mask and the reflexes come
+// back (a few bytes per A-scan) and the tips are found on the host, as for the CPU.
 #pragma once
 
 #include <cstdint>
@@ -29,6 +29,7 @@ class CudaInstrumentDetector final : public InstrumentDetector {
   cuda::DeviceArray<std::uint8_t> kinds_;   // [bscan of the group][ascan]
   cuda::DeviceArray<float> reflexes_;       // [bscan of the group][ascan]
   cuda::DeviceArray<std::uint8_t> floors_;  // [bscan of the group]
+  cuda::DeviceArray<std::uint32_t> histograms_;  // [bscan of the group][256]
   cuda::PinnedArray<std::uint8_t> host_kinds_;
 };
 
