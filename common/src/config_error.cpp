@@ -4,6 +4,8 @@
 #include <cmath>
 #include <utility>
 
+#include "ioct/common/input_file.hpp"
+
 namespace ioct {
 
 ConfigError::ConfigError(std::string key, std::string value, std::string_view allowed)
@@ -17,6 +19,10 @@ std::string format_value(std::uint64_t value) {
 
 std::string format_value(std::int64_t value) {
   return std::to_string(value);
+}
+
+std::string format_text(std::string_view text) {
+  return "\"" + quote_input(text, 60) + "\"";
 }
 
 std::string format_value(double value) {

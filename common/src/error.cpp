@@ -1,8 +1,7 @@
 #include "ioct/common/error.hpp"
 
-#include <iostream>
-
 #include "ioct/common/command_main.hpp"
+#include "ioct/common/log.hpp"
 
 namespace ioct {
 
@@ -63,7 +62,7 @@ int run_command(std::string_view program, const std::function<int()>& body,
   try {
     return body();
   } catch (const std::exception& e) {
-    std::cerr << describe_failure(program, e, flag_for) << std::endl;
+    Log(std::string(program)).emit(Severity::error, describe_failure(program, e, flag_for));
     return exit_status(category_of(e));
   }
 }

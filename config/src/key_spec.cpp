@@ -18,11 +18,6 @@
 namespace ioct::config {
 namespace {
 
-// A string of the input as a message shows it: printable, shortened.
-std::string shown_text(std::string_view text) {
-  return "\"" + quote_input(text, 60) + "\"";
-}
-
 std::string joined(const std::vector<std::string>& items, std::string_view last = ", ") {
   std::string out;
   for (std::size_t i = 0; i < items.size(); ++i) {
@@ -52,7 +47,7 @@ std::string type_name(const toml::node& node) {
 }
 
 std::string shown_value(const toml::node& node) {
-  if (const auto* s = node.as_string()) return shown_text(s->get());
+  if (const auto* s = node.as_string()) return format_text(s->get());
   std::ostringstream out;
   node.visit([&](const auto& n) { out << n; });
   return out.str();
@@ -83,7 +78,7 @@ Value value_of(const KeySpec& spec, const toml::node& node, const std::string& o
         if (text->get() != "auto") {
           throw ConfigFileError(
               origin, position_of(node.source()),
-              ConfigError(spec.key, shown_text(text->get()), spec.allowed_text()).what());
+              ConfigError(spec.key, format_text(text->get()), spec.allowed_text()).what());
         }
         return std::int64_t{-1};
       }
@@ -296,7 +291,7 @@ void check_value(const KeySpec& spec, const Value& value) {
     case KeyKind::choice: {
       const std::string& v = std::get<std::string>(value);
       if (std::find(spec.allowed.begin(), spec.allowed.end(), v) == spec.allowed.end()) {
-        throw ConfigError(spec.key, shown_text(v), spec.allowed_text());
+        throw ConfigError(spec.key, format_text(v), spec.allowed_text());
       }
       return;
     }
@@ -310,7 +305,7 @@ void check_value(const KeySpec& spec, const Value& value) {
 Value value_from_texts(const KeySpec& spec, const std::vector<std::string>& texts) {
   for (const std::string& text : texts) {
     // The printed configuration must read back; a file's strings are UTF-8 already (TOML).
-    if (!is_utf8(text)) throw ConfigError(spec.key, shown_text(text), "must be UTF-8 text");
+    if (!is_utf8(text)) throw ConfigError(spec.key, format_text(text), "must be UTF-8 text");
   }
   if (spec.kind == KeyKind::text_list) return texts;
   if (texts.size() != 1) {
@@ -327,7 +322,7 @@ Value value_from_texts(const KeySpec& spec, const std::vector<std::string>& text
       std::int64_t v = 0;
       const auto [end, error] = std::from_chars(text.data(), text.data() + text.size(), v);
       if (error != std::errc() || end != text.data() + text.size()) {
-        throw ConfigError(spec.key, shown_text(text),
+        throw ConfigError(spec.key, format_text(text),
                           spec.kind == KeyKind::integer
                               ? "must be an integer in " + range_text(spec.lo, spec.hi)
                               : spec.allowed_text());
@@ -339,14 +334,14 @@ Value value_from_texts(const KeySpec& spec, const std::vector<std::string>& text
       char* end = nullptr;
       const double v = std::strtod(text.c_str(), &end);
       if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(v)) {
-        throw ConfigError(spec.key, shown_text(text), "must be a finite number");
+        throw ConfigError(spec.key, format_text(text), "must be a finite number");
       }
       value = v;
       break;
     }
     case KeyKind::boolean:
       if (text != "true" && text != "false") {
-        throw ConfigError(spec.key, shown_text(text), "must be true or false");
+        throw ConfigError(spec.key, format_text(text), "must be true or false");
       }
       value = text == "true";
       break;

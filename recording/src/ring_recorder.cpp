@@ -86,28 +86,20 @@ class RoomCheck {
 // The writer thread's state; only this thread touches the HDF5 file once it runs.
 struct DiskWriter {
   DiskWriter(RingRecordingWriter& file_, GroupQueue& queue_, SharedCounters& counters_,
-             RoomCheck room_, std::ostream* status_, std::mutex* status_mutex_)
-      : file(file_),
-        queue(queue_),
-        counters(counters_),
-        room(std::move(room_)),
-        status(status_),
-        status_mutex(status_mutex_) {}
+             RoomCheck room_, const Log* log_)
+      : file(file_), queue(queue_), counters(counters_), room(std::move(room_)), log(log_) {}
 
   RingRecordingWriter& file;
   GroupQueue& queue;
   SharedCounters& counters;
   RoomCheck room;
-  std::ostream* status;
-  std::mutex* status_mutex;
+  const Log* log;
   std::atomic<bool> failed{false};
   std::string failure;  // read after join
   std::uint64_t busy_ns = 0;
 
-  void say(const std::string& line) {
-    if (status == nullptr) return;
-    std::lock_guard lock(*status_mutex);
-    *status << "ioct-record: " << line << std::endl;
+  void say(const std::string& line) const {
+    if (log != nullptr) log->info(line);
   }
 
   void run() {
@@ -155,8 +147,8 @@ struct DiskWriter {
   }
 };
 
-void print_status(std::ostream& out, std::mutex& mutex, const SharedCounters& counters,
-                  double seconds, std::uint64_t bytes_before, double interval_s, std::size_t queued,
+void print_status(const Log& log, const SharedCounters& counters, double seconds,
+                  std::uint64_t bytes_before, double interval_s, std::size_t queued,
                   std::size_t capacity) {
   const CounterValues c = counters.snapshot();
   auto at = [&](Counter k) { return c[static_cast<std::size_t>(k)]; };
@@ -172,8 +164,7 @@ void print_status(std::ostream& out, std::mutex& mutex, const SharedCounters& co
                 static_cast<unsigned long long>(at(Counter::dropped_behind)),
                 static_cast<unsigned long long>(at(Counter::dropped_queue_full)),
                 static_cast<unsigned long long>(at(Counter::dropped_disk_full)), queued, capacity);
-  std::lock_guard lock(mutex);
-  out << "ioct-record: " << line << std::endl;
+  log.info(line);
 }
 
 }  // namespace
@@ -182,12 +173,12 @@ void print_status(std::ostream& out, std::mutex& mutex, const SharedCounters& co
 struct RingRecorder::Session {
   Session(const RecorderConfig& config, const std::filesystem::path& path,
           const RecordingDescription& description, bool overwrite, std::uint64_t group_bytes,
-          std::ostream* status, std::mutex* status_mutex)
+          const Log* log)
       : file_path(path),
         file(path, description, overwrite),
         queue(std::make_shared<GroupQueue>(config.queue_groups, group_bytes)),
         counters(std::make_shared<SharedCounters>()),
-        writer(file, *queue, *counters, RoomCheck(config, path), status, status_mutex) {}
+        writer(file, *queue, *counters, RoomCheck(config, path), log) {}
 
   std::filesystem::path file_path;
   RingRecordingWriter file;
@@ -284,15 +275,14 @@ RingRecorder::RingRecorder(RecorderConfig config) : config_(std::move(config)) {
 std::unique_ptr<RingRecorder::Session> RingRecorder::open_session(const std::filesystem::path& file,
                                                                   double seconds, bool overwrite,
                                                                   const shm::RingGeometry& geometry,
-                                                                  std::ostream* status,
-                                                                  std::mutex& status_mutex) {
+                                                                  const Log* log) {
   RecordingDescription description;
   description.geometry = geometry;
   description.ring_name = config_.ring_name;
   description.producer = config_.producer;
   description.run_metadata = config_.run_metadata;
   auto session = std::make_unique<Session>(config_, file, description, overwrite,
-                                           geometry.group_payload_bytes(), status, &status_mutex);
+                                           geometry.group_payload_bytes(), log);
   session->start_ns = ioct::monotonic_ns();
   session->limit_s = seconds;
   session->end_ns = seconds > 0 ? session->start_ns + seconds_to_ns(seconds) : UINT64_MAX;
@@ -395,8 +385,7 @@ std::string RingRecorder::stop_recording() {
 }
 
 void RingRecorder::serve_command(std::unique_ptr<Session>& session,
-                                 const shm::RingGeometry& geometry, std::ostream* status,
-                                 std::mutex& status_mutex) {
+                                 const shm::RingGeometry& geometry, const Log* log) {
   Command command;
   {
     std::lock_guard lock(mutex_);
@@ -406,9 +395,7 @@ void RingRecorder::serve_command(std::unique_ptr<Session>& session,
     command = command_;
   }
   auto say = [&](const std::string& line) {
-    if (status == nullptr) return;
-    std::lock_guard lock(status_mutex);
-    *status << "ioct-record: " << line << std::endl;
+    if (log != nullptr) log->info(line);
   };
   std::string answer;
   if (command.kind == CommandKind::start) {
@@ -424,8 +411,7 @@ void RingRecorder::serve_command(std::unique_ptr<Session>& session,
                " exists; not overwriting it (choose another name)";
     } else {
       try {
-        session =
-            open_session(command.file, command.seconds, false, geometry, status, status_mutex);
+        session = open_session(command.file, command.seconds, false, geometry, log);
         say("recording ring '" + config_.ring_name + "' into " + command.file.string() +
             (command.seconds > 0 ? " for " + format_value(command.seconds) + " s" : ""));
       } catch (const std::exception& e) {
@@ -466,12 +452,9 @@ RecorderStatus RingRecorder::status() const {
   return out;
 }
 
-RecorderSummary RingRecorder::run(std::ostream* status) {
-  std::mutex status_mutex;
+RecorderSummary RingRecorder::run(const Log* log) {
   auto say = [&](const std::string& line) {
-    if (status == nullptr) return;
-    std::lock_guard lock(status_mutex);
-    *status << "ioct-record: " << line << std::endl;
+    if (log != nullptr) log->info(line);
   };
 
   shm::AttachWait first_wait;
@@ -489,8 +472,7 @@ RecorderSummary RingRecorder::run(std::ostream* status) {
 
   std::unique_ptr<Session> session;
   if (!config_.standby) {
-    session =
-        open_session(config_.out, config_.run_s, config_.overwrite, geometry, status, status_mutex);
+    session = open_session(config_.out, config_.run_s, config_.overwrite, geometry, log);
     say("recording ring '" + config_.ring_name + "' into " + config_.out.string());
   } else {
     say("standby on ring '" + config_.ring_name + "': recordings go into " + config_.out.string() +
@@ -539,7 +521,7 @@ RecorderSummary RingRecorder::run(std::ostream* status) {
   summary.stop_reason = "stopped";
   for (;;) {
     if (command_pending_.load(std::memory_order_acquire)) {
-      serve_command(session, geometry, status, status_mutex);
+      serve_command(session, geometry, log);
     }
     const std::uint64_t now = ioct::monotonic_ns();
     if (stop_.load(std::memory_order_relaxed)) break;
@@ -552,8 +534,8 @@ RecorderSummary RingRecorder::run(std::ostream* status) {
         if (!end_session("writing failed", true)) break;
         continue;
       }
-      if (status != nullptr && status_ns > 0 && now >= session->next_status_ns) {
-        print_status(*status, status_mutex, *session->counters,
+      if (log != nullptr && status_ns > 0 && now >= session->next_status_ns) {
+        print_status(*log, *session->counters,
                      static_cast<double>(now - session->start_ns) / kNsPerS,
                      session->bytes_at_last_status, config_.status_interval_s,
                      session->queue->queued(), session->queue->capacity());
@@ -605,7 +587,7 @@ RecorderSummary RingRecorder::run(std::ostream* status) {
     std::uint64_t next_waiting_line = ioct::monotonic_ns() + status_ns;
     again.on_waiting = [&](shm::RingErrc last, std::uint64_t waited_ns) {
       if (command_pending_.load(std::memory_order_acquire)) {
-        serve_command(session, geometry, status, status_mutex);
+        serve_command(session, geometry, log);
       }
       if (status_ns == 0 || ioct::monotonic_ns() < next_waiting_line) return;
       next_waiting_line = ioct::monotonic_ns() + status_ns;

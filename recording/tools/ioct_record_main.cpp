@@ -13,6 +13,7 @@
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/line_server.hpp"
+#include "ioct/common/log.hpp"
 #include "ioct/common/stop_signals.hpp"
 #include "ioct/ringrec/h5_handle.hpp"
 #include "ioct/ringrec/recorder_control.hpp"
@@ -20,12 +21,6 @@
 #include "ioct/shm/ring_error.hpp"
 
 namespace {
-
-ioct::ringrec::RingRecorder* g_recorder = nullptr;
-
-extern "C" void on_stop_signal(int /*signal*/) {
-  if (g_recorder != nullptr) g_recorder->request_stop();
-}
 
 constexpr std::size_t kMaxMetadataFileBytes = 1 << 20;
 // A directory of its own beside ioct-rt's /run/ioct (which only ioct-rt may write), as ioct-gpu
@@ -89,6 +84,11 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   return ioct::run_command("ioct-record", [&]() -> int {
+    const ioct::StopSignals signals;  // before any thread, so every thread inherits the mask
+    ioct::StopTarget<RingRecorder> target;
+    const ioct::StopWatcher watcher(signals, [&target](int signal) { target.stop(signal); });
+    // The status lines are the recorder's output (scripts and tests read them), so standard output.
+    const ioct::Log log("ioct-record", std::cout);
     config.out = out;
     if (max_mb < 0 || max_mb > 1e12) {
       throw ioct::ConfigError("max-mb", ioct::format_value(max_mb), "must be in [0, 1e12]");
@@ -102,7 +102,7 @@ int main(int argc, char** argv) {
       control.emplace(control_socket, control_group, 8, 30'000,
                       ioct::LineServerNames{"recorder control socket", "ioct-record",
                                             "--control-group", "max clients"});
-      std::cout << "ioct-record: control: listening on " << control_socket << std::endl;
+      log.info("control: listening on " + control_socket);
     }
     std::atomic<bool> control_done{false};
     std::thread control_thread;
@@ -110,11 +110,10 @@ int main(int argc, char** argv) {
       control_thread = std::thread(
           [&] { ioct::ringrec::serve_recorder_control(*control, recorder, control_done); });
     }
-    g_recorder = &recorder;
-    ioct::install_stop_handler(on_stop_signal);
     RecorderSummary summary;
     try {
-      summary = recorder.run(&std::cout);
+      const auto running = target.running(recorder);
+      summary = recorder.run(&log);
     } catch (...) {
       control_done = true;
       if (control_thread.joinable()) control_thread.join();
@@ -122,18 +121,19 @@ int main(int argc, char** argv) {
     }
     control_done = true;
     if (control_thread.joinable()) control_thread.join();
-    g_recorder = nullptr;
     const CounterValues& c = summary.counters;
     auto at = [&](Counter k) { return c[static_cast<std::size_t>(k)]; };
-    std::cout << "ioct-record: " << summary.stop_reason << " after " << summary.seconds
-              << " s: " << at(Counter::groups_written) << " groups (" << at(Counter::bytes_written)
-              << " bytes, writing at " << summary.write_mb_per_s << " MB/s) in "
-              << (summary.file.empty() ? std::string("no recording") : summary.file.string())
-              << "; lost: lapped " << at(Counter::dropped_lapped) << ", behind "
-              << at(Counter::dropped_behind) << ", queue full " << at(Counter::dropped_queue_full)
-              << ", disk full " << at(Counter::dropped_disk_full) << std::endl;
+    std::ostringstream line;
+    line << summary.stop_reason << " after " << summary.seconds
+         << " s: " << at(Counter::groups_written) << " groups (" << at(Counter::bytes_written)
+         << " bytes, writing at " << summary.write_mb_per_s << " MB/s) in "
+         << (summary.file.empty() ? std::string("no recording") : summary.file.string())
+         << "; lost: lapped " << at(Counter::dropped_lapped) << ", behind "
+         << at(Counter::dropped_behind) << ", queue full " << at(Counter::dropped_queue_full)
+         << ", disk full " << at(Counter::dropped_disk_full);
+    log.info(line.str());
     if (summary.failed) {
-      std::cerr << "ioct-record: " << summary.stop_reason << std::endl;
+      ioct::Log("ioct-record").error(summary.stop_reason);
       return 3;
     }
     return 0;

@@ -395,44 +395,10 @@ void AcquisitionLoop::acquire_one_group() noexcept {
   beat();
   last_group_sweep_ = info.first_sweep_counter;
 
-  if ((info.status & hal::kGroupTimeout) != 0) faults |= kFaultDigitizerTimeout;
-  if ((info.status & hal::kGroupDeviceLost) != 0) faults |= kFaultDigitizerLost;
-  if ((info.status & hal::kGroupClockFault) != 0) faults |= kFaultClockLost;
-  if (info.missed_sweeps > settings_.max_missed_sweeps_per_group) faults |= kFaultTriggerLost;
+  faults |= group_faults(info);
   const bool complete = (info.status & (hal::kGroupTimeout | hal::kGroupDeviceLost)) == 0;
-
   const GroupTimes times = group_times(clock_, geometry, info.first_sweep_counter);
-  add(counters_.groups_generated, std::uint64_t{1});
-  add(counters_.generation_ns_total, generated_ns - begin_ns);
-  store_max(counters_.generation_ns_max, generated_ns - begin_ns);
-  add(counters_.missed_sweeps, std::uint64_t{info.missed_sweeps});
-
-  // The source was behind, not this thread: counted apart, and no reason to fault.
-  const bool source_late = (info.status & hal::kGroupLate) != 0;
-  if (source_late) {
-    const std::uint64_t lateness =
-        generated_ns > times.complete_ns ? generated_ns - times.complete_ns : 0;
-    add(counters_.simulator_late_groups, std::uint64_t{1});
-    store_max(counters_.simulator_worst_lateness_ns, lateness);
-    if (!simulator_behind_) {
-      event(LoopEventKind::simulator_behind,
-            static_cast<std::uint32_t>(std::min<std::uint64_t>(lateness / 1000, 0xFFFFFFFFu)));
-    }
-  }
-  simulator_behind_ = source_late;
-
-  const std::uint64_t deadline_ns = times.complete_ns + settings_.publish_slack_ns;
-  if (source_late) {
-    consecutive_misses_ = 0;
-  } else if (generated_ns > deadline_ns) {
-    add(counters_.deadline_misses, std::uint64_t{1});
-    store_max(counters_.worst_lateness_ns, generated_ns - deadline_ns);
-    if (++consecutive_misses_ > settings_.max_consecutive_misses && deadline_faults_) {
-      faults |= kFaultDeadlineMisses;
-    }
-  } else {
-    consecutive_misses_ = 0;
-  }
+  faults |= judge_timing(info, times, begin_ns, generated_ns);
 
   if (faults != 0) {
     post_fault(faults);
@@ -466,7 +432,53 @@ void AcquisitionLoop::acquire_one_group() noexcept {
   ring_.publish(claim);
   add(counters_.groups_published, std::uint64_t{1});
   ++groups_this_cycle_;
+  after_publish(info);
+}
 
+std::uint32_t AcquisitionLoop::group_faults(const hal::GroupInfo& info) const noexcept {
+  std::uint32_t faults = 0;
+  if ((info.status & hal::kGroupTimeout) != 0) faults |= kFaultDigitizerTimeout;
+  if ((info.status & hal::kGroupDeviceLost) != 0) faults |= kFaultDigitizerLost;
+  if ((info.status & hal::kGroupClockFault) != 0) faults |= kFaultClockLost;
+  if (info.missed_sweeps > settings_.max_missed_sweeps_per_group) faults |= kFaultTriggerLost;
+  return faults;
+}
+
+std::uint32_t AcquisitionLoop::judge_timing(const hal::GroupInfo& info, const GroupTimes& times,
+                                            std::uint64_t begin_ns,
+                                            std::uint64_t generated_ns) noexcept {
+  add(counters_.groups_generated, std::uint64_t{1});
+  add(counters_.generation_ns_total, generated_ns - begin_ns);
+  store_max(counters_.generation_ns_max, generated_ns - begin_ns);
+  add(counters_.missed_sweeps, std::uint64_t{info.missed_sweeps});
+
+  // The source was behind, not this thread: counted apart, and no reason to fault.
+  const bool source_late = (info.status & hal::kGroupLate) != 0;
+  if (source_late) {
+    const std::uint64_t lateness =
+        generated_ns > times.complete_ns ? generated_ns - times.complete_ns : 0;
+    add(counters_.simulator_late_groups, std::uint64_t{1});
+    store_max(counters_.simulator_worst_lateness_ns, lateness);
+    if (!simulator_behind_) {
+      event(LoopEventKind::simulator_behind,
+            static_cast<std::uint32_t>(std::min<std::uint64_t>(lateness / 1000, 0xFFFFFFFFu)));
+    }
+  }
+  simulator_behind_ = source_late;
+
+  const std::uint64_t deadline_ns = times.complete_ns + settings_.publish_slack_ns;
+  if (source_late || generated_ns <= deadline_ns) {
+    consecutive_misses_ = 0;
+    return 0;
+  }
+  add(counters_.deadline_misses, std::uint64_t{1});
+  store_max(counters_.worst_lateness_ns, generated_ns - deadline_ns);
+  return ++consecutive_misses_ > settings_.max_consecutive_misses && deadline_faults_
+             ? kFaultDeadlineMisses
+             : 0u;
+}
+
+void AcquisitionLoop::after_publish(const hal::GroupInfo& info) noexcept {
   if (!verified_.load(std::memory_order_relaxed)) {
     // Verified: a complete, timely group is out and the mirrors are being driven.
     const hal::GalvoStatus now = galvo_.status();

@@ -150,6 +150,14 @@ class AcquisitionLoop {
   void run() noexcept;
   void arm() noexcept;
   void acquire_one_group() noexcept;
+  // The faults a group's own status shows (timeout, device lost, clock, missed triggers).
+  std::uint32_t group_faults(const hal::GroupInfo& info) const noexcept;
+  // Counts the group's generation time and lateness; kFaultDeadlineMisses once too many in a row
+  // were late by this thread's fault (not the source's), else 0.
+  std::uint32_t judge_timing(const hal::GroupInfo& info, const GroupTimes& times,
+                             std::uint64_t begin_ns, std::uint64_t generated_ns) noexcept;
+  // After a timely group went out: verification, the page-fault baseline, retired patterns.
+  void after_publish(const hal::GroupInfo& info) noexcept;
   void park() noexcept;
   // Tops the DAC FIFO up to its target; `streaming`: note the fill it found as the margin.
   void feed(bool streaming) noexcept;

@@ -21,6 +21,8 @@
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/input_file.hpp"
+#include "ioct/common/log.hpp"
+#include "ioct/common/stop_signals.hpp"
 #include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/scan/scan_builder.hpp"
 #include "ioct/scan/scan_infeasible.hpp"
@@ -35,16 +37,11 @@
 #include "safety_supervisor.hpp"
 #include "sd_notify.hpp"
 #include "self_test.hpp"
-#include "shutdown_signals.hpp"
 #include "status_report.hpp"
 
 namespace {
 
 using namespace ioct;
-
-void say(const std::string& line) {
-  std::fprintf(stderr, "ioct-rt: %s\n", line.c_str());
-}
 
 std::string printf_string(const char* format, auto... values) {
   char text[512];
@@ -191,12 +188,22 @@ int run_self_test(const rt::RtOptions& options) {
 
 class Process {
  public:
-  Process(const rt::RtOptions& options, const rt::ShutdownSignals& signals)
-      : options_(options), signals_(signals), setup_(rt::make_setup(options)) {}
+  Process(const rt::RtOptions& options, const StopSignals& signals, const Log& log)
+      : options_(options), signals_(signals), log_(log), setup_(rt::make_setup(options)) {}
 
   int run();
 
  private:
+  // Backends, ring, the acquisition and safety threads.
+  void start_threads();
+  // The control socket, and scanning when the config says to start with it.
+  void open_control();
+  // The housekeeping loop: signals, commands, events, watchdog and status lines until a stop;
+  // returns why it stopped.
+  std::string serve(const rt::StatusSample& first);
+  // Emission off and galvos parked, the threads ended, the ring closed, the summary written.
+  int shut_down(const std::string& reason, const rt::StatusSample& first);
+
   std::string handle(const std::string& line);
   nlohmann::json status_now();
   std::string wait_for_request(bool start, std::uint64_t request, const nlohmann::json& id);
@@ -204,7 +211,9 @@ class Process {
   bool healthy(std::uint64_t now) const;
 
   const rt::RtOptions& options_;
-  const rt::ShutdownSignals& signals_;
+  const StopSignals& signals_;
+  const Log& log_;
+  const rt::SdNotifier notifier_;
   rt::RtSetup setup_;
   PatternStore patterns_;
   rt::Backends backends_;  // before the threads that use it, so it is destroyed after them
@@ -213,6 +222,7 @@ class Process {
   std::optional<shm::RingWriter> ring_;
   std::unique_ptr<rt::AcquisitionLoop> loop_;
   std::unique_ptr<rt::SafetySupervisor> supervisor_;
+  std::optional<LineServer> control_;
   std::uint64_t started_ns_ = 0;
   std::uint64_t budget_ns_ = 0;
 };
@@ -292,7 +302,7 @@ std::string Process::handle(const std::string& line) {
               request.id, cmd);
         }
         current_spec_ = spec;
-        say("control: scan change accepted: " + description);
+        log_.info("control: scan change accepted: " + description);
         nlohmann::json reply = {{"ok", true},
                                 {"cmd", "scan"},
                                 {"pattern", description},
@@ -309,11 +319,12 @@ std::string Process::handle(const std::string& line) {
 }
 
 void Process::drain_events() {
-  while (const auto e = loop_->take_event()) say(describe_loop_event(*e));
+  while (const auto e = loop_->take_event()) log_.info(describe_loop_event(*e));
   if (const std::optional<rt::SafetyTransition> first = supervisor_->take_transition()) {
     const rt::SafetyStatus status = supervisor_->status();
-    say(describe_transition(*first, status));
-    while (const auto t = supervisor_->take_transition()) say(describe_transition(*t, status));
+    log_.info(describe_transition(*first, status));
+    while (const auto t = supervisor_->take_transition())
+      log_.info(describe_transition(*t, status));
   }
   while (const scan::ScanPattern* retired = loop_->take_retired()) patterns_.release(retired);
 }
@@ -328,6 +339,14 @@ bool Process::healthy(std::uint64_t now) const {
 }
 
 int Process::run() {
+  start_threads();
+  open_control();
+  const rt::StatusSample first = rt::sample_status(*loop_);
+  const std::string reason = serve(first);
+  return shut_down(reason, first);
+}
+
+void Process::start_threads() {
   const rt::RtConfig& config = setup_.config;
   timing_ = {config.digitizer.ascans_per_bscan, config.digitizer.flyback_sweeps,
              config.bscans_per_volume, config.digitizer.ascan_rate_hz};
@@ -337,60 +356,60 @@ int Process::run() {
 
   // The hardware first: a config it refuses leaves any ring under the name untouched.
   backends_ = rt::make_backends(setup_);
-  rt::Backends& backends = backends_;
-  backends.digitizer->prepare(setup_.digitizer);
+  backends_.digitizer->prepare(setup_.digitizer);
   hal::GalvoOutputConfig galvo = config.galvo;
   galvo.sample_rate_hz = config.digitizer.ascan_rate_hz;
   galvo.lead_samples = 0;  // the acquisition thread shifts the waveform itself (galvo.lead_us)
-  backends.galvo->prepare(galvo);
-  backends.lines->prepare(config.lines);
+  backends_.galvo->prepare(galvo);
+  backends_.lines->prepare(config.lines);
   ring_.emplace(shm::RingWriter::create(setup_.ring));
-  say(describe_startup(*ring_, setup_, backends, *initial));
+  log_.info(describe_startup(*ring_, setup_, backends_, *initial));
   if (const auto* simulator =
-          dynamic_cast<const sim::SimulatedDigitizer*>(backends.digitizer.get());
+          dynamic_cast<const sim::SimulatedDigitizer*>(backends_.digitizer.get());
       simulator != nullptr && setup_.simulation.worker_priority > 0 &&
       simulator->realtime_workers() < simulator->workers()) {
-    say(
+    log_.warning(
         printf_string("simulator: %u of %u synthesis workers could not get SCHED_FIFO %d; they "
                       "run with normal scheduling and may fall behind on a loaded host",
                       simulator->workers() - simulator->realtime_workers(), simulator->workers(),
                       setup_.simulation.worker_priority));
   }
 
-  loop_ = std::make_unique<rt::AcquisitionLoop>(*ring_, *backends.digitizer, *backends.galvo,
+  loop_ = std::make_unique<rt::AcquisitionLoop>(*ring_, *backends_.digitizer, *backends_.galvo,
                                                 initial, loop_settings(setup_));
   const rt::RealtimeOutcome loop_outcome = loop_->start();
-  const rt::SupervisorSettings safety = supervisor_settings(setup_);
-  supervisor_ = std::make_unique<rt::SafetySupervisor>(*backends.lines, *loop_, safety);
+  supervisor_ =
+      std::make_unique<rt::SafetySupervisor>(*backends_.lines, *loop_, supervisor_settings(setup_));
   const rt::RealtimeOutcome safety_outcome = supervisor_->start();
   rt::RealtimeOutcome outcome = loop_outcome;
   outcome.fifo_error = outcome.fifo_error != 0 ? outcome.fifo_error : safety_outcome.fifo_error;
-  if (!outcome.complete()) say("warning: " + rt::describe_shortfall(setup_.realtime, outcome));
+  if (!outcome.complete()) log_.warning(rt::describe_shortfall(setup_.realtime, outcome));
+}
 
-  std::optional<LineServer> control;
+void Process::open_control() {
+  const rt::RtConfig& config = setup_.config;
   if (!config.control_socket.empty()) {
-    control.emplace(config.control_socket, config.control_group, config.max_clients,
-                    config.idle_timeout_ms);
-    say("control: listening on " + config.control_socket + " (mode 0660" +
-        (config.control_group.empty() ? "" : ", group " + config.control_group) + ")");
+    control_.emplace(config.control_socket, config.control_group, config.max_clients,
+                     config.idle_timeout_ms);
+    log_.info("control: listening on " + config.control_socket + " (mode 0660" +
+              (config.control_group.empty() ? "" : ", group " + config.control_group) + ")");
   }
-  const rt::SdNotifier notifier;
   if (config.start_scanning) supervisor_->request_start();
+}
 
+std::string Process::serve(const rt::StatusSample& first) {
   budget_ns_ = static_cast<std::uint64_t>(static_cast<double>(setup_.digitizer.sweeps_per_group()) *
                                           setup_.digitizer.sweep_period_ns() / setup_.replay_speed);
-  const std::uint64_t interval_ns = static_cast<std::uint64_t>(config.status_interval_s * 1e9);
-  const rt::StatusSample first = rt::sample_status(*loop_);
+  const auto interval_ns = static_cast<std::uint64_t>(setup_.config.status_interval_s * 1e9);
   started_ns_ = first.wall_ns;
   const std::uint64_t end_ns =
       options_.seconds > 0.0 ? started_ns_ + static_cast<std::uint64_t>(options_.seconds * 1e9)
                              : std::numeric_limits<std::uint64_t>::max();
-  const std::uint64_t watchdog_ns = notifier.watchdog_interval_ns().value_or(0) / 2;
-  notifier.notify("READY=1\nSTATUS=acquisition started");
+  const std::uint64_t watchdog_ns = notifier_.watchdog_interval_ns().value_or(0) / 2;
+  notifier_.notify("READY=1\nSTATUS=acquisition started");
   rt::StatusSample previous = first;
   std::uint64_t next_status_ns = started_ns_ + interval_ns;
   std::uint64_t next_watchdog_ns = started_ns_;
-  std::string reason = "--seconds elapsed";
   std::vector<pollfd> fds;
   const LineServer::Handler handler = [this](const std::string& line) { return handle(line); };
 
@@ -400,39 +419,40 @@ int Process::run() {
     if (watchdog_ns != 0) wake = std::min(wake, next_watchdog_ns);
     fds.clear();
     fds.push_back({signals_.fd(), POLLIN, 0});
-    if (control) control->add_poll_fds(fds);
+    if (control_) control_->add_poll_fds(fds);
     const int timeout_ms = wake > now ? static_cast<int>((wake - now + 999'999) / 1'000'000) : 0;
     ::poll(fds.data(), fds.size(), timeout_ms);
     if ((fds[0].revents & POLLIN) != 0) {
       if (const int signal_number = signals_.take(); signal_number != 0) {
-        reason = std::string("stopped by ") + (signal_number == SIGINT ? "SIGINT" : "SIGTERM");
-        break;
+        return std::string("stopped by ") + (signal_number == SIGINT ? "SIGINT" : "SIGTERM");
       }
     }
-    if (control) control->process(fds.data() + 1, fds.size() - 1, handler);
+    if (control_) control_->process(fds.data() + 1, fds.size() - 1, handler);
     drain_events();
     now = ioct::monotonic_ns();
     if (watchdog_ns != 0 && now >= next_watchdog_ns) {
       // Fed only while both real-time threads are alive; otherwise systemd restarts us.
       if (healthy(now)) {
-        notifier.notify("WATCHDOG=1\nSTATUS=" +
-                        std::string(to_string(supervisor_->status().state)));
+        notifier_.notify("WATCHDOG=1\nSTATUS=" +
+                         std::string(to_string(supervisor_->status().state)));
       }
       next_watchdog_ns = now + watchdog_ns;
     }
-    if (now >= end_ns) break;
+    if (now >= end_ns) return "--seconds elapsed";
     if (now >= next_status_ns) {
       const rt::StatusSample sample = rt::sample_status(*loop_);
       const std::size_t reaped = ring_->reap_dead_readers();
-      say(rt::format_status(sample, previous, started_ns_, budget_ns_, supervisor_->status(),
-                            ring_->readers(), reaped));
+      log_.info(rt::format_status(sample, previous, started_ns_, budget_ns_, supervisor_->status(),
+                                  ring_->readers(), reaped));
       previous = sample;
       next_status_ns += interval_ns;
       if (next_status_ns <= sample.wall_ns) next_status_ns = sample.wall_ns + interval_ns;
     }
   }
+}
 
-  notifier.notify("STOPPING=1\nSTATUS=" + reason);
+int Process::shut_down(const std::string& reason, const rt::StatusSample& first) {
+  notifier_.notify("STOPPING=1\nSTATUS=" + reason);
   // Emission off and galvos parked through the safety machine, then the threads end.
   const std::uint64_t stop_request = supervisor_->request_stop();
   const std::uint64_t give_up = ioct::monotonic_ns() + 2'000'000'000;
@@ -446,7 +466,7 @@ int Process::run() {
   drain_events();
   supervisor_->stop();
   loop_->stop();
-  backends.lines->release();
+  backends_.lines->release();
   drain_events();
   // The readers' counters just before the ring closes, for the summary.
   const std::vector<shm::ReaderReport> readers = ring_->readers();
@@ -458,14 +478,15 @@ int Process::run() {
                            supervisor_->status()},
                           readers);
   }
+  const std::string closed =
+      rt::format_summary(last, first, budget_ns_) + " | ring '" + setup_.ring.name + "' closed";
   if (loop_->failed()) {
-    say("error: acquisition failed: " + loop_->failure());
-    say(rt::format_summary(last, first, budget_ns_) + " | ring '" + setup_.ring.name + "' closed");
+    log_.error("acquisition failed: " + loop_->failure());
+    log_.info(closed);
     return ioct::kExitFailed;
   }
-  say(reason + " | " + rt::format_summary(last, first, budget_ns_) + " | ring '" +
-      setup_.ring.name + "' closed");
-  return 0;
+  log_.info(reason + " | " + closed);
+  return ioct::kExitOk;
 }
 
 int check_config(const rt::RtOptions& options) {
@@ -489,10 +510,10 @@ int check_config(const rt::RtOptions& options) {
       setup.ring.geometry, setup.ring.slot_count, setup.ring.slot_payload_capacity);
   const std::optional<std::uint64_t> room = shm::room_for_object(setup.ring.name);
   if (room && layout.total_bytes > *room) {
-    say("invalid configuration: ring.slots = " + std::to_string(c.ring_slots) +
-        ": the ring needs " + std::to_string(layout.total_bytes) + " bytes, " +
-        shm::object_path(setup.ring.name) + " has room for " + std::to_string(*room));
-    return ioct::kExitRefused;
+    throw ConfigError("ring.slots", std::to_string(c.ring_slots),
+                      "the ring needs " + std::to_string(layout.total_bytes) + " bytes, " +
+                          shm::object_path(setup.ring.name) + " has room for " +
+                          std::to_string(*room));
   }
   std::printf("ring: %llu bytes, %s bytes free where it lives\n%s",
               static_cast<unsigned long long>(layout.total_bytes),
@@ -502,7 +523,8 @@ int check_config(const rt::RtOptions& options) {
 }
 
 int run(const rt::RtOptions& options) {
-  const rt::ShutdownSignals signals;  // before any thread, so every thread inherits the mask
+  const StopSignals signals;  // before any thread, so every thread inherits the mask
+  const Log log("ioct-rt");
   // A closed stderr must not kill the process before it has closed the ring.
   std::signal(SIGPIPE, SIG_IGN);
   if (options.config_keys) {
@@ -511,7 +533,7 @@ int run(const rt::RtOptions& options) {
   }
   if (options.check_config) return check_config(options);
   if (options.self_test) return run_self_test(options);
-  Process process(options, signals);
+  Process process(options, signals, log);
   return process.run();
 }
 

@@ -13,19 +13,10 @@
 #include <vector>
 
 #include "ioct/common/config_error.hpp"
-#include "ioct/common/input_file.hpp"
 #include "ioct/shm/shm_object.hpp"
 #include "rt_keys.hpp"
 
 namespace ioct::rt {
-namespace {
-
-// A string of the file as a message shows it: printable, shortened (quote_input).
-std::string quoted(std::string_view text) {
-  return "\"" + quote_input(text, 60) + "\"";
-}
-
-}  // namespace
 
 std::uint32_t RtConfig::galvo_lead_samples() const noexcept {
   const double sweeps = galvo_lead_us * 1e-6 * digitizer.ascan_rate_hz;
@@ -49,7 +40,7 @@ void RtConfig::validate() const {
   if (ring_name.empty()) throw ConfigError("ring.name", "\"\"", "must name the ring");
   // The ring's own check, under its key: so a bad name is placed in the file and its flag named.
   if (const std::string problem = shm::object_name_problem(ring_name); !problem.empty()) {
-    throw ConfigError("ring.name", quoted(ring_name), problem);
+    throw ConfigError("ring.name", format_text(ring_name), problem);
   }
   digitizer.validate();
   scan.validate();
@@ -85,7 +76,7 @@ void RtConfig::validate() const {
     require_integer_in_range("safety.stall_timeout_ms", stall_timeout_ms, 10, 600'000);
   }
   if (control_socket.size() >= sizeof(sockaddr_un{}.sun_path)) {
-    throw ConfigError("control.socket", quoted(control_socket),
+    throw ConfigError("control.socket", format_text(control_socket),
                       "must be shorter than " + std::to_string(sizeof(sockaddr_un{}.sun_path)) +
                           " bytes (a Unix socket path)");
   }
@@ -122,9 +113,9 @@ void require_safety_keys(const RtConfig& c, const std::string& origin, const Key
   }
   if (missing.empty()) return;
   const std::string backend =
-      c.digitizer_backend != "simulated" ? "digitizer.backend = " + quoted(c.digitizer_backend)
-      : c.galvo_backend != "simulated"   ? "galvo.backend = " + quoted(c.galvo_backend)
-                                         : "lines.backend = " + quoted(c.lines_backend);
+      c.digitizer_backend != "simulated" ? "digitizer.backend = " + format_text(c.digitizer_backend)
+      : c.galvo_backend != "simulated"   ? "galvo.backend = " + format_text(c.galvo_backend)
+                                         : "lines.backend = " + format_text(c.lines_backend);
   throw ConfigFileError(origin, end,
                         "with real hardware (" + backend +
                             ") every safety-relevant key must be set in the file, and these are "

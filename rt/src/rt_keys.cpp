@@ -11,15 +11,6 @@ namespace {
 constexpr std::int64_t kU32 = std::numeric_limits<std::uint32_t>::max();
 constexpr std::int64_t kI64 = std::numeric_limits<std::int64_t>::max();
 
-// A field of a member, as KeyTable reaches it: one lambda for a const and a mutable config.
-// `expr` names a member: it cannot be parenthesised.
-// NOLINTBEGIN(bugprone-macro-parentheses)
-#define IOCT_MEMBER(expr) \
-  [](auto& c) -> auto& {  \
-    return c.expr;        \
-  }
-// NOLINTEND(bugprone-macro-parentheses)
-
 void add_ring_keys(config::KeyTable<RtConfig>& k) {
   k.text("ring.name", IOCT_MEMBER(ring_name),
          "the ring readers attach to: a POSIX shm name without '/', or an absolute path to a "
@@ -249,8 +240,6 @@ config::KeyTable<RtConfig> make_keys() {
   add_simulation_keys(k);
   return k;
 }
-
-#undef IOCT_MEMBER
 
 }  // namespace
 

@@ -10,6 +10,7 @@
 
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
+#include "ioct/common/log.hpp"
 #include "operator_token.hpp"
 #include "view_config.hpp"
 #include "view_server.hpp"
@@ -99,7 +100,7 @@ int main(int argc, char** argv) {
               << token_file.string() << ")\n"
               << std::flush;
     server.run();
-    std::cerr << "ioct-view: stopped\n";
+    ioct::Log("ioct-view").info("stopped");
     return EXIT_SUCCESS;
   });
 }

@@ -11,14 +11,6 @@
 namespace ioct::gpu {
 namespace {
 
-// A field of a member, as KeyTable reaches it: one lambda for a const and a mutable config.
-// `expr` names a member: it cannot be parenthesised.
-// NOLINTBEGIN(bugprone-macro-parentheses)
-#define IOCT_MEMBER(expr) \
-  [](auto& c) -> auto& {  \
-    return c.expr;        \
-  }
-// NOLINTEND(bugprone-macro-parentheses)
 // A key kept in an enum member, read and written through the library's own names for it: the
 // getter and the setter, two arguments (so not one parenthesised expression).
 // NOLINTNEXTLINE(bugprone-macro-parentheses)
@@ -171,7 +163,6 @@ config::KeyTable<GpuConfig> make_keys() {
 }
 
 #undef IOCT_ENUM
-#undef IOCT_MEMBER
 
 GpuSetup resolve(const GpuConfig& c) {
   gpu_keys().check_ranges(c);

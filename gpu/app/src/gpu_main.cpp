@@ -4,7 +4,6 @@
 // flags, each key declared once (gpu_config.cpp).
 #include <CLI/CLI.hpp>
 
-#include <atomic>
 #include <cstdlib>
 #include <iostream>
 #include <memory>
@@ -15,23 +14,13 @@
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/input_file.hpp"
+#include "ioct/common/log.hpp"
 #include "ioct/common/stop_signals.hpp"
 #include "ioct/gpu/ingest/live_processor.hpp"
 #include "ioct/gpu/live_stages/processing_view_control.hpp"
 #include "ioct/gpu/live_stages/view_socket.hpp"
 #include "ioct/gpu/live_stages/volume_stages.hpp"
 #include "ioct/shm/ring_error.hpp"
-
-namespace {
-
-// Atomic: the stop signal may be handled on any thread (a lock-free atomic is signal-safe).
-std::atomic<ioct::gpu::LiveProcessor*> g_processor{nullptr};
-
-extern "C" void on_stop_signal(int /*signal*/) {
-  if (ioct::gpu::LiveProcessor* p = g_processor.load()) p->request_stop();
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   using namespace ioct::gpu;
@@ -65,6 +54,10 @@ int main(int argc, char** argv) {
   return ioct::run_command(
       "ioct-gpu",
       [&]() -> int {
+        const ioct::StopSignals signals;  // before any thread, so every thread inherits the mask
+        const ioct::Log log("ioct-gpu");
+        ioct::StopTarget<LiveProcessor> target;
+        const ioct::StopWatcher watcher(signals, [&target](int signal) { target.stop(signal); });
         if (config_keys) {
           std::cout << gpu_keys().markdown();
           return EXIT_SUCCESS;
@@ -99,16 +92,17 @@ int main(int argc, char** argv) {
               [&processor](const DbScaleConfig& scale) { processor.set_db_range(scale); });
           socket = std::make_unique<live::ViewSocket>(*setup.socket, *controls);
         }
-        processor.set_status_stream(&std::cerr);
-        g_processor = &processor;
-        ioct::install_stop_handler(on_stop_signal);
-        const RunSummary summary = processor.run();
-        g_processor = nullptr;
+        processor.set_log(&log);
+        RunSummary summary;
+        {
+          const auto running = target.running(processor);
+          summary = processor.run();
+        }
         socket.reset();
 
-        std::cerr << "ioct-gpu: stopped (" << to_string(summary.stop_reason) << ") after "
-                  << summary.counters.groups_processed << " groups, "
-                  << summary.counters.volumes_completed << " volumes" << std::endl;
+        log.info("stopped (" + std::string(to_string(summary.stop_reason)) + ") after " +
+                 std::to_string(summary.counters.groups_processed) + " groups, " +
+                 std::to_string(summary.counters.volumes_completed) + " volumes");
         if (summary.images) {
           std::cout << "bscan:   " << summary.images->bscan_png.string() << "\n"
                     << "enface:  " << summary.images->enface_png.string() << "\n";

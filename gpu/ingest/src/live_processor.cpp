@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cinttypes>
 #include <cstdio>
-#include <ostream>
+#include <sstream>
 #include <thread>
 #include <vector>
 
@@ -249,12 +249,10 @@ class LiveProcessor::Session final : public LiveEvents {
 
   void note_problem(const std::string& text) {
     last_problem_ = text;
-    if (owner_.status_out_ != nullptr && problems_printed_ < kProblemsPrinted) {
-      *owner_.status_out_ << "ioct-gpu: " << text
-                          << (++problems_printed_ == kProblemsPrinted
-                                  ? " (further problems are counted, not printed)"
-                                  : "")
-                          << std::endl;
+    if (owner_.log_ != nullptr && problems_printed_ < kProblemsPrinted) {
+      owner_.log_->warning(text + (++problems_printed_ == kProblemsPrinted
+                                       ? " (further problems are counted, not printed)"
+                                       : ""));
     }
   }
 
@@ -296,18 +294,17 @@ class LiveProcessor::Session final : public LiveEvents {
         interval > 0 ? static_cast<double>(c.groups_processed - last_processed_) / interval : 0.0;
     last_status_ns_ = now;
     last_processed_ = c.groups_processed;
-    if (owner_.status_out_ != nullptr) {
+    if (owner_.log_ != nullptr) {
       char rate[64];
       std::snprintf(rate, sizeof rate, "%.1f groups/s (%.0f A-scans/s)", groups_per_s,
                     groups_per_s * static_cast<double>(geometry_.ascans_per_group()));
-      *owner_.status_out_ << "ioct-gpu: " << rate << ", consumed " << c.groups_consumed
-                          << ", dropped " << c.dropped() << " (lapped " << c.dropped_lapped
-                          << ", behind " << c.dropped_behind << "), rejected " << c.groups_rejected
-                          << ", volumes " << c.volumes_completed << ", latency p50 "
-                          << format_ms(latency_interval_, 0.5) << " p99 "
-                          << format_ms(latency_interval_, 0.99)
-                          << (owner_.stage_ != nullptr ? "; " + owner_.stage_->status() : "")
-                          << std::endl;
+      std::ostringstream line;
+      line << rate << ", consumed " << c.groups_consumed << ", dropped " << c.dropped()
+           << " (lapped " << c.dropped_lapped << ", behind " << c.dropped_behind << "), rejected "
+           << c.groups_rejected << ", volumes " << c.volumes_completed << ", latency p50 "
+           << format_ms(latency_interval_, 0.5) << " p99 " << format_ms(latency_interval_, 0.99)
+           << (owner_.stage_ != nullptr ? "; " + owner_.stage_->status() : "");
+      owner_.log_->info(line.str());
     }
     latency_interval_.reset();
   }
@@ -376,9 +373,7 @@ RunSummary LiveProcessor::run() {
     // as dropped, as with the CPU backend's FFT planning.
     std::string warning;
     const Backend backend = resolve_backend(config_.backend, &warning);
-    if (!warning.empty() && status_out_ != nullptr && !waiting_for_return) {
-      *status_out_ << "ioct-gpu: warning: " << warning << std::endl;
-    }
+    if (!warning.empty() && log_ != nullptr && !waiting_for_return) log_->warning(warning);
     Session session(*this, backend, std::move(*reader));
     backend_name = session.backend_name();
     attached_.store(true, std::memory_order_release);
@@ -390,9 +385,9 @@ RunSummary LiveProcessor::run() {
     // Keep what this attachment did on disk while the next one is awaited.
     write_summary(summary, backend_name);
     waiting_for_return = true;
-    if (status_out_ != nullptr) {
-      *status_out_ << "ioct-gpu: producer gone (ring '" << config_.ring_name
-                   << "' closed or replaced): waiting for it to come back (NO SIGNAL)" << std::endl;
+    if (log_ != nullptr) {
+      log_->info("producer gone (ring '" + config_.ring_name +
+                 "' closed or replaced): waiting for it to come back (NO SIGNAL)");
     }
   }
   if (!stage_finished) summary.stages = stage_->finish(config_.out_dir);
@@ -406,13 +401,13 @@ std::optional<shm::RingReader> LiveProcessor::attach(std::uint64_t deadline,
   wait.deadline_ns = deadline;
   wait.unbounded = waiting_for_return;
   wait.stop = &stop_;
-  wait.report_interval_ns = status_out_ != nullptr ? seconds_to_ns(config_.status_interval_s) : 0;
+  wait.report_interval_ns = log_ != nullptr ? seconds_to_ns(config_.status_interval_s) : 0;
   wait.on_waiting = [this](shm::RingErrc last, std::uint64_t waited_ns) {
     char line[160];
     std::snprintf(line, sizeof line, "waiting for the producer (NO SIGNAL) for %.0f s: %s",
                   static_cast<double>(waited_ns) / kNsPerS,
                   std::string(shm::to_string(last)).c_str());
-    *status_out_ << "ioct-gpu: " << line << std::endl;
+    log_->info(line);
   };
   return shm::attach_when_available(config_.ring_name, shm::ReaderOptions{config_.label}, wait,
                                     config_.wait_s);

@@ -14,12 +14,14 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
+#include "ioct/common/log.hpp"
 #include "ioct/gpu/offline/calibration_file.hpp"
 #include "ioct/gpu/offline/input_file_error.hpp"
 #include "ioct/gpu/offline/nrrd_file.hpp"
@@ -137,10 +139,11 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   return ioct::run_command("ioct-process", [&]() -> int {
+    const ioct::Log log("ioct-process");
     layout.byte_order = parse_byte_order(byte_order);
     std::string warning;
     settings.backend = resolve_backend(parse_backend(backend), &warning);
-    if (!warning.empty()) std::cerr << "ioct-process: warning: " << warning << "\n";
+    if (!warning.empty()) log.warning(warning);
     settings.processing.background.mode = parse_background_mode(background);
     settings.processing.window.kind = parse_window_kind(window);
     settings.processing.fft.rigor = parse_fft_rigor(rigor);
@@ -224,19 +227,21 @@ int main(int argc, char** argv) {
                          ProgressBar::stderr_is_terminal());
     const RawProcessingResult result = process_raw_file(*source, settings, &progress);
     if (recording != nullptr && recording->status_seen() != 0) {
-      std::cerr << "ioct-process: warning: " << recording->describe()
-                << " was acquired with faults (status bits 0x" << std::hex
-                << recording->status_seen() << std::dec
-                << ": overrun 1, clock fault 2, missed triggers 4, timeout 8, device lost 16)\n";
+      std::ostringstream line;
+      line << recording->describe() << " was acquired with faults (status bits 0x" << std::hex
+           << recording->status_seen() << std::dec
+           << ": overrun 1, clock fault 2, missed triggers 4, timeout 8, device lost 16)";
+      log.warning(line.str());
     }
     constexpr std::uint32_t kRingFaults = ioct::shm::kStatusMissedTriggers |
                                           ioct::shm::kStatusClockFault | ioct::shm::kStatusOverrun |
                                           ioct::shm::kStatusGalvoFault;
     if (ring_recording != nullptr && (ring_recording->status_seen() & kRingFaults) != 0) {
-      std::cerr << "ioct-process: warning: " << ring_recording->describe()
-                << " was acquired with faults (ring status bits 0x" << std::hex
-                << (ring_recording->status_seen() & kRingFaults) << std::dec
-                << ": missed triggers 1, clock fault 2, overrun 4, galvo fault 16)\n";
+      std::ostringstream line;
+      line << ring_recording->describe() << " was acquired with faults (ring status bits 0x"
+           << std::hex << (ring_recording->status_seen() & kRingFaults) << std::dec
+           << ": missed triggers 1, clock fault 2, overrun 4, galvo fault 16)";
+      log.warning(line.str());
     }
     metadata.content = "OCT volume from " + source->describe();
     metadata.key_values = {

@@ -10,12 +10,14 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
+#include "ioct/common/log.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
 #include "ioct/gpu/offline/input_file_error.hpp"
 #include "ioct/gpu/offline/volume_file.hpp"
@@ -113,11 +115,11 @@ int main(int argc, char** argv) {
     if (ascan_um) sampling.ascan_spacing_um = *ascan_um;
     if (bscan_um) sampling.bscan_spacing_um = *bscan_um;
     if (!loaded.spacing && !(axial_um && ascan_um && bscan_um)) {
-      std::cerr << "ioct-segment: " << input
-                << ": the file states no spacings in mm or um; using the default geometry's ("
-                << sampling.axial_um_per_px << " um/px, " << sampling.ascan_spacing_um << " um, "
-                << sampling.bscan_spacing_um
-                << " um); give --axial-um, --ascan-um and --bscan-um\n";
+      std::ostringstream line;
+      line << input << ": the file states no spacings in mm or um; using the default geometry's ("
+           << sampling.axial_um_per_px << " um/px, " << sampling.ascan_spacing_um << " um, "
+           << sampling.bscan_spacing_um << " um); give --axial-um, --ascan-um and --bscan-um";
+      ioct::Log("ioct-segment").warning(line.str());
     }
     sampling.validate();
 

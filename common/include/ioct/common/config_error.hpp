@@ -29,6 +29,9 @@ class ConfigError : public std::invalid_argument, public Error {
 std::string format_value(std::uint64_t value);
 std::string format_value(std::int64_t value);
 std::string format_value(double value);
+// Text as the messages show it: in double quotes, printable and shortened (quote_input), since it
+// came from outside.
+std::string format_text(std::string_view text);
 
 // Throw ConfigError unless lo <= value <= hi (and, for reals, value is finite).
 void require_integer_in_range(std::string_view key, std::uint64_t value, std::uint64_t lo,

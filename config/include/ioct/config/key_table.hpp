@@ -21,6 +21,15 @@
 #include "ioct/common/config_error.hpp"
 #include "ioct/config/key_spec.hpp"
 
+// A field of a config, as a KeyTable reaches it: one generic lambda serves a const and a mutable
+// config, e.g. IOCT_MEMBER(processing.window). `expr` names a member: it cannot be parenthesised.
+// NOLINTBEGIN(bugprone-macro-parentheses)
+#define IOCT_MEMBER(expr) \
+  [](auto& c) -> auto& {  \
+    return c.expr;        \
+  }
+// NOLINTEND(bugprone-macro-parentheses)
+
 namespace ioct::config {
 
 template <typename Config>

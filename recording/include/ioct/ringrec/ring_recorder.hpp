@@ -16,9 +16,9 @@
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <ostream>
 #include <string>
 
+#include "ioct/common/log.hpp"
 #include "ioct/ringrec/ring_recording_format.hpp"
 #include "ioct/shm/ring_layout.hpp"
 
@@ -81,9 +81,9 @@ class RingRecorder {
  public:
   explicit RingRecorder(RecorderConfig config);
   // Runs until the time limit, request_stop(), the producer's end (exit_when_producer_gone) or
-  // a writer failure, then closes the file in order. Status lines go to `status` when given.
+  // a writer failure, then closes the file in order. Status lines go to `log` when given.
   // Throws shm::RingError when the ring never became readable, and what creating the file throws.
-  RecorderSummary run(std::ostream* status = nullptr);
+  RecorderSummary run(const Log* log = nullptr);
   void request_stop() noexcept { stop_.store(true, std::memory_order_relaxed); }
 
   // From any thread while run() runs. Each returns "" when done, else why not (a message that
@@ -106,10 +106,10 @@ class RingRecorder {
   std::string submit(Command command);
   // run()'s side: does the pending command, if any, and answers it.
   void serve_command(std::unique_ptr<Session>& session, const shm::RingGeometry& geometry,
-                     std::ostream* status, std::mutex& status_mutex);
+                     const Log* log);
   std::unique_ptr<Session> open_session(const std::filesystem::path& file, double seconds,
                                         bool overwrite, const shm::RingGeometry& geometry,
-                                        std::ostream* status, std::mutex& status_mutex);
+                                        const Log* log);
   RecorderSummary finish_session(std::unique_ptr<Session>& session, std::string reason,
                                  bool failed);
 

@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "ioct/common/log.hpp"
 #include "ioct/concurrency/latency_histogram.hpp"
 #include "ioct/gpu/ingest/live_stage.hpp"
 #include "ioct/gpu/processing/oct_processor.hpp"
@@ -109,8 +110,8 @@ class LiveProcessor {
   // Throws ConfigError for a bad config.
   explicit LiveProcessor(LiveConfig config);
 
-  // Status lines go here (nullptr: nowhere). Set before run().
-  void set_status_stream(std::ostream* out) { status_out_ = out; }
+  // Status lines and warnings go here (nullptr: nowhere; not owned). Set before run().
+  void set_log(const Log* log) { log_ = log; }
   void set_volume_observer(VolumeObserver observer) { observer_ = std::move(observer); }
   // The stage run on each new group of the live volume (not owned; nullptr: none). Set before
   // run(); its finish() is called at the end of run() and its part goes into summary.json.
@@ -122,7 +123,7 @@ class LiveProcessor {
   // written. Failing to write an image is counted and reported, not thrown.
   RunSummary run();
 
-  // Makes run() finish soon. Safe from any thread and from a signal handler.
+  // Makes run() finish soon. Safe from any thread; never blocks.
   void request_stop() noexcept { stop_.store(true, std::memory_order_relaxed); }
 
   // The dB range of the groups processed from now on (the assistant's control): validated here
@@ -147,7 +148,7 @@ class LiveProcessor {
   void write_summary(RunSummary& summary, const std::string& backend_name) const;
 
   LiveConfig config_;
-  std::ostream* status_out_ = nullptr;
+  const Log* log_ = nullptr;
   VolumeObserver observer_;
   LiveStage* stage_ = nullptr;
   mutable std::mutex db_mutex_;
@@ -157,7 +158,7 @@ class LiveProcessor {
   std::atomic<bool> attached_{false};
   std::atomic<std::uint64_t> groups_consumed_{0};
   std::atomic<std::uint64_t> volumes_completed_{0};
-  static_assert(std::atomic<bool>::is_always_lock_free, "request_stop() runs in signal handlers");
+  static_assert(std::atomic<bool>::is_always_lock_free, "request_stop() never blocks");
 };
 
 }  // namespace ioct::gpu
