@@ -241,18 +241,29 @@ InstrumentTip tip_of(const Footprint& fp, const InstrumentFindings& f,
     double radius = 0.0, center_px = 0.0, cost = 1e300;
   } best_fit;
   if (!translucent) {
+    // The end's shadowed A-scans, nearest the extreme first: a sphere of radius r sees only those
+    // in front of its centre, a prefix of this list that grows with r.
+    struct Reflex {
+      double s, dc, z;
+    };
+    std::vector<Reflex> reflexes;
+    for (const std::uint32_t k : end) {
+      if (f.mask[k] == ColumnKind::shadow) {
+        reflexes.push_back({along(k), across(k) - rim_across, f.reflex_px[k]});
+      }
+    }
+    std::sort(reflexes.begin(), reflexes.end(),
+              [](const Reflex& x, const Reflex& y) { return x.s > y.s; });
     for (double r = 2.0 * rim; r <= kMaxRadiusUm; r += 2.0) {
       const double cs = s_max + 0.5 * rim - r;
       double sum = 0.0, sum2 = 0.0;
       std::size_t count = 0;
-      for (const std::uint32_t k : end) {
-        if (f.mask[k] != ColumnKind::shadow) continue;
-        const double s = along(k);
-        if (s < cs) continue;
-        const double ds = s - cs, dc = across(k) - rim_across;
-        const double d2 = ds * ds + dc * dc;
+      for (const Reflex& reflex : reflexes) {
+        if (reflex.s < cs) break;
+        const double ds = reflex.s - cs;
+        const double d2 = ds * ds + reflex.dc * reflex.dc;
         if (d2 >= r * r) continue;
-        const double zc = f.reflex_px[k] + std::sqrt(r * r - d2) / um_per_px_medium;
+        const double zc = reflex.z + std::sqrt(r * r - d2) / um_per_px_medium;
         sum += zc;
         sum2 += zc * zc;
         ++count;
@@ -272,15 +283,23 @@ InstrumentTip tip_of(const Footprint& fp, const InstrumentFindings& f,
           std::min<std::int64_t>(f.bscans - 1, std::lround((cy + reach) / sy));
       std::size_t cells = 0, mismatches = 0;
       for (std::int64_t b = b_lo; b <= b_hi; ++b) {
-        for (std::int64_t a = a_lo; a <= a_hi; ++a) {
-          const double dx = static_cast<double>(a) * sx - cx, dy = static_cast<double>(b) * sy - cy;
-          if (dx * ux + dy * uy < 0.0) continue;
-          const double d2 = dx * dx + dy * dy;
+        const double dy = static_cast<double>(b) * sy - cy;
+        const double dy_along = dy * uy, dy2 = dy * dy;
+        if (dy2 > reach * reach) continue;
+        const ColumnKind* row = &f.mask[f.index(static_cast<std::uint32_t>(b), 0)];
+        // Only the row's chord of the disc (a cell wider on each side: the tests below decide).
+        const double half_chord = std::sqrt(reach * reach - dy2);
+        const std::int64_t a_from =
+            std::max<std::int64_t>(a_lo, static_cast<std::int64_t>((cx - half_chord) / sx) - 1);
+        const std::int64_t a_to =
+            std::min<std::int64_t>(a_hi, static_cast<std::int64_t>((cx + half_chord) / sx) + 1);
+        for (std::int64_t a = a_from; a <= a_to; ++a) {
+          const double dx = static_cast<double>(a) * sx - cx;
+          if (dx * ux + dy_along < 0.0) continue;
+          const double d2 = dx * dx + dy2;
           if (d2 > reach * reach) continue;
           const bool inside = d2 < r * r;
-          const bool masked =
-              f.mask[f.index(static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a))] !=
-              ColumnKind::clear;
+          const bool masked = row[a] != ColumnKind::clear;
           ++cells;
           mismatches += inside != masked ? 1 : 0;
         }
