@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "ioct/common/line_client.hpp"
+#include "ioct/common/log.hpp"
 
 namespace {
 
@@ -44,6 +45,7 @@ int main(int argc, char** argv) {
   app.add_option("arguments", arguments,
                  "scan: KEY=VALUE pairs; raw: the line to send; record-start: NAME [SECONDS]");
   CLI11_PARSE(app, argc, argv);
+  const ioct::Log log("ioct-rtctl");
   const bool to_recorder = verb.rfind("record-", 0) == 0;
   if (socket_path.empty())
     socket_path = to_recorder ? "/run/ioct-record/record.sock" : "/run/ioct/rt.sock";
@@ -58,7 +60,7 @@ int main(int argc, char** argv) {
       for (const std::string& a : arguments) {
         const auto eq = a.find('=');
         if (eq == std::string::npos) {
-          std::fprintf(stderr, "ioct-rtctl: scan takes KEY=VALUE pairs, not \"%s\"\n", a.c_str());
+          log.error("scan takes KEY=VALUE pairs, not \"" + a + "\"");
           return 2;
         }
         scan[a.substr(0, eq)] = scalar(a.substr(eq + 1));
@@ -66,22 +68,21 @@ int main(int argc, char** argv) {
       request["scan"] = scan;
     } else if (verb == "record-start") {
       if (arguments.empty() || arguments.size() > 2) {
-        std::fprintf(stderr, "ioct-rtctl: record-start takes NAME [SECONDS], not %zu arguments\n",
-                     arguments.size());
+        log.error("record-start takes NAME [SECONDS], not " + std::to_string(arguments.size()) +
+                  " arguments");
         return 2;
       }
       request["name"] = arguments[0];
       if (arguments.size() == 2) {
         const nlohmann::json seconds = scalar(arguments[1]);
         if (!seconds.is_number()) {
-          std::fprintf(stderr, "ioct-rtctl: record-start SECONDS = \"%s\": not a number\n",
-                       arguments[1].c_str());
+          log.error("record-start SECONDS = \"" + arguments[1] + "\": not a number");
           return 2;
         }
         request["seconds"] = seconds;
       }
     } else if (!arguments.empty()) {
-      std::fprintf(stderr, "ioct-rtctl: %s takes no arguments\n", verb.c_str());
+      log.error(verb + " takes no arguments");
       return 2;
     }
     line = request.dump();
@@ -91,7 +92,7 @@ int main(int argc, char** argv) {
                                            std::clamp(timeout_s, 0.001, 3600.0) * 1000.0)));
   const auto reply = client.request(line);
   if (!reply) {
-    std::fprintf(stderr, "ioct-rtctl: %s\n", client.last_error().c_str());
+    log.error(client.last_error());
     return 2;
   }
   std::printf("%s\n", reply->c_str());
