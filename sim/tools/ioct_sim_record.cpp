@@ -37,6 +37,7 @@ struct FaultWindow {
   std::uint64_t last_group;
 };
 
+// The values the flags fill.
 struct Options {
   std::string out;
   std::uint64_t groups = 10;
@@ -104,7 +105,8 @@ double cpu_seconds() {
   return 1e-9 * static_cast<double>(clock_ns(CLOCK_PROCESS_CPUTIME_ID));
 }
 
-int run(const Options& o) {
+// The digitizer's geometry and clock as the flags give them, checked.
+hal::DigitizerConfig digitizer_geometry(const Options& o) {
   hal::DigitizerConfig geometry;
   geometry.samples_per_ascan = o.samples;
   geometry.ascans_per_bscan = o.ascans;
@@ -121,7 +123,12 @@ int run(const Options& o) {
     bad("--clock", "'" + o.clock + "'", "must be k-clock or internal");
   }
   geometry.validate();
+  return geometry;
+}
 
+// The simulated sample, instruments, scan and mirrors as the flags give them; the caller
+// validates it after reading the fault windows, whose errors come first.
+sim::SimulationConfig simulation_config(const Options& o) {
   sim::SimulationConfig s;
   if (o.preset == "retina") {
     s.preset = sim::SamplePreset::retina;
@@ -145,6 +152,43 @@ int run(const Options& o) {
   s.scan.bscans_per_volume = o.bscans_per_volume;
   s.bench.mirrors.natural_hz = o.natural_hz;
   s.bench.mirrors.damping = o.damping;
+  return s;
+}
+
+// Group `index` as the recording describes it: the times of its first and last sweeps are their
+// sweep counters at the nominal sweep period.
+recording::RecordedGroupInfo recorded_group_info(std::uint64_t index, const hal::GroupInfo& info,
+                                                 const hal::DigitizerConfig& geometry) {
+  const double period_ns = geometry.sweep_period_ns();
+  return {index,
+          info.first_sweep_counter,
+          info.missed_sweeps,
+          info.status,
+          static_cast<std::uint64_t>(static_cast<double>(info.first_sweep_counter) * period_ns),
+          static_cast<std::uint64_t>(
+              static_cast<double>(info.first_sweep_counter + geometry.sweeps_per_group() - 1) *
+              period_ns)};
+}
+
+// What was written, how large and how fast, and the recording's three files.
+void report(const Options& o, const recording::RecordingMetadata& metadata,
+            const recording::RecordingWriter& writer, double seconds) {
+  const double mib = static_cast<double>(o.groups) *
+                     static_cast<double>(recording::group_stride_bytes(metadata.geometry)) /
+                     (1024.0 * 1024.0);
+  std::fprintf(stderr,
+               "ioct-sim-record: %llu groups (%.1f MiB) of %u samples x %u A-scans x %u B-scans, "
+               "%s, seed %llu, %.1f ms CPU per group\n  %s\n  %s\n  %s\n",
+               static_cast<unsigned long long>(o.groups), mib, o.samples, o.ascans,
+               o.bscans_per_group, o.preset.c_str(), static_cast<unsigned long long>(o.seed),
+               o.groups > 0 ? 1e3 * seconds / static_cast<double>(o.groups) : 0.0,
+               writer.json_path().c_str(), writer.raw_path().c_str(), writer.truth_path().c_str());
+}
+
+// The command's work: the simulated acquisition of the groups, written as a recording.
+int record(const Options& o) {
+  const hal::DigitizerConfig geometry = digitizer_geometry(o);
+  sim::SimulationConfig s = simulation_config(o);
   std::vector<FaultWindow> windows;
   for (const std::string& spec : o.faults) windows.push_back(parse_fault(spec));
   s.validate();
@@ -193,40 +237,16 @@ int run(const Options& o) {
     if (galvo) top_up();
     hal::GroupInfo info;
     digitizer.acquire_group(group, info);
-    const double period_ns = geometry.sweep_period_ns();
-    recording::RecordedGroupInfo recorded{
-        g,
-        info.first_sweep_counter,
-        info.missed_sweeps,
-        info.status,
-        static_cast<std::uint64_t>(static_cast<double>(info.first_sweep_counter) * period_ns),
-        static_cast<std::uint64_t>(
-            static_cast<double>(info.first_sweep_counter + geometry.sweeps_per_group() - 1) *
-            period_ns)};
-    writer.append(group, recorded, &digitizer.last_group_truth());
+    writer.append(group, recorded_group_info(g, info, geometry), &digitizer.last_group_truth());
   }
   const double seconds = cpu_seconds() - started;
   writer.close();
-  const double mib = static_cast<double>(o.groups) *
-                     static_cast<double>(recording::group_stride_bytes(metadata.geometry)) /
-                     (1024.0 * 1024.0);
-  std::fprintf(stderr,
-               "ioct-sim-record: %llu groups (%.1f MiB) of %u samples x %u A-scans x %u B-scans, "
-               "%s, seed %llu, %.1f ms CPU per group\n  %s\n  %s\n  %s\n",
-               static_cast<unsigned long long>(o.groups), mib, o.samples, o.ascans,
-               o.bscans_per_group, o.preset.c_str(), static_cast<unsigned long long>(o.seed),
-               o.groups > 0 ? 1e3 * seconds / static_cast<double>(o.groups) : 0.0,
-               writer.json_path().c_str(), writer.raw_path().c_str(), writer.truth_path().c_str());
+  report(o, metadata, writer, seconds);
   return 0;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  CLI::App app{
-      "ioct-sim-record: simulated raw groups and their ground truth into a recording "
-      "(STEM.json, STEM.raw, STEM.truth; see docs/recording-format.md)."};
-  Options o;
+// The command line: the recording, the digitizer, the simulated sample and scan, the faults.
+void add_options(CLI::App& app, Options& o) {
   app.add_option("--out", o.out, "recording to write: STEM (STEM.json, STEM.raw, STEM.truth)")
       ->required();
   app.add_option("--groups", o.groups, "groups to record")->capture_default_str();
@@ -261,11 +281,21 @@ int main(int argc, char** argv) {
   app.add_option("--fault", o.faults,
                  "NAME@GROUP or NAME@FIRST-LAST: inject a fault during those groups; repeatable");
   app.add_flag("--overwrite", o.overwrite, "replace an existing recording of the same name");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "ioct-sim-record: simulated raw groups and their ground truth into a recording "
+      "(STEM.json, STEM.raw, STEM.truth; see docs/recording-format.md)."};
+  Options options;
+  add_options(app, options);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);  // prints help or the error
     return code == 0 ? 0 : kExitBadConfig;
   }
-  return ioct::run_command("ioct-sim-record", [&]() -> int { return run(o); });
+  return ioct::run_command("ioct-sim-record", [&]() -> int { return record(options); });
 }

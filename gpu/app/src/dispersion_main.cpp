@@ -121,150 +121,182 @@ void save_group(const Group& g, const std::string& path) {
   file.commit();
 }
 
-}  // namespace
+// The check's processing before the flags: the rolling background over the one group there is.
+OctProcessorConfig check_processing_defaults() {
+  OctProcessorConfig processing;
+  processing.background.groups = 1;
+  return processing;
+}
 
-int main(int argc, char** argv) {
+// The values the flags fill.
+struct Options {
   FileOptions file;
   std::string ring;
   double wait_s = 5.0;
   std::string save_path;
   std::string json_path;
-  OctProcessorConfig processing;
-  processing.background.groups = 1;
+  OctProcessorConfig processing = check_processing_defaults();
   DispersionSearch search;
   std::string background = "rolling";
   std::string window = std::string(to_string(processing.window.kind));
   std::string resampling;  // empty: cubic with a calibration, else none (as ioct-process)
   std::string coefficients;
   std::string calibration_file;
+  bool no_check = false;
+};
 
-  CLI::App app{
-      "ioct-dispersion: estimates the dispersion correction c2, c3 of a raw group (a file or "
-      "the next group on the ring) by maximising the sharpness of its A-scans"};
+// The command line: where the group comes from, how it is processed and how the search runs.
+void add_options(CLI::App& app, Options& o) {
   app.option_defaults()->always_capture_default();
-  auto* file_option = app.add_option("--group-file", file.path,
+  auto* file_option = app.add_option("--group-file", o.file.path,
                                      "raw group: little-endian u16 [bscan][record][sample]");
-  app.add_option("--samples", file.samples, "samples per A-scan in the group file");
-  app.add_option("--ascans-per-bscan", file.ascans_per_bscan, "records per B-scan in the file");
-  app.add_option("--active-begin", file.active_begin, "first active record of each B-scan");
-  app.add_option("--active-end", file.active_end, "end of the active records; 0: all");
-  auto* ring_option = app.add_option("--ring", ring, "read the next group from this ring");
-  app.add_option("--wait", wait_s, "seconds to wait for the ring and a group");
-  app.add_option("--save-group", save_path, "also save the group read from the ring to a file");
-  app.add_option("--background", background,
+  app.add_option("--samples", o.file.samples, "samples per A-scan in the group file");
+  app.add_option("--ascans-per-bscan", o.file.ascans_per_bscan, "records per B-scan in the file");
+  app.add_option("--active-begin", o.file.active_begin, "first active record of each B-scan");
+  app.add_option("--active-end", o.file.active_end, "end of the active records; 0: all");
+  auto* ring_option = app.add_option("--ring", o.ring, "read the next group from this ring");
+  app.add_option("--wait", o.wait_s, "seconds to wait for the ring and a group");
+  app.add_option("--save-group", o.save_path, "also save the group read from the ring to a file");
+  app.add_option("--background", o.background,
                  "background removal: rolling (the group's mean) or none");
-  app.add_option("--resample", resampling,
+  app.add_option("--resample", o.resampling,
                  "lambda -> k resampling: none, linear or cubic (default: cubic when a "
                  "calibration is given, else none, as ioct-process)");
   auto* poly_option =
-      app.add_option("--resample-poly", coefficients, "calibration c0,c1,... (see ioct-gpu)");
-  auto* calibration_option = app.add_option("--calibration-file", calibration_file,
+      app.add_option("--resample-poly", o.coefficients, "calibration c0,c1,... (see ioct-gpu)");
+  auto* calibration_option = app.add_option("--calibration-file", o.calibration_file,
                                             "the calibration from a file (as ioct-process)");
-  app.add_option("--window", window, "spectral window: hann or rectangular");
-  app.add_option("--c2-limit", search.c2_limit, "search c2 in [-limit, limit] rad");
-  app.add_option("--c3-limit", search.c3_limit, "search c3 in [-limit, limit] rad");
-  app.add_option("--ascans", search.ascans, "brightest A-scans used for the metric");
-  app.add_option("--dc-rows", search.dc_rows,
+  app.add_option("--window", o.window, "spectral window: hann or rectangular");
+  app.add_option("--c2-limit", o.search.c2_limit, "search c2 in [-limit, limit] rad");
+  app.add_option("--c3-limit", o.search.c3_limit, "search c3 in [-limit, limit] rad");
+  app.add_option("--ascans", o.search.ascans, "brightest A-scans used for the metric");
+  app.add_option("--dc-rows", o.search.dc_rows,
                  "rows next to zero delay left out of the metric; 0: samples / 64, at least 8");
-  app.add_option("--fixed-coherence", search.fixed_coherence,
+  app.add_option("--fixed-coherence", o.search.fixed_coherence,
                  "phase coherence across A-scans above which a row is a fixed-pattern line");
-  bool no_check = false;
-  app.add_flag("--no-check", no_check,
+  app.add_flag("--no-check", o.no_check,
                "skip processing the group at the estimate and at none to compare them");
-  app.add_option("--db-min", processing.scale.db_min, "dB range of the check's processing");
-  app.add_option("--db-max", processing.scale.db_max, "dB range of the check's processing");
-  app.add_option("--json", json_path, "also write the result as JSON");
+  app.add_option("--db-min", o.processing.scale.db_min, "dB range of the check's processing");
+  app.add_option("--db-max", o.processing.scale.db_max, "dB range of the check's processing");
+  app.add_option("--json", o.json_path, "also write the result as JSON");
   file_option->excludes(ring_option);
   poly_option->excludes(calibration_option);
-  CLI11_PARSE(app, argc, argv);
+}
 
-  return ioct::run_command("ioct-dispersion", [&]() -> int {
-    if (file.path.empty() == ring.empty()) {
-      throw ioct::ConfigError("source", "''", "give exactly one of --group-file or --ring");
-    }
-    processing.background.mode = parse_background_mode(background);
-    processing.window.kind = parse_window_kind(window);
-    // The chain's resampling, chosen as ioct-process chooses it: an estimate made on spectra
-    // resampled otherwise than the volume's compensates the difference, not the dispersion.
-    std::optional<std::vector<double>> calibration;
-    if (!coefficients.empty() || !calibration_file.empty()) {
-      calibration = coefficients.empty()
-                        ? ioct::gpu::offline::read_calibration_file(calibration_file)
-                        : parse_coefficients(coefficients);
-    }
-    processing.resampling = choose_resampling(resampling, calibration ? &*calibration : nullptr);
-    search.check_on_chain = !no_check;
-    processing.scale.validate();
-    DispersionEstimator estimator(processing, search);
-    const Group group = ring.empty() ? read_group_file(file) : read_live_group(ring, wait_s);
-    if (!save_path.empty()) save_group(group, save_path);
-    estimator.load(group.geometry, RawGroup{group.header, group.spectra});
-    const DispersionEstimate e = estimator.estimate();
-    std::printf("source: %s (%u x %u x %u samples)\n", group.source.c_str(),
-                group.header.bscan_count, group.geometry.ascans_per_bscan,
-                group.geometry.samples_per_ascan);
-    std::printf("processing: resampling %s%s%s, window %s, background %s\n",
-                std::string(to_string(processing.resampling.interpolation)).c_str(),
-                processing.resampling.enabled() ? " " : "",
-                processing.resampling.enabled()
-                    ? format_coefficients(processing.resampling.coefficients).c_str()
-                    : "",
-                std::string(to_string(processing.window.kind)).c_str(),
-                std::string(to_string(processing.background.mode)).c_str());
+// The flags' words turned into the processing and the search, refused before any group is read.
+void complete_settings(Options& o) {
+  if (o.file.path.empty() == o.ring.empty()) {
+    throw ioct::ConfigError("source", "''", "give exactly one of --group-file or --ring");
+  }
+  o.processing.background.mode = parse_background_mode(o.background);
+  o.processing.window.kind = parse_window_kind(o.window);
+  // The chain's resampling, chosen as ioct-process chooses it: an estimate made on spectra
+  // resampled otherwise than the volume's compensates the difference, not the dispersion.
+  std::optional<std::vector<double>> calibration;
+  if (!o.coefficients.empty() || !o.calibration_file.empty()) {
+    calibration = o.coefficients.empty()
+                      ? ioct::gpu::offline::read_calibration_file(o.calibration_file)
+                      : parse_coefficients(o.coefficients);
+  }
+  o.processing.resampling = choose_resampling(o.resampling, calibration ? &*calibration : nullptr);
+  o.search.check_on_chain = !o.no_check;
+  o.processing.scale.validate();
+}
+
+// The estimate in words, ending with the ioct-gpu options that apply it.
+void print_estimate(const Group& group, const OctProcessorConfig& processing,
+                    const DispersionEstimate& e) {
+  std::printf("source: %s (%u x %u x %u samples)\n", group.source.c_str(), group.header.bscan_count,
+              group.geometry.ascans_per_bscan, group.geometry.samples_per_ascan);
+  std::printf("processing: resampling %s%s%s, window %s, background %s\n",
+              std::string(to_string(processing.resampling.interpolation)).c_str(),
+              processing.resampling.enabled() ? " " : "",
+              processing.resampling.enabled()
+                  ? format_coefficients(processing.resampling.coefficients).c_str()
+                  : "",
+              std::string(to_string(processing.window.kind)).c_str(),
+              std::string(to_string(processing.background.mode)).c_str());
+  std::printf(
+      "search: c2 = %.3f rad, c3 = %.3f rad; metric %.5g (uncompensated %.5g) over the "
+      "%u brightest A-scans, %u evaluations; rows left out: below %u (DC), %zu "
+      "fixed-pattern\n",
+      e.searched_c2, e.searched_c3, e.sharpness, e.sharpness_uncompensated, e.ascans_used,
+      e.evaluations, e.dc_rows, e.fixed_pattern_rows.size());
+  if (e.checked) {
     std::printf(
-        "search: c2 = %.3f rad, c3 = %.3f rad; metric %.5g (uncompensated %.5g) over the "
-        "%u brightest A-scans, %u evaluations; rows left out: below %u (DC), %zu "
-        "fixed-pattern\n",
-        e.searched_c2, e.searched_c3, e.sharpness, e.sharpness_uncompensated, e.ascans_used,
-        e.evaluations, e.dc_rows, e.fixed_pattern_rows.size());
-    if (e.checked) {
-      std::printf(
-          "processed volume, standard sharpness: %.5g at the search's c2, c3; %.5g "
-          "uncompensated\n",
-          e.processed_sharpness, e.processed_sharpness_uncompensated);
-    }
-    std::printf("%s\n", describe_check(e).c_str());
-    if (e.depth_dependent) {
-      std::printf(
-          "warning: the best c2 depends on depth (%.3f rad above row %u, %.3f below): "
-          "the spectra are probably not linear in k as processed; check the calibration "
-          "(--resample-poly, --calibration-file) before applying this estimate\n",
-          e.c2_shallow, e.depth_split, e.c2_deep);
-    }
-    if (!processing.resampling.enabled()) {
-      std::printf(
-          "note: samples taken as linear in k (no resampling); for a lambda-linear sweep give "
-          "the calibration the volume is processed with, or the estimate compensates the "
-          "sampling instead of the dispersion\n");
-    }
-    std::printf("c2 = %.3f rad, c3 = %.3f rad\n", e.c2, e.c3);
-    std::printf("ioct-gpu options: --dispersion-c2 %.3f --dispersion-c3 %.3f\n", e.c2, e.c3);
-    if (!json_path.empty()) {
-      const nlohmann::json j = {
-          {"source", group.source},
-          {"c2", e.c2},
-          {"c3", e.c3},
-          {"searched_c2", e.searched_c2},
-          {"searched_c3", e.searched_c3},
-          {"rejected", e.rejected},
-          {"resampling", to_string(processing.resampling.interpolation)},
-          {"resampling_coefficients", processing.resampling.coefficients},
-          {"checked", e.checked},
-          {"check", describe_check(e)},
-          {"sharpness", e.sharpness},
-          {"sharpness_uncompensated", e.sharpness_uncompensated},
-          {"processed_sharpness", e.processed_sharpness},
-          {"processed_sharpness_uncompensated", e.processed_sharpness_uncompensated},
-          {"dc_rows", e.dc_rows},
-          {"depth_split", e.depth_split},
-          {"c2_shallow", e.c2_shallow},
-          {"c2_deep", e.c2_deep},
-          {"depth_dependent", e.depth_dependent},
-          {"fixed_pattern_rows", e.fixed_pattern_rows},
-          {"ascans_used", e.ascans_used},
-          {"evaluations", e.evaluations}};
-      ioct::write_text_file_atomically(json_path, j.dump(2) + "\n");
-    }
-    return EXIT_SUCCESS;
-  });
+        "processed volume, standard sharpness: %.5g at the search's c2, c3; %.5g "
+        "uncompensated\n",
+        e.processed_sharpness, e.processed_sharpness_uncompensated);
+  }
+  std::printf("%s\n", describe_check(e).c_str());
+  if (e.depth_dependent) {
+    std::printf(
+        "warning: the best c2 depends on depth (%.3f rad above row %u, %.3f below): "
+        "the spectra are probably not linear in k as processed; check the calibration "
+        "(--resample-poly, --calibration-file) before applying this estimate\n",
+        e.c2_shallow, e.depth_split, e.c2_deep);
+  }
+  if (!processing.resampling.enabled()) {
+    std::printf(
+        "note: samples taken as linear in k (no resampling); for a lambda-linear sweep give "
+        "the calibration the volume is processed with, or the estimate compensates the "
+        "sampling instead of the dispersion\n");
+  }
+  std::printf("c2 = %.3f rad, c3 = %.3f rad\n", e.c2, e.c3);
+  std::printf("ioct-gpu options: --dispersion-c2 %.3f --dispersion-c3 %.3f\n", e.c2, e.c3);
+}
+
+// The estimate and every figure behind it, for scripts (--json).
+void write_estimate_json(const std::string& path, const Group& group,
+                         const OctProcessorConfig& processing, const DispersionEstimate& e) {
+  const nlohmann::json j = {
+      {"source", group.source},
+      {"c2", e.c2},
+      {"c3", e.c3},
+      {"searched_c2", e.searched_c2},
+      {"searched_c3", e.searched_c3},
+      {"rejected", e.rejected},
+      {"resampling", to_string(processing.resampling.interpolation)},
+      {"resampling_coefficients", processing.resampling.coefficients},
+      {"checked", e.checked},
+      {"check", describe_check(e)},
+      {"sharpness", e.sharpness},
+      {"sharpness_uncompensated", e.sharpness_uncompensated},
+      {"processed_sharpness", e.processed_sharpness},
+      {"processed_sharpness_uncompensated", e.processed_sharpness_uncompensated},
+      {"dc_rows", e.dc_rows},
+      {"depth_split", e.depth_split},
+      {"c2_shallow", e.c2_shallow},
+      {"c2_deep", e.c2_deep},
+      {"depth_dependent", e.depth_dependent},
+      {"fixed_pattern_rows", e.fixed_pattern_rows},
+      {"ascans_used", e.ascans_used},
+      {"evaluations", e.evaluations}};
+  ioct::write_text_file_atomically(path, j.dump(2) + "\n");
+}
+
+// The command's work: settings, the group, the estimate and its report.
+int estimate_dispersion(Options& o) {
+  complete_settings(o);
+  DispersionEstimator estimator(o.processing, o.search);
+  const Group group = o.ring.empty() ? read_group_file(o.file) : read_live_group(o.ring, o.wait_s);
+  if (!o.save_path.empty()) save_group(group, o.save_path);
+  estimator.load(group.geometry, RawGroup{group.header, group.spectra});
+  const DispersionEstimate e = estimator.estimate();
+  print_estimate(group, o.processing, e);
+  if (!o.json_path.empty()) write_estimate_json(o.json_path, group, o.processing, e);
+  return EXIT_SUCCESS;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  CLI::App app{
+      "ioct-dispersion: estimates the dispersion correction c2, c3 of a raw group (a file or "
+      "the next group on the ring) by maximising the sharpness of its A-scans"};
+  add_options(app, options);
+  CLI11_PARSE(app, argc, argv);
+  return ioct::run_command("ioct-dispersion",
+                           [&]() -> int { return estimate_dispersion(options); });
 }

@@ -11,9 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "ioct/common/command_main.hpp"
-#include "ioct/common/error.hpp"
 #include "ioct/common/atomic_file.hpp"
+#include "ioct/common/command_main.hpp"
 #include "ioct/gpu/offline/bioptigen_oct.hpp"
 #include "ioct/gpu/offline/heidelberg_vol.hpp"
 #include "ioct/gpu/offline/input_file_error.hpp"
@@ -30,6 +29,7 @@ using namespace ioct::gpu::offline;
 
 namespace {
 
+// The values the flags fill.
 struct Options {
   std::string input, out_dir = ".", name;
   int bscan = -1;
@@ -41,8 +41,8 @@ int import_bioptigen(const Options& o, std::vector<fs::path>& committed) {
   const BioptigenOct oct = read_bioptigen_oct(o.input);
   const BioptigenHeader& h = oct.header;
   if (o.repeat && *o.repeat >= oct.repeats) {
-    std::cerr << "ioct-vol-import: invalid configuration: --repeat " << *o.repeat << " (the file has "
-              << oct.repeats << " frame(s) per position)\n";
+    std::cerr << "ioct-vol-import: invalid configuration: --repeat " << *o.repeat
+              << " (the file has " << oct.repeats << " frame(s) per position)\n";
     return 2;
   }
   const int bscan = o.bscan < 0 ? static_cast<int>(oct.positions / 2) : o.bscan;
@@ -108,14 +108,8 @@ int import_bioptigen(const Options& o, std::vector<fs::path>& committed) {
   return EXIT_SUCCESS;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  Options o;
-  CLI::App app{
-      "ioct-vol-import: Heidelberg .vol -> NRRD volume, layer CSV and PNG images; Bioptigen .OCT "
-      "-> NRRD volume and PNG. The format is detected by the file's magic number (HSF-OCT- or "
-      "0x0C7DA7A5), not by its extension."};
+// The command line: the input, where the outputs go and what the PNG shows.
+void add_options(CLI::App& app, Options& o) {
   app.option_defaults()->always_capture_default();
   app.add_option("input", o.input, "the .vol or .OCT file")->required();
   app.add_option("--out", o.out_dir, "directory for the outputs (must exist)");
@@ -123,112 +117,143 @@ int main(int argc, char** argv) {
   app.add_option("--bscan", o.bscan, "B-scan shown in the PNG (default: the centre one)");
   app.add_option("--repeat", o.repeat,
                  "Bioptigen only: take frame N of each position instead of the mean of all");
-  CLI11_PARSE(app, argc, argv);
-  // The Heidelberg import below works on these.
-  const std::string input = o.input;
-  const std::string out_dir = o.out_dir;
-  std::string name = o.name;
-  int bscan = o.bscan;
+}
 
+// Where a Heidelberg import's outputs go, all named after one stem.
+struct HeidelbergOutputs {
+  fs::path nrrd, csv, bscan, slo;
+};
+
+// The NRRD header of a Heidelberg volume: its spacings in mm and where it came from.
+NrrdMetadata heidelberg_metadata(const std::string& input, const VolHeader& h) {
+  NrrdMetadata metadata;
+  // A single line or circle has no B-scan spacing: the A-scan spacing stands in for it, and
+  // the header says so.
+  const bool known_distance = h.bscan_distance_mm > 0;
+  metadata.spacings = {h.depth_spacing_mm, h.ascan_spacing_mm,
+                       known_distance ? h.bscan_distance_mm : h.ascan_spacing_mm};
+  metadata.unit = "mm";
+  metadata.content = "Heidelberg " + h.version + " " +
+                     std::string(scan_pattern_name(h.scan_pattern)) +
+                     " scan, intensity 255 * v^(1/4)";
+  metadata.key_values = {{"ioct_source", fs::path(input).filename().string()},
+                         {"ioct_scan_pattern", std::to_string(h.scan_pattern)},
+                         {"ioct_bscan_spacing",
+                          known_distance ? "from the file" : "unknown (A-scan spacing written)"}};
+  return metadata;
+}
+
+// What was imported: the scan, how much of each segmentation line the device drew, the outputs.
+void print_heidelberg_summary(const std::string& input, const HeidelbergVol& vol,
+                              const HeidelbergOutputs& outputs) {
+  const VolHeader& h = vol.header;
+  const bool known_distance = h.bscan_distance_mm > 0;
+  std::size_t lines = 0;
+  for (const VolBscan& b : vol.bscans) lines = std::max(lines, b.layers.size());
+  std::cout << input << ": " << h.version << ", " << scan_pattern_name(h.scan_pattern) << " scan, "
+            << h.bscans << " B-scan(s) of " << h.ascans << " A-scans x " << h.depth << " px, "
+            << h.ascan_spacing_mm * 1000 << " um x " << h.depth_spacing_mm * 1000 << " um/px";
+  if (known_distance) std::cout << ", " << h.bscan_distance_mm * 1000 << " um between B-scans";
+  std::cout << "\n";
+  for (std::size_t l = 0; l < lines; ++l) {
+    std::size_t drawn = 0, total = 0;
+    for (const VolBscan& b : vol.bscans) {
+      if (l >= b.layers.size()) continue;
+      total += b.layers[l].size();
+      for (float v : b.layers[l]) drawn += std::isnan(v) ? 0 : 1;
+    }
+    std::cout << "  line " << layer_name(l) << ": drawn at " << drawn << " of " << total
+              << " A-scans\n";
+  }
+  std::cout << "volume: " << outputs.nrrd.string() << "\nlayers: " << outputs.csv.string()
+            << "\nbscan:  " << outputs.bscan.string() << "\n";
+  if (h.slo_width > 0 && h.slo_height > 0) {
+    std::cout << "slo:    " << outputs.slo.string() << "\n";
+  }
+}
+
+// Heidelberg .vol: the NRRD (spacings in mm), the layer CSV, a B-scan PNG and the SLO PNG.
+int import_heidelberg(const Options& o, std::vector<fs::path>& committed) {
+  if (o.repeat) {
+    std::cerr << "ioct-vol-import: invalid configuration: --repeat applies to Bioptigen .OCT files "
+                 "only\n";
+    return 2;
+  }
+  const HeidelbergVol vol = read_heidelberg_vol(o.input);
+  const VolHeader& h = vol.header;
+  const int bscan = o.bscan < 0 ? static_cast<int>(h.bscans / 2) : o.bscan;
+  if (bscan >= static_cast<int>(h.bscans)) {
+    std::cerr << "ioct-vol-import: invalid configuration: --bscan " << bscan << " (the file has "
+              << h.bscans << " B-scans)\n";
+    return 2;
+  }
+  if (!fs::is_directory(o.out_dir)) {
+    std::cerr << "ioct-vol-import: output directory '" << o.out_dir << "' does not exist\n";
+    return 1;
+  }
+  const std::string name = o.name.empty() ? fs::path(o.input).stem().string() : o.name;
+  const fs::path base = fs::path(o.out_dir) / name;
+  const HeidelbergOutputs outputs{base.string() + ".nrrd", base.string() + "_layers.csv",
+                                  base.string() + "_bscan.png", base.string() + "_slo.png"};
+
+  ProgressBar progress(stderr, "ioct-vol-import", "B-scans", h.bscans,
+                       ProgressBar::stderr_is_terminal());
+  const Volume volume = to_volume(vol);
+  progress.finish();
+  const NrrdMetadata metadata = heidelberg_metadata(o.input, h);
+
+  // Everything is written before anything is committed: on any failure no output is left.
+  ioct::AtomicFile nrrd(outputs.nrrd);
+  write_nrrd(nrrd.stream(), volume, metadata);
+  ioct::AtomicFile csv(outputs.csv);
+  write_layer_csv(csv.stream(), vol);
+  write_png_gray8(outputs.bscan, bscan_image(volume, static_cast<std::uint32_t>(bscan)));
+  committed.push_back(outputs.bscan);
+  if (h.slo_width > 0 && h.slo_height > 0) {
+    write_png_gray8(outputs.slo, h.slo_width, h.slo_height, vol.slo);
+    committed.push_back(outputs.slo);
+  }
+  nrrd.commit();
+  committed.push_back(outputs.nrrd);
+  csv.commit();
+  committed.clear();
+
+  print_heidelberg_summary(o.input, vol, outputs);
+  return EXIT_SUCCESS;
+}
+
+// The import of either format; on a failure the outputs already committed are removed again.
+int import_file(const Options& o) {
   std::vector<fs::path> committed;  // removed again if a later output fails
   try {
-    const InputFormat format = detect_input_format(input);
+    const InputFormat format = detect_input_format(o.input);
     if (format == InputFormat::bioptigen_oct) return import_bioptigen(o, committed);
     if (format != InputFormat::heidelberg_vol) {
-      throw InputFileError(input,
+      throw InputFileError(o.input,
                            "neither a Heidelberg .vol (it does not start with HSF-OCT-) nor a "
                            "Bioptigen .OCT (magic number 0x0C7DA7A5) file");
     }
-    if (o.repeat) {
-      std::cerr << "ioct-vol-import: invalid configuration: --repeat applies to Bioptigen .OCT files "
-                   "only\n";
-      return 2;
-    }
-    const HeidelbergVol vol = read_heidelberg_vol(input);
-    const VolHeader& h = vol.header;
-    if (bscan < 0) bscan = static_cast<int>(h.bscans / 2);
-    if (bscan >= static_cast<int>(h.bscans)) {
-      std::cerr << "ioct-vol-import: invalid configuration: --bscan " << bscan << " (the file has "
-                << h.bscans << " B-scans)\n";
-      return 2;
-    }
-    if (!fs::is_directory(out_dir)) {
-      std::cerr << "ioct-vol-import: output directory '" << out_dir << "' does not exist\n";
-      return 1;
-    }
-    if (name.empty()) name = fs::path(input).stem().string();
-    const fs::path base = fs::path(out_dir) / name;
-    const fs::path nrrd_path = base.string() + ".nrrd";
-    const fs::path csv_path = base.string() + "_layers.csv";
-    const fs::path bscan_path = base.string() + "_bscan.png";
-    const fs::path slo_path = base.string() + "_slo.png";
-
-    ProgressBar progress(stderr, "ioct-vol-import", "B-scans", h.bscans,
-                         ProgressBar::stderr_is_terminal());
-    const Volume volume = to_volume(vol);
-    progress.finish();
-
-    NrrdMetadata metadata;
-    // A single line or circle has no B-scan spacing: the A-scan spacing stands in for it, and
-    // the header says so.
-    const bool known_distance = h.bscan_distance_mm > 0;
-    metadata.spacings = {h.depth_spacing_mm, h.ascan_spacing_mm,
-                         known_distance ? h.bscan_distance_mm : h.ascan_spacing_mm};
-    metadata.unit = "mm";
-    metadata.content = "Heidelberg " + h.version + " " +
-                       std::string(scan_pattern_name(h.scan_pattern)) +
-                       " scan, intensity 255 * v^(1/4)";
-    metadata.key_values = {{"ioct_source", fs::path(input).filename().string()},
-                           {"ioct_scan_pattern", std::to_string(h.scan_pattern)},
-                           {"ioct_bscan_spacing",
-                            known_distance ? "from the file" : "unknown (A-scan spacing written)"}};
-
-    // Everything is written before anything is committed: on any failure no output is left.
-    ioct::AtomicFile nrrd(nrrd_path);
-    write_nrrd(nrrd.stream(), volume, metadata);
-    ioct::AtomicFile csv(csv_path);
-    write_layer_csv(csv.stream(), vol);
-    write_png_gray8(bscan_path, bscan_image(volume, static_cast<std::uint32_t>(bscan)));
-    committed.push_back(bscan_path);
-    if (h.slo_width > 0 && h.slo_height > 0) {
-      write_png_gray8(slo_path, h.slo_width, h.slo_height, vol.slo);
-      committed.push_back(slo_path);
-    }
-    nrrd.commit();
-    committed.push_back(nrrd_path);
-    csv.commit();
-    committed.clear();
-
-    std::size_t lines = 0;
-    for (const VolBscan& b : vol.bscans) lines = std::max(lines, b.layers.size());
-    std::cout << input << ": " << h.version << ", " << scan_pattern_name(h.scan_pattern)
-              << " scan, " << h.bscans << " B-scan(s) of " << h.ascans << " A-scans x " << h.depth
-              << " px, " << h.ascan_spacing_mm * 1000 << " um x " << h.depth_spacing_mm * 1000
-              << " um/px";
-    if (known_distance) std::cout << ", " << h.bscan_distance_mm * 1000 << " um between B-scans";
-    std::cout << "\n";
-    for (std::size_t l = 0; l < lines; ++l) {
-      std::size_t drawn = 0, total = 0;
-      for (const VolBscan& b : vol.bscans) {
-        if (l >= b.layers.size()) continue;
-        total += b.layers[l].size();
-        for (float v : b.layers[l]) drawn += std::isnan(v) ? 0 : 1;
-      }
-      std::cout << "  line " << layer_name(l) << ": drawn at " << drawn << " of " << total
-                << " A-scans\n";
-    }
-    std::cout << "volume: " << nrrd_path.string() << "\nlayers: " << csv_path.string()
-              << "\nbscan:  " << bscan_path.string() << "\n";
-    if (h.slo_width > 0 && h.slo_height > 0) std::cout << "slo:    " << slo_path.string() << "\n";
-    return EXIT_SUCCESS;
-  } catch (const std::exception& e) {
-    // Told as every command tells it; the files already written go first, so nothing half
-    // imported is left.
-    std::cerr << ioct::describe_failure("ioct-vol-import", e) << "\n";
+    return import_heidelberg(o, committed);
+  } catch (const std::exception&) {
+    // Told as every command tells it (run_command); the files already written go first, so
+    // nothing half imported is left.
     for (const fs::path& path : committed) {
       std::error_code ignored;
       fs::remove(path, ignored);
     }
-    return ioct::exit_status(ioct::category_of(e));
+    throw;
   }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  CLI::App app{
+      "ioct-vol-import: Heidelberg .vol -> NRRD volume, layer CSV and PNG images; Bioptigen .OCT "
+      "-> NRRD volume and PNG. The format is detected by the file's magic number (HSF-OCT- or "
+      "0x0C7DA7A5), not by its extension."};
+  add_options(app, options);
+  CLI11_PARSE(app, argc, argv);
+  return ioct::run_command("ioct-vol-import", [&]() -> int { return import_file(options); });
 }

@@ -12,6 +12,7 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "ioct/common/atomic_file.hpp"
@@ -51,9 +52,8 @@ std::vector<std::uint32_t> overlay_bscans(const std::string& which, const Surfac
   return list;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+// The values the flags fill.
+struct Options {
   std::string input;
   std::string out = ".";
   std::string backend_text = "auto";
@@ -64,123 +64,173 @@ int main(int argc, char** argv) {
   std::optional<double> bscan_um;
   unsigned threads = 2;
   SegmentationConfig config;
+};
 
-  CLI::App app{
-      "ioct-segment: ILM and RPE of a volume file (.nrrd, Heidelberg .vol or Bioptigen .OCT) as "
-      "CSV and overlay PNGs"};
+// The command line: the input, the outputs, the spacings and the segmentation's settings.
+void add_options(CLI::App& app, Options& o) {
   app.add_option(
-         "input", input,
+         "input", o.input,
          "volume file: .nrrd (ioct-process, ioct-vol-import), Heidelberg .vol or Bioptigen .OCT "
          "(told apart by their contents)")
       ->required();
-  app.add_option("--out", out, "directory for surfaces.csv, overlay_bscan<N>.png, summary.json");
-  app.add_option("--backend", backend_text, "cpu, cuda or auto (cuda when a device is usable)");
-  app.add_option("--filter", filter,
+  app.add_option("--out", o.out, "directory for surfaces.csv, overlay_bscan<N>.png, summary.json");
+  app.add_option("--backend", o.backend_text, "cpu, cuda or auto (cuda when a device is usable)");
+  app.add_option("--filter", o.filter,
                  "median 3x3x3 + Gaussian 5x5 before segmenting: auto (unless the NRRD says it "
                  "was filtered), yes or no");
-  app.add_option("--overlay", overlay, "B-scans drawn: centre, all, none or an index");
-  app.add_option("--axial-um", axial_um, "depth px spacing, um (default: from the file)");
-  app.add_option("--ascan-um", ascan_um, "A-scan spacing, um (default: from the file)");
-  app.add_option("--bscan-um", bscan_um, "B-scan spacing, um (default: from the file)");
-  app.add_option("--threads", threads, "CPU threads (cpu backend and filters)");
-  app.add_option("--max-thickness-um", config.retina_max_thickness_um,
+  app.add_option("--overlay", o.overlay, "B-scans drawn: centre, all, none or an index");
+  app.add_option("--axial-um", o.axial_um, "depth px spacing, um (default: from the file)");
+  app.add_option("--ascan-um", o.ascan_um, "A-scan spacing, um (default: from the file)");
+  app.add_option("--bscan-um", o.bscan_um, "B-scan spacing, um (default: from the file)");
+  app.add_option("--threads", o.threads, "CPU threads (cpu backend and filters)");
+  app.add_option("--max-thickness-um", o.config.retina_max_thickness_um,
                  "largest ILM-to-RPE distance searched");
-  app.add_option("--max-slope", config.max_slope, "largest surface slope, um depth per um");
-  app.add_option("--ilm-level", config.ilm_level, "ILM at this share of the rise to its reflex");
+  app.add_option("--max-slope", o.config.max_slope, "largest surface slope, um depth per um");
+  app.add_option("--ilm-level", o.config.ilm_level, "ILM at this share of the rise to its reflex");
+}
+
+// --filter, --threads and the segmentation's settings, refused before the volume is read.
+void check_options(const Options& o) {
+  if (o.filter != "auto" && o.filter != "yes" && o.filter != "no") {
+    throw ioct::ConfigError("filter", "'" + o.filter + "'", "must be auto, yes or no");
+  }
+  if (o.threads < 1 || o.threads > 64) {
+    throw ioct::ConfigError("threads", ioct::format_value(std::uint64_t{o.threads}),
+                            "must be in [1, 64]");
+  }
+  o.config.validate();
+}
+
+// The voxel spacings: the file's, each overridden by its flag; a warning when neither gives all.
+VolumeSampling sampling_of(const Options& o, const offline::VolumeFile& loaded) {
+  VolumeSampling sampling;
+  if (loaded.spacing) {
+    sampling.axial_um_per_px = loaded.spacing->axial_per_px;
+    sampling.ascan_spacing_um = loaded.spacing->ascan;
+    sampling.bscan_spacing_um = loaded.spacing->bscan;
+  }
+  if (o.axial_um) sampling.axial_um_per_px = *o.axial_um;
+  if (o.ascan_um) sampling.ascan_spacing_um = *o.ascan_um;
+  if (o.bscan_um) sampling.bscan_spacing_um = *o.bscan_um;
+  if (!loaded.spacing && !(o.axial_um && o.ascan_um && o.bscan_um)) {
+    std::ostringstream line;
+    line << o.input << ": the file states no spacings in mm or um; using the default geometry's ("
+         << sampling.axial_um_per_px << " um/px, " << sampling.ascan_spacing_um << " um, "
+         << sampling.bscan_spacing_um << " um); give --axial-um, --ascan-um and --bscan-um";
+    ioct::Log("ioct-segment").warning(line.str());
+  }
+  sampling.validate();
+  return sampling;
+}
+
+// A finished segmentation and how it was made, as the outputs report it.
+struct Segmentation {
+  const offline::VolumeFile& loaded;
+  const Volume& volume;  // the one segmented: the loaded volume or its filtered copy
+  const VolumeSampling& sampling;
+  const Surfaces& surfaces;
+  std::string_view backend;
+  bool filtered;
+  double seconds;
+};
+
+// The overlay PNGs --overlay asks for; returns their names.
+std::vector<std::string> write_overlays(const Options& o, const Segmentation& s) {
+  std::vector<std::string> pngs;
+  for (const std::uint32_t b : overlay_bscans(o.overlay, s.surfaces)) {
+    char name[64];
+    std::snprintf(name, sizeof name, "overlay_bscan%03u.png", b);
+    write_png_rgb8(fs::path(o.out) / name, make_overlay(s.volume, b, s.surfaces));
+    pngs.emplace_back(name);
+  }
+  return pngs;
+}
+
+// surfaces.csv, the overlays, summary.json and the one line that sums them up.
+void write_outputs(const Options& o, const Segmentation& s) {
+  const Volume& volume = s.volume;
+  const VolumeSampling& sampling = s.sampling;
+  const Surfaces& surfaces = s.surfaces;
+  fs::create_directories(o.out);
+  const fs::path csv = fs::path(o.out) / "surfaces.csv";
+  {
+    ioct::AtomicFile file(csv);
+    write_surfaces_csv(file.stream(), surfaces, sampling.axial_um_per_px);
+    file.commit();
+  }
+  const std::vector<std::string> pngs = write_overlays(o, s);
+  std::size_t counts[3] = {0, 0, 0};
+  for (const SurfaceState state : surfaces.state) ++counts[static_cast<int>(state)];
+  std::size_t retina = 0;
+  for (const BscanVerdict v : surfaces.verdict) retina += v == BscanVerdict::retina ? 1 : 0;
+  const nlohmann::json summary = {
+      {"input", fs::path(o.input).filename().string()},
+      {"kind", s.loaded.kind},
+      {"backend", std::string(s.backend)},
+      {"filtered", s.filtered},
+      {"bscans", volume.bscans()},
+      {"ascans", volume.ascans()},
+      {"depth", volume.depth()},
+      {"sampling_um",
+       {{"axial_per_px", sampling.axial_um_per_px},
+        {"ascan_spacing", sampling.ascan_spacing_um},
+        {"bscan_spacing", sampling.bscan_spacing_um}}},
+      {"bscans_with_retina", retina},
+      {"ascans_measured", counts[static_cast<int>(SurfaceState::measured)]},
+      {"ascans_bridged", counts[static_cast<int>(SurfaceState::bridged)]},
+      {"ascans_none", counts[static_cast<int>(SurfaceState::none)]},
+      {"seconds", s.seconds},
+      {"csv", csv.filename().string()},
+      {"overlays", pngs}};
+  ioct::write_text_file_atomically(fs::path(o.out) / "summary.json", summary.dump(2) + "\n");
+  std::cout << "ioct-segment: " << o.input << " (" << s.loaded.kind << ", " << volume.bscans()
+            << " x " << volume.ascans() << " x " << volume.depth() << "): " << retina << " of "
+            << volume.bscans() << " B-scans with a retina; A-scans measured "
+            << counts[static_cast<int>(SurfaceState::measured)] << ", bridged "
+            << counts[static_cast<int>(SurfaceState::bridged)] << ", none "
+            << counts[static_cast<int>(SurfaceState::none)] << "; " << s.backend << ", "
+            << s.seconds << " s -> " << csv.string() << "\n";
+}
+
+// The command's work: settings, the volume, its (filtered) segmentation and the outputs.
+int segment(const Options& o) {
+  const Backend backend = parse_backend(o.backend_text);
+  check_options(o);
+
+  const offline::VolumeFile loaded = offline::read_volume_file(o.input);
+  const VolumeSampling sampling = sampling_of(o, loaded);
+
+  const auto start = std::chrono::steady_clock::now();
+  const bool do_filter = o.filter == "yes" || (o.filter == "auto" && !loaded.already_filtered);
+  Volume filtered;
+  if (do_filter && loaded.volume.bscans() > 0) {
+    filters::make_volume_filter(backend, {}, o.threads)->filter_volume(loaded.volume, filtered);
+  }
+  const Volume& volume = do_filter && loaded.volume.bscans() > 0 ? filtered : loaded.volume;
+  const std::unique_ptr<Segmenter> segmenter =
+      make_segmenter(backend, o.config, sampling, o.threads);
+  Surfaces surfaces;
+  segmenter->segment_volume(volume, surfaces);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+  write_outputs(
+      o, {loaded, volume, sampling, surfaces, segmenter->backend_name(), do_filter, seconds});
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options options;
+  CLI::App app{
+      "ioct-segment: ILM and RPE of a volume file (.nrrd, Heidelberg .vol or Bioptigen .OCT) as "
+      "CSV and overlay PNGs"};
+  add_options(app, options);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
-
-  return ioct::run_command("ioct-segment", [&]() -> int {
-    const Backend backend = parse_backend(backend_text);
-    if (filter != "auto" && filter != "yes" && filter != "no") {
-      throw ioct::ConfigError("filter", "'" + filter + "'", "must be auto, yes or no");
-    }
-    if (threads < 1 || threads > 64) {
-      throw ioct::ConfigError("threads", ioct::format_value(std::uint64_t{threads}),
-                              "must be in [1, 64]");
-    }
-    config.validate();
-
-    const offline::VolumeFile loaded = offline::read_volume_file(input);
-    VolumeSampling sampling;
-    if (loaded.spacing) {
-      sampling.axial_um_per_px = loaded.spacing->axial_per_px;
-      sampling.ascan_spacing_um = loaded.spacing->ascan;
-      sampling.bscan_spacing_um = loaded.spacing->bscan;
-    }
-    if (axial_um) sampling.axial_um_per_px = *axial_um;
-    if (ascan_um) sampling.ascan_spacing_um = *ascan_um;
-    if (bscan_um) sampling.bscan_spacing_um = *bscan_um;
-    if (!loaded.spacing && !(axial_um && ascan_um && bscan_um)) {
-      std::ostringstream line;
-      line << input << ": the file states no spacings in mm or um; using the default geometry's ("
-           << sampling.axial_um_per_px << " um/px, " << sampling.ascan_spacing_um << " um, "
-           << sampling.bscan_spacing_um << " um); give --axial-um, --ascan-um and --bscan-um";
-      ioct::Log("ioct-segment").warning(line.str());
-    }
-    sampling.validate();
-
-    const auto start = std::chrono::steady_clock::now();
-    const bool do_filter = filter == "yes" || (filter == "auto" && !loaded.already_filtered);
-    Volume filtered;
-    if (do_filter && loaded.volume.bscans() > 0) {
-      filters::make_volume_filter(backend, {}, threads)->filter_volume(loaded.volume, filtered);
-    }
-    const Volume& volume = do_filter && loaded.volume.bscans() > 0 ? filtered : loaded.volume;
-    const std::unique_ptr<Segmenter> segmenter = make_segmenter(backend, config, sampling, threads);
-    Surfaces surfaces;
-    segmenter->segment_volume(volume, surfaces);
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-
-    fs::create_directories(out);
-    const fs::path csv = fs::path(out) / "surfaces.csv";
-    {
-      ioct::AtomicFile file(csv);
-      write_surfaces_csv(file.stream(), surfaces, sampling.axial_um_per_px);
-      file.commit();
-    }
-    std::vector<std::string> pngs;
-    for (const std::uint32_t b : overlay_bscans(overlay, surfaces)) {
-      char name[64];
-      std::snprintf(name, sizeof name, "overlay_bscan%03u.png", b);
-      write_png_rgb8(fs::path(out) / name, make_overlay(volume, b, surfaces));
-      pngs.emplace_back(name);
-    }
-    std::size_t counts[3] = {0, 0, 0};
-    for (const SurfaceState s : surfaces.state) ++counts[static_cast<int>(s)];
-    std::size_t retina = 0;
-    for (const BscanVerdict v : surfaces.verdict) retina += v == BscanVerdict::retina ? 1 : 0;
-    const nlohmann::json summary = {
-        {"input", fs::path(input).filename().string()},
-        {"kind", loaded.kind},
-        {"backend", std::string(segmenter->backend_name())},
-        {"filtered", do_filter},
-        {"bscans", volume.bscans()},
-        {"ascans", volume.ascans()},
-        {"depth", volume.depth()},
-        {"sampling_um",
-         {{"axial_per_px", sampling.axial_um_per_px},
-          {"ascan_spacing", sampling.ascan_spacing_um},
-          {"bscan_spacing", sampling.bscan_spacing_um}}},
-        {"bscans_with_retina", retina},
-        {"ascans_measured", counts[static_cast<int>(SurfaceState::measured)]},
-        {"ascans_bridged", counts[static_cast<int>(SurfaceState::bridged)]},
-        {"ascans_none", counts[static_cast<int>(SurfaceState::none)]},
-        {"seconds", seconds},
-        {"csv", csv.filename().string()},
-        {"overlays", pngs}};
-    ioct::write_text_file_atomically(fs::path(out) / "summary.json", summary.dump(2) + "\n");
-    std::cout << "ioct-segment: " << input << " (" << loaded.kind << ", " << volume.bscans()
-              << " x " << volume.ascans() << " x " << volume.depth() << "): " << retina << " of "
-              << volume.bscans() << " B-scans with a retina; A-scans measured "
-              << counts[static_cast<int>(SurfaceState::measured)] << ", bridged "
-              << counts[static_cast<int>(SurfaceState::bridged)] << ", none "
-              << counts[static_cast<int>(SurfaceState::none)] << "; " << segmenter->backend_name()
-              << ", " << seconds << " s -> " << csv.string() << "\n";
-    return 0;
-  });
+  return ioct::run_command("ioct-segment", [&]() -> int { return segment(options); });
 }
