@@ -481,7 +481,11 @@ RecorderSummary RingRecorder::run(const Log* log) {
   running_.store(true, std::memory_order_release);
   // Whatever ends run() ends an exchange in progress too.
   struct NotRunning {
-    RingRecorder& recorder;
+    explicit NotRunning(RingRecorder& r) : recorder(r) {}
+    NotRunning(const NotRunning&) = delete;
+    NotRunning& operator=(const NotRunning&) = delete;
+    NotRunning(NotRunning&&) = delete;
+    NotRunning& operator=(NotRunning&&) = delete;
     ~NotRunning() {
       recorder.running_.store(false, std::memory_order_release);
       recorder.attached_.store(false, std::memory_order_release);
@@ -493,7 +497,8 @@ RecorderSummary RingRecorder::run(const Log* log) {
         recorder.answered_cv_.notify_all();
       }
     }
-  } not_running{*this};
+    RingRecorder& recorder;
+  } not_running(*this);
 
   // Reader counters of the attachments before this one (each attachment starts from zero); the
   // changes go to the recording under way, if any.

@@ -74,7 +74,7 @@ AcquisitionLoop::AcquisitionLoop(shm::RingWriter& ring, hal::Digitizer& digitize
     : ring_(ring),
       digitizer_(digitizer),
       galvo_(galvo),
-      settings_(std::move(settings)),
+      settings_(settings),
       current_(initial),
       feed_buffer_(kFeedChunk) {
   if (initial == nullptr) throw std::invalid_argument("acquisition loop: no initial scan pattern");

@@ -18,7 +18,7 @@
 namespace {
 
 nlohmann::json scalar(const std::string& text) {
-  const nlohmann::json parsed = nlohmann::json::parse(text, nullptr, false);
+  nlohmann::json parsed = nlohmann::json::parse(text, nullptr, false);
   if (!parsed.is_discarded() && (parsed.is_number() || parsed.is_boolean())) return parsed;
   return text;
 }
