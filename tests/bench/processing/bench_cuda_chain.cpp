@@ -15,7 +15,7 @@
 //                         anchor of the design measures).
 // Latency: the writer publishes one group every --latency-period-us; each sample is the time
 // from the slot's t_publish_ns to the pipeline seeing the group's last kernel done.
-// tests/bench/run_cuda_chain_bench.sh runs this beside tests/bench/cupy_chain.py and prints the
+// tests/bench/processing/run_cuda_chain_bench.sh runs this beside cupy_chain.py and prints the
 // ratios.
 #include <cuda_runtime.h>
 

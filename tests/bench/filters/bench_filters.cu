@@ -1,7 +1,7 @@
 // ioct-bench-filters: the CUDA volume filters on a device-resident volume (default 128 x 512 x
 // 688 u8), every kernel variant timed with CUDA events beside a same-run anchor (a device-to-device
 // copy of the volume), and the result checked bit for bit against the CPU filter.
-// tests/bench/bench_filters.py runs it and times cupyx on the same volume.
+// tests/bench/filters/bench_filters.py runs it and times cupyx on the same volume.
 #include <CLI/CLI.hpp>
 
 #include <algorithm>

@@ -12,7 +12,7 @@ along B-scans, truncate so the radius is 2) on the same bytes, and compares the 
     larger ones are not.
 Prints a table (ms, ratio to ours) and writes bench_filters.json beside the volume.
 
-    python3 tests/bench/bench_filters.py --bench build/release/bin/ioct-bench-filters --out /tmp/f
+    python3 tests/bench/filters/bench_filters.py --bench build/release/bin/ioct-bench-filters --out /tmp/f
 """
 import argparse
 import json
