@@ -10,6 +10,7 @@
 #include <string>
 #include <thread>
 
+#include "ioct/common/command_line.hpp"
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/line_server.hpp"
@@ -81,7 +82,7 @@ int main(int argc, char** argv) {
   app.add_option("--status-interval", config.status_interval_s,
                  "seconds between status lines; 0: none");
   app.add_option("--label", config.label, "the name this reader shows to ioct-rt");
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = ioct::parse_command_line(app, argc, argv)) return *status;
 
   return ioct::run_command("ioct-record", [&]() -> int {
     const ioct::StopSignals signals;  // before any thread, so every thread inherits the mask

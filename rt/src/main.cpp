@@ -18,6 +18,7 @@
 #include "backends.hpp"
 #include "control_protocol.hpp"
 #include "effective_config.hpp"
+#include "ioct/common/command_line.hpp"
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/input_file.hpp"
@@ -545,7 +546,7 @@ int main(int argc, char** argv) {
       "groups of raw B-scans, drives the galvos and guards the laser; see docs/operations.md."};
   rt::RtOptions options;
   rt::add_rt_options(app, options);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = ioct::parse_command_line(app, argc, argv)) return *status;
 
   return ioct::run_command(
       "ioct-rt", [&]() -> int { return run(options); },

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "ioct/common/command_line.hpp"
 #include "ioct/common/line_client.hpp"
 #include "ioct/common/log.hpp"
 
@@ -44,7 +45,7 @@ int main(int argc, char** argv) {
                              "record-stop", "record-status"}));
   app.add_option("arguments", arguments,
                  "scan: KEY=VALUE pairs; raw: the line to send; record-start: NAME [SECONDS]");
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = ioct::parse_command_line(app, argc, argv)) return *status;
   const ioct::Log log("ioct-rtctl");
   const bool to_recorder = verb.rfind("record-", 0) == 0;
   if (socket_path.empty())

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "ioct/common/command_line.hpp"
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/concurrency/monotonic_clock.hpp"
@@ -27,9 +28,6 @@
 namespace {
 
 using namespace ioct;
-
-constexpr int kExitIoError = 1;
-constexpr int kExitBadConfig = 2;
 
 struct FaultWindow {
   sim::Fault fault;
@@ -291,11 +289,6 @@ int main(int argc, char** argv) {
       "(STEM.json, STEM.raw, STEM.truth; see docs/recording-format.md)."};
   Options options;
   add_options(app, options);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    const int code = app.exit(e);  // prints help or the error
-    return code == 0 ? 0 : kExitBadConfig;
-  }
+  if (const auto status = ioct::parse_command_line(app, argc, argv)) return *status;
   return ioct::run_command("ioct-sim-record", [&]() -> int { return record(options); });
 }

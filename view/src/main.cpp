@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <iostream>
 
+#include "ioct/common/command_line.hpp"
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/log.hpp"
@@ -60,7 +61,7 @@ int main(int argc, char** argv) {
   app.add_option("--footswitch", config.footswitch_action,
                  "what a footswitch press does: none, snapshot, next-mode, toggle-bscan or "
                  "toggle-stereo");
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = ioct::parse_command_line(app, argc, argv)) return *status;
 
   return ioct::run_command("ioct-view", [&]() -> int {
     const auto colon = listen.rfind(':');

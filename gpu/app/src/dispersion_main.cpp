@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "ioct/common/atomic_file.hpp"
+#include "ioct/common/command_line.hpp"
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/concurrency/monotonic_clock.hpp"
@@ -296,7 +297,7 @@ int main(int argc, char** argv) {
       "ioct-dispersion: estimates the dispersion correction c2, c3 of a raw group (a file or "
       "the next group on the ring) by maximising the sharpness of its A-scans"};
   add_options(app, options);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = ioct::parse_command_line(app, argc, argv)) return *status;
   return ioct::run_command("ioct-dispersion",
                            [&]() -> int { return estimate_dispersion(options); });
 }

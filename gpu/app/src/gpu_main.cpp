@@ -11,6 +11,7 @@
 #include <string>
 
 #include "gpu_config.hpp"
+#include "ioct/common/command_line.hpp"
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/input_file.hpp"
@@ -49,7 +50,7 @@ int main(int argc, char** argv) {
                "validate the configuration, print it (every key, as TOML) and exit");
   app.add_flag("--config-keys", config_keys,
                "print every configuration key as the Markdown table of docs/config-keys.md, exit");
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = ioct::parse_command_line(app, argc, argv)) return *status;
 
   return ioct::run_command(
       "ioct-gpu",

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "ioct/common/atomic_file.hpp"
+#include "ioct/common/command_line.hpp"
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/log.hpp"
@@ -332,6 +333,6 @@ int main(int argc, char** argv) {
       "ioct-process: raw u16 spectra from a file -> u8 volume (NRRD) through the ioct processing "
       "chain"};
   add_options(app, options);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = ioct::parse_command_line(app, argc, argv)) return *status;
   return ioct::run_command("ioct-process", [&]() -> int { return process(options); });
 }

@@ -3,6 +3,7 @@
 // (each position's frames averaged) and PNG of a B-scan. The format is told by the file's magic.
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "ioct/common/atomic_file.hpp"
+#include "ioct/common/command_line.hpp"
 #include "ioct/common/command_main.hpp"
 #include "ioct/gpu/offline/bioptigen_oct.hpp"
 #include "ioct/gpu/offline/heidelberg_vol.hpp"
@@ -254,6 +256,6 @@ int main(int argc, char** argv) {
       "-> NRRD volume and PNG. The format is detected by the file's magic number (HSF-OCT- or "
       "0x0C7DA7A5), not by its extension."};
   add_options(app, options);
-  CLI11_PARSE(app, argc, argv);
+  if (const auto status = ioct::parse_command_line(app, argc, argv)) return *status;
   return ioct::run_command("ioct-vol-import", [&]() -> int { return import_file(options); });
 }

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "ioct/common/atomic_file.hpp"
+#include "ioct/common/command_line.hpp"
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/filters/volume_filter.hpp"
@@ -302,10 +303,6 @@ int main(int argc, char** argv) {
   CLI::App app{
       "ioct-render: a volume file (.nrrd, Heidelberg .vol or Bioptigen .OCT) rendered to PNG"};
   add_options(app, options);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;
-  }
+  if (const auto status = ioct::parse_command_line(app, argc, argv)) return *status;
   return ioct::run_command("ioct-render", [&]() -> int { return render_volume(options); });
 }

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "ioct/common/atomic_file.hpp"
+#include "ioct/common/command_line.hpp"
 #include "ioct/common/command_main.hpp"
 #include "ioct/common/config_error.hpp"
 #include "ioct/common/log.hpp"
@@ -227,10 +228,6 @@ int main(int argc, char** argv) {
       "ioct-segment: ILM and RPE of a volume file (.nrrd, Heidelberg .vol or Bioptigen .OCT) as "
       "CSV and overlay PNGs"};
   add_options(app, options);
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e) == 0 ? 0 : 2;
-  }
+  if (const auto status = ioct::parse_command_line(app, argc, argv)) return *status;
   return ioct::run_command("ioct-segment", [&]() -> int { return segment(options); });
 }
