@@ -113,9 +113,9 @@ void CudaInstrumentDetector::classify(VolumeRef volume, BscanSpan group, const C
   const std::size_t pixels = ascans * dims.depth;
   histograms_.resize(std::size_t{group.count} * 256);
   IOCT_CUDA_CHECK(cudaMemsetAsync(histograms_.data(), 0, histograms_.bytes(), stream));
-  const dim3 parts(static_cast<unsigned>((pixels + kHistogramWords * 16 - 1) /
-                                         (kHistogramWords * 16)),
-                   group.count);
+  const dim3 parts(
+      static_cast<unsigned>((pixels + kHistogramWords * 16 - 1) / (kHistogramWords * 16)),
+      group.count);
   histogram_bscans<<<parts, kHistogramThreads, 0, stream>>>(group_pixels, pixels,
                                                             histograms_.data());
   cuda::check_launch("instruments: histogram_bscans");

@@ -24,11 +24,11 @@ class CudaInstrumentDetector final : public InstrumentDetector {
                 InstrumentFindings& findings) override;
 
   cuda::Stream stream_;
-  cuda::Event volume_ready_;                // a device volume's writes so far
-  cuda::DeviceArray<std::uint8_t> bscans_;  // the group's B-scans, uploaded from a host volume
-  cuda::DeviceArray<std::uint8_t> kinds_;   // [bscan of the group][ascan]
-  cuda::DeviceArray<float> reflexes_;       // [bscan of the group][ascan]
-  cuda::DeviceArray<std::uint8_t> floors_;  // [bscan of the group]
+  cuda::Event volume_ready_;                     // a device volume's writes so far
+  cuda::DeviceArray<std::uint8_t> bscans_;       // the group's B-scans, uploaded from a host volume
+  cuda::DeviceArray<std::uint8_t> kinds_;        // [bscan of the group][ascan]
+  cuda::DeviceArray<float> reflexes_;            // [bscan of the group][ascan]
+  cuda::DeviceArray<std::uint8_t> floors_;       // [bscan of the group]
   cuda::DeviceArray<std::uint32_t> histograms_;  // [bscan of the group][256]
   cuda::PinnedArray<std::uint8_t> host_kinds_;
 };
