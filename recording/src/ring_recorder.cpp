@@ -83,6 +83,11 @@ class RoomCheck {
   std::uint64_t reserve_bytes_;
 };
 
+// A status line, where the recorder was given a log.
+void say(const Log* log, const std::string& line) {
+  if (log != nullptr) log->info(line);
+}
+
 // The writer thread's state; only this thread touches the HDF5 file once it runs.
 struct DiskWriter {
   DiskWriter(RingRecordingWriter& file_, GroupQueue& queue_, SharedCounters& counters_,
@@ -97,10 +102,6 @@ struct DiskWriter {
   std::atomic<bool> failed{false};
   std::string failure;  // read after join
   std::uint64_t busy_ns = 0;
-
-  void say(const std::string& line) const {
-    if (log != nullptr) log->info(line);
-  }
 
   void run() {
     bool refusing = false;
@@ -117,10 +118,10 @@ struct DiskWriter {
         const std::string refusal = room.refuse(counters.get(Counter::bytes_written), bytes);
         if (!refusal.empty()) {
           counters.add(Counter::dropped_disk_full);
-          if (!refusing) say(refusal + ": dropping groups, counted as dropped_disk_full");
+          if (!refusing) say(log, refusal + ": dropping groups, counted as dropped_disk_full");
           refusing = true;
         } else {
-          if (refusing) say("room again: recording resumes");
+          if (refusing) say(log, "room again: recording resumes");
           refusing = false;
           const std::uint64_t start = ioct::monotonic_ns();
           file.append(buffer.header, buffer.payload);
@@ -394,9 +395,6 @@ void RingRecorder::serve_command(std::unique_ptr<Session>& session,
     command_taken_ = true;
     command = command_;
   }
-  auto say = [&](const std::string& line) {
-    if (log != nullptr) log->info(line);
-  };
   std::string answer;
   if (command.kind == CommandKind::start) {
     std::error_code error;
@@ -412,8 +410,8 @@ void RingRecorder::serve_command(std::unique_ptr<Session>& session,
     } else {
       try {
         session = open_session(command.file, command.seconds, false, geometry, log);
-        say("recording ring '" + config_.ring_name + "' into " + command.file.string() +
-            (command.seconds > 0 ? " for " + format_value(command.seconds) + " s" : ""));
+        say(log, "recording ring '" + config_.ring_name + "' into " + command.file.string() +
+                     (command.seconds > 0 ? " for " + format_value(command.seconds) + " s" : ""));
       } catch (const std::exception& e) {
         answer = "record-start: " + command.file.string() + ": " + e.what();
       }
@@ -422,7 +420,7 @@ void RingRecorder::serve_command(std::unique_ptr<Session>& session,
     answer = "record-stop: not recording";
   } else {
     const RecorderSummary summary = finish_session(session, "stopped by record-stop", false);
-    say("recording " + summary.file.string() + " finished: " + summary.stop_reason);
+    say(log, "recording " + summary.file.string() + " finished: " + summary.stop_reason);
   }
   std::lock_guard lock(mutex_);
   answer_ = std::move(answer);
@@ -453,10 +451,6 @@ RecorderStatus RingRecorder::status() const {
 }
 
 RecorderSummary RingRecorder::run(const Log* log) {
-  auto say = [&](const std::string& line) {
-    if (log != nullptr) log->info(line);
-  };
-
   shm::AttachWait first_wait;
   first_wait.deadline_ns = ioct::monotonic_ns() + seconds_to_ns(config_.wait_s);
   first_wait.stop = &stop_;
@@ -473,10 +467,10 @@ RecorderSummary RingRecorder::run(const Log* log) {
   std::unique_ptr<Session> session;
   if (!config_.standby) {
     session = open_session(config_.out, config_.run_s, config_.overwrite, geometry, log);
-    say("recording ring '" + config_.ring_name + "' into " + config_.out.string());
+    say(log, "recording ring '" + config_.ring_name + "' into " + config_.out.string());
   } else {
-    say("standby on ring '" + config_.ring_name + "': recordings go into " + config_.out.string() +
-        " when started");
+    say(log, "standby on ring '" + config_.ring_name + "': recordings go into " +
+                 config_.out.string() + " when started");
   }
   running_.store(true, std::memory_order_release);
   // Whatever ends run() ends an exchange in progress too.
@@ -516,7 +510,7 @@ RecorderSummary RingRecorder::run(const Log* log) {
   auto end_session = [&](const std::string& reason, bool failed) {
     summary = finish_session(session, reason, failed);
     if (config_.standby) {
-      say("recording " + summary.file.string() + " finished: " + summary.stop_reason);
+      say(log, "recording " + summary.file.string() + " finished: " + summary.stop_reason);
     }
     return config_.standby;
   };
@@ -583,7 +577,7 @@ RecorderSummary RingRecorder::run(const Log* log) {
     reader.reset();
     attached_.store(false, std::memory_order_release);
     earlier = {};
-    say("producer gone (ring '" + config_.ring_name + "' closed or replaced): waiting for it");
+    say(log, "producer gone (ring '" + config_.ring_name + "' closed or replaced): waiting for it");
     shm::AttachWait again;
     again.unbounded = true;
     again.stop = &stop_;
@@ -600,7 +594,7 @@ RecorderSummary RingRecorder::run(const Log* log) {
       std::snprintf(line, sizeof line, "waiting for the producer for %.0f s: %s",
                     static_cast<double>(waited_ns) / kNsPerS,
                     std::string(shm::to_string(last)).c_str());
-      say(line);
+      say(log, line);
     };
     reader =
         shm::attach_when_available(config_.ring_name, shm::ReaderOptions{config_.label}, again);
@@ -619,15 +613,15 @@ RecorderSummary RingRecorder::run(const Log* log) {
         if (!end_session(reason, true)) break;
       }
       attached_.store(true, std::memory_order_release);
-      say("producer back with another geometry: standby");
+      say(log, "producer back with another geometry: standby");
       continue;
     }
     attached_.store(true, std::memory_order_release);
     if (session) {
       session->counters->add(Counter::producer_restarts);
-      say("producer back: recording goes on");
+      say(log, "producer back: recording goes on");
     } else {
-      say("producer back");
+      say(log, "producer back");
     }
   }
   if (session) {

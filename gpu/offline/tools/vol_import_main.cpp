@@ -38,6 +38,29 @@ struct Options {
   std::optional<std::uint32_t> repeat;
 };
 
+// The B-scan shown (the centre one unless --bscan) and the outputs' path stem, or the exit status
+// after saying why not: the B-scan lies outside the file's `count` (`what`: "B-scan positions",
+// "B-scans"), or the output folder is missing.
+struct Target {
+  int bscan = 0;
+  fs::path base;
+  int refused = 0;
+};
+Target choose_target(const Options& o, std::uint32_t count, const char* what) {
+  Target t;
+  t.bscan = o.bscan < 0 ? static_cast<int>(count / 2) : o.bscan;
+  if (t.bscan >= static_cast<int>(count)) {
+    std::cerr << "ioct-vol-import: invalid configuration: --bscan " << t.bscan << " (the file has "
+              << count << " " << what << ")\n";
+    t.refused = 2;
+  } else if (!fs::is_directory(o.out_dir)) {
+    std::cerr << "ioct-vol-import: output directory '" << o.out_dir << "' does not exist\n";
+    t.refused = 1;
+  }
+  t.base = fs::path(o.out_dir) / (o.name.empty() ? fs::path(o.input).stem().string() : o.name);
+  return t;
+}
+
 // Bioptigen .OCT: the NRRD (spacings in mm where the file states the lengths) and a B-scan PNG.
 int import_bioptigen(const Options& o, std::vector<fs::path>& committed) {
   const BioptigenOct oct = read_bioptigen_oct(o.input);
@@ -47,20 +70,11 @@ int import_bioptigen(const Options& o, std::vector<fs::path>& committed) {
               << " (the file has " << oct.repeats << " frame(s) per position)\n";
     return 2;
   }
-  const int bscan = o.bscan < 0 ? static_cast<int>(oct.positions / 2) : o.bscan;
-  if (bscan >= static_cast<int>(oct.positions)) {
-    std::cerr << "ioct-vol-import: invalid configuration: --bscan " << bscan << " (the file has "
-              << oct.positions << " B-scan positions)\n";
-    return 2;
-  }
-  if (!fs::is_directory(o.out_dir)) {
-    std::cerr << "ioct-vol-import: output directory '" << o.out_dir << "' does not exist\n";
-    return 1;
-  }
-  const std::string name = o.name.empty() ? fs::path(o.input).stem().string() : o.name;
-  const fs::path base = fs::path(o.out_dir) / name;
-  const fs::path nrrd_path = base.string() + ".nrrd";
-  const fs::path bscan_path = base.string() + "_bscan.png";
+  const Target target = choose_target(o, oct.positions, "B-scan positions");
+  if (target.refused != 0) return target.refused;
+  const int bscan = target.bscan;
+  const fs::path nrrd_path = target.base.string() + ".nrrd";
+  const fs::path bscan_path = target.base.string() + "_bscan.png";
 
   const BioptigenVolume imported = to_volume(oct, o.repeat);
   const BioptigenSpacingMm mm = spacing_mm(oct);
@@ -183,18 +197,10 @@ int import_heidelberg(const Options& o, std::vector<fs::path>& committed) {
   }
   const HeidelbergVol vol = read_heidelberg_vol(o.input);
   const VolHeader& h = vol.header;
-  const int bscan = o.bscan < 0 ? static_cast<int>(h.bscans / 2) : o.bscan;
-  if (bscan >= static_cast<int>(h.bscans)) {
-    std::cerr << "ioct-vol-import: invalid configuration: --bscan " << bscan << " (the file has "
-              << h.bscans << " B-scans)\n";
-    return 2;
-  }
-  if (!fs::is_directory(o.out_dir)) {
-    std::cerr << "ioct-vol-import: output directory '" << o.out_dir << "' does not exist\n";
-    return 1;
-  }
-  const std::string name = o.name.empty() ? fs::path(o.input).stem().string() : o.name;
-  const fs::path base = fs::path(o.out_dir) / name;
+  const Target target = choose_target(o, h.bscans, "B-scans");
+  if (target.refused != 0) return target.refused;
+  const int bscan = target.bscan;
+  const fs::path& base = target.base;
   const HeidelbergOutputs outputs{base.string() + ".nrrd", base.string() + "_layers.csv",
                                   base.string() + "_bscan.png", base.string() + "_slo.png"};
 
