@@ -349,8 +349,7 @@ int Process::run() {
 
 void Process::start_threads() {
   const rt::RtConfig& config = setup_.config;
-  timing_ = {config.digitizer.ascans_per_bscan, config.digitizer.flyback_sweeps,
-             config.bscans_per_volume, config.digitizer.ascan_rate_hz};
+  timing_ = scan::ScanTiming::of(config.digitizer, config.bscans_per_volume);
   current_spec_ = config.scan;
   const scan::ScanPattern* initial =
       patterns_.add(scan::build_scan_pattern(current_spec_, timing_, config.galvo_limits));
@@ -493,8 +492,7 @@ int Process::shut_down(const std::string& reason, const rt::StatusSample& first)
 int check_config(const rt::RtOptions& options) {
   const rt::RtSetup setup = rt::make_setup(options);
   const rt::RtConfig& c = setup.config;
-  const scan::ScanTiming timing{c.digitizer.ascans_per_bscan, c.digitizer.flyback_sweeps,
-                                c.bscans_per_volume, c.digitizer.ascan_rate_hz};
+  const auto timing = scan::ScanTiming::of(c.digitizer, c.bscans_per_volume);
   const scan::ScanPattern pattern = scan::build_scan_pattern(c.scan, timing, c.galvo_limits);
   std::printf(
       "configuration ok: ring '%s', %u samples x %u A-scans (+%u flyback) x %u per group "

@@ -111,8 +111,7 @@ RtSetup make_setup(const RtOptions& options) {
 
   try {
     config.validate();
-    scan::ScanTiming timing{config.digitizer.ascans_per_bscan, config.digitizer.flyback_sweeps,
-                            config.bscans_per_volume, config.digitizer.ascan_rate_hz};
+    const auto timing = scan::ScanTiming::of(config.digitizer, config.bscans_per_volume);
     // Feasibility: the same check a scan change gets, so a bad config is refused at start-up.
     (void)scan::build_scan_pattern(config.scan, timing, config.galvo_limits);
 

@@ -46,7 +46,7 @@ class ScanSchedule {
     const ScheduledScan& now = entries_[count_ - 1];
     const std::uint64_t index = feed_sweep_ - now.first_sweep;
     ++feed_sweep_;
-    return now.pattern->trajectory[index % now.pattern->trajectory.size()];
+    return now.pattern->at(index);
   }
 
   // The entry that holds for a group starting at `sweep` (the latest entry at or before it).

@@ -19,8 +19,8 @@
 #include "ioct/common/config_error.hpp"
 #include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/recording/recording_writer.hpp"
+#include "ioct/scan/scan_builder.hpp"
 #include "ioct/sim/instrument_spec.hpp"
-#include "ioct/sim/raster_waveform.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "ioct/sim/simulated_galvo_output.hpp"
 #include "ioct/sim/simulation_metadata.hpp"
@@ -183,6 +183,20 @@ void report(const Options& o, const recording::RecordingMetadata& metadata,
                writer.json_path().c_str(), writer.raw_path().c_str(), writer.truth_path().c_str());
 }
 
+// The scan a driven galvo follows, planned as ioct-rt plans it (within the default galvo limits)
+// over ioct-rt's default field; `field`, where the ideal beam and the truth place A-scans, is set
+// to the same field. Throws ScanInfeasible when the flyback is too short for the mirrors.
+scan::ScanPattern plan_galvo_scan(const Options& o, const hal::DigitizerConfig& geometry,
+                                  hal::RasterScan& field) {
+  const scan::ScanSpec planned;
+  field.extent_x = static_cast<float>(planned.extent_x);
+  field.extent_y = static_cast<float>(planned.extent_y);
+  const auto kind = o.bidirectional ? scan::ScanKind::bidirectional : scan::ScanKind::raster;
+  return scan::build_scan_pattern(scan::ScanSpec::raster_over(field, kind),
+                                  scan::ScanTiming::of(geometry, field.bscans_per_volume),
+                                  scan::GalvoLimits{});
+}
+
 // The command's work: the simulated acquisition of the groups, written as a recording.
 int record(const Options& o) {
   const hal::DigitizerConfig geometry = digitizer_geometry(o);
@@ -191,10 +205,12 @@ int record(const Options& o) {
   for (const std::string& spec : o.faults) windows.push_back(parse_fault(spec));
   s.validate();
 
+  const bool driven = o.galvo || o.bidirectional;
+  const std::optional<scan::ScanPattern> pattern =
+      driven ? std::optional(plan_galvo_scan(o, geometry, s.scan)) : std::nullopt;
   auto bench = std::make_shared<sim::SimulatedBench>(s.bench);
   std::unique_ptr<sim::SimulatedGalvoOutput> galvo;
-  sim::RasterWaveform waveform{s.scan, o.flyback, o.bidirectional};
-  if (o.galvo || o.bidirectional) galvo = std::make_unique<sim::SimulatedGalvoOutput>(bench);
+  if (driven) galvo = std::make_unique<sim::SimulatedGalvoOutput>(bench);
   sim::SimulatedDigitizer digitizer(s, bench);
   digitizer.prepare(geometry);
 
@@ -206,7 +222,7 @@ int record(const Options& o) {
     const std::uint64_t want = 2 * geometry.sweeps_per_group();
     if (status.fifo_fill >= want) return;
     samples.resize(want - status.fifo_fill);
-    waveform.fill(sweeps_written, samples);
+    pattern->fill(sweeps_written, samples);
     sweeps_written += galvo->write(samples);
   };
   if (galvo) {

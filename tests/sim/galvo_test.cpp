@@ -10,7 +10,7 @@
 #include <numbers>
 #include <vector>
 
-#include "ioct/sim/raster_waveform.hpp"
+#include "ioct/scan/scan_builder.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "ioct/sim/simulated_galvo_output.hpp"
 #include "spectrum_fft.hpp"
@@ -168,7 +168,12 @@ BidirectionalRun run_raster(bool bidirectional, std::uint32_t lead, std::uint32_
   SimulatedGalvoOutput galvo(bench);
   SimulatedDigitizer digitizer(s, bench);
   digitizer.prepare(geometry);
-  const RasterWaveform waveform{s.scan, flyback, bidirectional};
+  // Planned as ioct-rt plans a scan, within limits loose enough for the short flybacks these
+  // tests give the simulated mirrors on purpose.
+  const scan::ScanPattern waveform = scan::build_scan_pattern(
+      scan::ScanSpec::raster_over(
+          s.scan, bidirectional ? scan::ScanKind::bidirectional : scan::ScanKind::raster),
+      scan::ScanTiming::of(geometry, s.scan.bscans_per_volume), scan::GalvoLimits{1e7, 1e13});
   const std::uint64_t sweeps = 3 * geometry.sweeps_per_group();
   std::vector<hal::GalvoSample> samples(sweeps);
   waveform.fill(0, samples);

@@ -2,8 +2,10 @@
 // faults, ground truth), refuses bad options with exit status 2 naming them, and never
 // overwrites a recording unless asked (exit status 1).
 #include <gtest/gtest.h>
+
 #include <sys/wait.h>
 #include <unistd.h>
+#include <algorithm>
 
 #include <chrono>
 #include <cmath>
@@ -65,8 +67,17 @@ class SimRecordCommand : public testing::Test {
 
 TEST_F(SimRecordCommand, WritesARecordingWithFaultsAndTruth) {
   std::vector<std::string> args = small("run");
-  for (const char* extra : {"--tool", "forceps:x=0.1,depth=0.4,yaw=180,open=15", "--fault",
-                            "k_clock_dropout@1-2", "--bidirectional", "--seed", "9"}) {
+  // The driven galvo's scan is planned within ioct-rt's default limits: 2 flyback sweeps at
+  // 100 kHz are refused, 4 at 10 kHz turn the mirrors round in time.
+  const auto flyback = std::find(args.begin(), args.end(), "--flyback");
+  ASSERT_NE(flyback, args.end());
+  std::vector<std::string> refused = args;
+  refused.push_back("--bidirectional");
+  EXPECT_EQ(run(refused), 2) << "2 flyback sweeps are too few at 100 kHz";
+  EXPECT_FALSE(fs::exists(dir_ / "run.json"));
+  *std::next(flyback) = "4";
+  for (const char* extra : {"--rate", "10000", "--tool", "forceps:x=0.1,depth=0.4,yaw=180,open=15",
+                            "--fault", "k_clock_dropout@1-2", "--bidirectional", "--seed", "9"}) {
     args.push_back(extra);
   }
   ASSERT_EQ(run(args), 0);
@@ -83,7 +94,7 @@ TEST_F(SimRecordCommand, WritesARecordingWithFaultsAndTruth) {
   for (std::uint64_t g = 0; g < 4; ++g) {
     reader.read_group(g, payload, info);
     EXPECT_EQ(info.status, g == 1 || g == 2 ? hal::kGroupClockFault : 0u) << g;
-    EXPECT_EQ(info.first_sweep_counter, g * 2 * 34);
+    EXPECT_EQ(info.first_sweep_counter, g * 2 * 36);
     recording::GroupTruth truth;
     reader.read_truth(g, truth);
     EXPECT_EQ(truth.ascans(), 64u);

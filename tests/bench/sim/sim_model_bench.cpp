@@ -15,11 +15,12 @@
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "host_description.hpp"
-#include "ioct/sim/raster_waveform.hpp"
+#include "ioct/scan/scan_builder.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "ioct/sim/simulated_galvo_output.hpp"
 
@@ -51,11 +52,20 @@ Result measure(const Scenario& scenario, hal::DigitizerConfig geometry, int grou
   scenario.setup(simulation, geometry);
   auto bench = std::make_shared<sim::SimulatedBench>(simulation.bench);
   std::unique_ptr<sim::SimulatedGalvoOutput> galvo;
-  const sim::RasterWaveform waveform{simulation.scan, geometry.flyback_sweeps, true};
+  std::optional<scan::ScanPattern> waveform;
+  if (scenario.galvo) {
+    // Planned as ioct-rt plans its default scan: the same field and galvo limits.
+    const scan::ScanSpec planned;
+    simulation.scan.extent_x = static_cast<float>(planned.extent_x);
+    simulation.scan.extent_y = static_cast<float>(planned.extent_y);
+    waveform = scan::build_scan_pattern(
+        scan::ScanSpec::raster_over(simulation.scan, scan::ScanKind::bidirectional),
+        scan::ScanTiming::of(geometry, simulation.scan.bscans_per_volume), scan::GalvoLimits{});
+  }
   std::uint64_t written = 0;
   std::vector<hal::GalvoSample> samples(geometry.sweeps_per_group());
   const auto feed = [&] {
-    waveform.fill(written, samples);
+    waveform->fill(written, samples);
     written += galvo->write(samples);
   };
   if (scenario.galvo) {

@@ -1,10 +1,10 @@
-// A raster scan: where the galvos point the beam for each recorded sweep of a volume.
+// A raster's field: where an ideal beam is at each recorded sweep of a volume.
 //
 // Positions are in scan units: [-1, 1] on each axis spans the scanner's full field. The fast
 // axis is x (one B-scan is a line from -extent_x to +extent_x about center_x, recorded left to
-// right, the galvo flies back during the unrecorded sweeps); the slow axis y steps once per
-// B-scan. The acquisition side writes these commanded positions into the ring's B-scan markers,
-// and the simulator aims its beam with them, so both agree on where every A-scan was taken.
+// right); the slow axis y steps once per B-scan. The simulator aims its beam here when no galvo is
+// attached, and the instrument truth maps positions back to voxels with it. A real (or simulated)
+// galvo follows the trajectory that scan/ plans over the same field (scan::ScanSpec::raster_over).
 #pragma once
 
 #include <cstdint>

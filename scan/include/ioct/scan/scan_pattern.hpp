@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,14 @@ struct ScanPattern {
   GalvoUsage usage;
 
   std::uint32_t pattern_id() const noexcept { return static_cast<std::uint32_t>(spec.kind); }
+  // The position for sweep `sweep` counted from the start of a volume; volume follows volume.
+  hal::GalvoSample at(std::uint64_t sweep) const noexcept {
+    return trajectory[sweep % trajectory.size()];
+  }
+  // The positions of sweeps [first_sweep, first_sweep + out.size()).
+  void fill(std::uint64_t first_sweep, std::span<hal::GalvoSample> out) const noexcept {
+    for (std::size_t i = 0; i < out.size(); ++i) out[i] = at(first_sweep + i);
+  }
   // "raster 128 lines, 1x1 field at (0, 0), 0 deg": for logs and status.
   std::string describe() const;
 };

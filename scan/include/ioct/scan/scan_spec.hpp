@@ -9,6 +9,9 @@
 #include <string>
 #include <string_view>
 
+#include "ioct/hal/digitizer_config.hpp"
+#include "ioct/hal/raster_scan.hpp"
+
 namespace ioct::scan {
 
 // The ring's scan_pattern_id of each kind. Raster keeps hal::ScanPatternKind::raster's value.
@@ -36,6 +39,10 @@ struct ScanSpec {
   // accelerating through them, which gives the turn-around more time.
   std::uint32_t inactive_ascans = 0;
 
+  // A raster (or bidirectional raster) over the field a hal::RasterScan describes: the lines
+  // the simulator's ideal beam takes, so a planned galvo and the ideal beam agree.
+  static ScanSpec raster_over(const hal::RasterScan& field, ScanKind kind = ScanKind::raster);
+
   // Checks each key on its own range; throws ConfigError("scan.<key>"). The checks that need the
   // geometry and the galvo (divisibility, field, speed) are build_scan_pattern()'s.
   void validate() const;
@@ -48,6 +55,13 @@ struct ScanTiming {
   std::uint32_t flyback_sweeps = 26;      // unrecorded sweeps after each B-scan
   std::uint32_t bscans_per_volume = 128;  // B-scans per volume
   double sweep_rate_hz = 100'000.0;       // sweeps per second: one galvo sample per sweep
+
+  // The timing of a digitizer's geometry, for volumes of `bscans_per_volume` B-scans.
+  static ScanTiming of(const hal::DigitizerConfig& digitizer,
+                       std::uint32_t bscans_per_volume) noexcept {
+    return {digitizer.ascans_per_bscan, digitizer.flyback_sweeps, bscans_per_volume,
+            digitizer.ascan_rate_hz};
+  }
 
   std::uint64_t sweeps_per_bscan() const noexcept {
     return std::uint64_t{records_per_bscan} + flyback_sweeps;
