@@ -329,9 +329,16 @@ TEST_F(VolImportCommand, ASyntheticFileRoundTripsThroughItsOutputs) {
   EXPECT_EQ(nrrd.metadata.spacings, (std::array<double, 3>{0.0039, 0.0117, 0.12}));
   const GrayImage png = read_png_gray8(dir_ / "out/s_bscan.png");
   EXPECT_EQ(png.at(3, 2), nrrd.volume.at(1, 3, 2)) << "the B-scan asked for";
-  EXPECT_EQ(import({(dir_ / "s.vol").string(), "--out", (dir_ / "out").string(), "--bscan", "2"})
-                .exit_code,
-            2);
+  const auto outside =
+      import({(dir_ / "s.vol").string(), "--out", (dir_ / "out").string(), "--bscan", "2"});
+  EXPECT_EQ(outside.exit_code, 2);
+  EXPECT_NE(outside.err.find("invalid configuration: --bscan = 2: the file has 2 B-scans"),
+            std::string::npos)
+      << outside.err;
+  const auto nowhere = import({(dir_ / "s.vol").string(), "--out", (dir_ / "nowhere").string()});
+  EXPECT_EQ(nowhere.exit_code, 2) << "refused before anything was written";
+  EXPECT_NE(nowhere.err.find("--out = "), std::string::npos) << nowhere.err;
+  EXPECT_NE(nowhere.err.find("must be an existing directory"), std::string::npos) << nowhere.err;
 }
 
 // A Bioptigen .OCT, detected by its magic under any name: the NRRD holds the reader's averaged
@@ -379,7 +386,9 @@ TEST_F(VolImportCommand, BioptigenBadOptionsAndDamageLeaveNoOutput) {
   const auto repeat =
       import({(dir_ / "eye.OCT").string(), "--out", (dir_ / "out").string(), "--repeat", "2"});
   EXPECT_EQ(repeat.exit_code, 2);
-  EXPECT_NE(repeat.err.find("--repeat 2 (the file has 2 frame(s) per position)"), std::string::npos)
+  EXPECT_NE(
+      repeat.err.find("invalid configuration: --repeat = 2: the file has 2 frame(s) per position"),
+      std::string::npos)
       << repeat.err;
   const auto bscan =
       import({(dir_ / "eye.OCT").string(), "--out", (dir_ / "out").string(), "--bscan", "3"});
@@ -388,7 +397,9 @@ TEST_F(VolImportCommand, BioptigenBadOptionsAndDamageLeaveNoOutput) {
   const auto vol_repeat =
       import({(dir_ / "s.vol").string(), "--out", (dir_ / "out").string(), "--repeat", "0"});
   EXPECT_EQ(vol_repeat.exit_code, 2);
-  EXPECT_NE(vol_repeat.err.find("--repeat applies to Bioptigen .OCT files only"), std::string::npos)
+  EXPECT_NE(vol_repeat.err.find(
+                "invalid configuration: --repeat = 0: applies to Bioptigen .OCT files only"),
+            std::string::npos)
       << vol_repeat.err;
 
   bytes.resize(bytes.size() - 100);

@@ -164,12 +164,14 @@ config::KeyTable<GpuConfig> make_keys() {
 
 #undef IOCT_ENUM
 
-GpuSetup resolve(const GpuConfig& c) {
+GpuSetup resolve(const GpuConfig& c, const RunLimits& limits) {
   gpu_keys().check_ranges(c);
   GpuSetup setup;
   setup.config = c;
   LiveConfig& live = setup.live;
   live = c.live;
+  live.run_s = limits.run_s;
+  live.exit_when_producer_gone = limits.exit_when_producer_gone;
   live.backend = parse_backend(c.backend);
   std::optional<std::vector<double>> calibration;
   if (!c.resample_poly.empty()) calibration = parse_coefficients(c.resample_poly);
@@ -238,13 +240,14 @@ const config::KeyTable<GpuConfig>& gpu_keys() {
   return keys;
 }
 
-GpuSetup make_gpu_setup(const std::string& file, const config::Overrides& overrides) {
+GpuSetup make_gpu_setup(const std::string& file, const config::Overrides& overrides,
+                        const RunLimits& limits) {
   GpuConfig c;
   config::KeyPositions positions;
   if (!file.empty()) gpu_keys().read_file(file, c, &positions);
   gpu_keys().apply(overrides, c);
   try {
-    return resolve(c);
+    return resolve(c, limits);
   } catch (const ConfigError& component_error) {
     const ConfigError e = in_file_terms(component_error);
     // Placed in the file when the key came from it and no flag overrode it.

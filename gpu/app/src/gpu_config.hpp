@@ -41,9 +41,17 @@ struct GpuSetup {
   std::optional<live::ViewSocketConfig> socket;    // none: no view socket
 };
 
-// Reads `file` (if not empty), applies the flags given, checks every key and each component's
-// validate(). Throws config::ConfigFileError ("file:line:col: key = value: allowed") for what
-// the file got wrong, ioct::ConfigError naming the key otherwise.
-GpuSetup make_gpu_setup(const std::string& file, const config::Overrides& overrides);
+// How long this run lasts: the command line's alone (--seconds, --exit-when-producer-gone), not
+// settings a file keeps.
+struct RunLimits {
+  double run_s = 0.0;
+  bool exit_when_producer_gone = false;
+};
+
+// Reads `file` (if not empty), applies the flags given and the run's limits, checks every key and
+// each component's validate(), once. Throws config::ConfigFileError ("file:line:col: key = value:
+// allowed") for what the file got wrong, ioct::ConfigError naming the key otherwise.
+GpuSetup make_gpu_setup(const std::string& file, const config::Overrides& overrides,
+                        const RunLimits& limits = {});
 
 }  // namespace ioct::gpu

@@ -27,8 +27,7 @@ int main(int argc, char** argv) {
   using namespace ioct::gpu;
   std::string config_file;
   ioct::config::Overrides overrides;
-  double run_s = 0.0;
-  bool exit_when_producer_gone = false;
+  RunLimits limits;
   bool check_config = false;
   bool config_keys = false;
 
@@ -39,11 +38,11 @@ int main(int argc, char** argv) {
                  "TOML configuration file (docs/config-keys.md); flags given override its keys")
       ->check(CLI::ExistingFile);
   gpu_keys().add_flags_to(app, overrides);
-  app.add_option("--seconds", run_s,
+  app.add_option("--seconds", limits.run_s,
                  "seconds to run; 0: until SIGINT/SIGTERM (or the producer goes, with "
                  "--exit-when-producer-gone)")
       ->capture_default_str();
-  app.add_flag("--exit-when-producer-gone", exit_when_producer_gone,
+  app.add_flag("--exit-when-producer-gone", limits.exit_when_producer_gone,
                "finish when the producer closes the ring, instead of waiting for it to come back "
                "and reattaching (a service waits; a demo or a test finishes)");
   app.add_flag("--check-config", check_config,
@@ -63,16 +62,13 @@ int main(int argc, char** argv) {
           std::cout << gpu_keys().markdown();
           return EXIT_SUCCESS;
         }
-        GpuSetup setup = make_gpu_setup(config_file, overrides);
+        GpuSetup setup = make_gpu_setup(config_file, overrides, limits);
         if (check_config) {
           std::cout << "# effective configuration (file, then flags, then defaults)\n"
                     << gpu_keys().to_toml(setup.config);
           return EXIT_SUCCESS;
         }
-        LiveConfig& config = setup.live;
-        config.run_s = run_s;
-        config.exit_when_producer_gone = exit_when_producer_gone;
-        config.validate();
+        const LiveConfig& config = setup.live;
         LiveProcessor processor(config);
         if (config.backend == Backend::cuda) {
           (void)make_oct_processor(config.backend, config.processing);  // fail before waiting

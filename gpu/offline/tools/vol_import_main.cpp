@@ -15,6 +15,7 @@
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/command_line.hpp"
 #include "ioct/common/command_main.hpp"
+#include "ioct/common/config_error.hpp"
 #include "ioct/gpu/offline/bioptigen_oct.hpp"
 #include "ioct/gpu/offline/heidelberg_vol.hpp"
 #include "ioct/gpu/offline/input_file_error.hpp"
@@ -38,24 +39,23 @@ struct Options {
   std::optional<std::uint32_t> repeat;
 };
 
-// The B-scan shown (the centre one unless --bscan) and the outputs' path stem, or the exit status
-// after saying why not: the B-scan lies outside the file's `count` (`what`: "B-scan positions",
-// "B-scans"), or the output folder is missing.
+// The B-scan shown (the centre one unless --bscan) and the outputs' path stem. Throws a
+// ConfigError (told by run_command, exit 2) when the B-scan lies outside the file's `count`
+// (`what`: "B-scan positions", "B-scans") or the output folder is missing.
 struct Target {
   int bscan = 0;
   fs::path base;
-  int refused = 0;
 };
 Target choose_target(const Options& o, std::uint32_t count, const char* what) {
   Target t;
   t.bscan = o.bscan < 0 ? static_cast<int>(count / 2) : o.bscan;
   if (t.bscan >= static_cast<int>(count)) {
-    std::cerr << "ioct-vol-import: invalid configuration: --bscan " << t.bscan << " (the file has "
-              << count << " " << what << ")\n";
-    t.refused = 2;
-  } else if (!fs::is_directory(o.out_dir)) {
-    std::cerr << "ioct-vol-import: output directory '" << o.out_dir << "' does not exist\n";
-    t.refused = 1;
+    throw ioct::ConfigError(
+        "--bscan", std::to_string(t.bscan),
+        "the file has " + std::to_string(count) + " " + what + ", counted from 0");
+  }
+  if (!fs::is_directory(o.out_dir)) {
+    throw ioct::ConfigError("--out", ioct::format_text(o.out_dir), "must be an existing directory");
   }
   t.base = fs::path(o.out_dir) / (o.name.empty() ? fs::path(o.input).stem().string() : o.name);
   return t;
@@ -66,12 +66,11 @@ int import_bioptigen(const Options& o, std::vector<fs::path>& committed) {
   const BioptigenOct oct = read_bioptigen_oct(o.input);
   const BioptigenHeader& h = oct.header;
   if (o.repeat && *o.repeat >= oct.repeats) {
-    std::cerr << "ioct-vol-import: invalid configuration: --repeat " << *o.repeat
-              << " (the file has " << oct.repeats << " frame(s) per position)\n";
-    return 2;
+    throw ioct::ConfigError(
+        "--repeat", std::to_string(*o.repeat),
+        "the file has " + std::to_string(oct.repeats) + " frame(s) per position, counted from 0");
   }
   const Target target = choose_target(o, oct.positions, "B-scan positions");
-  if (target.refused != 0) return target.refused;
   const int bscan = target.bscan;
   const fs::path nrrd_path = target.base.string() + ".nrrd";
   const fs::path bscan_path = target.base.string() + "_bscan.png";
@@ -191,14 +190,12 @@ void print_heidelberg_summary(const std::string& input, const HeidelbergVol& vol
 // Heidelberg .vol: the NRRD (spacings in mm), the layer CSV, a B-scan PNG and the SLO PNG.
 int import_heidelberg(const Options& o, std::vector<fs::path>& committed) {
   if (o.repeat) {
-    std::cerr << "ioct-vol-import: invalid configuration: --repeat applies to Bioptigen .OCT files "
-                 "only\n";
-    return 2;
+    throw ioct::ConfigError("--repeat", std::to_string(*o.repeat),
+                            "applies to Bioptigen .OCT files only");
   }
   const HeidelbergVol vol = read_heidelberg_vol(o.input);
   const VolHeader& h = vol.header;
   const Target target = choose_target(o, h.bscans, "B-scans");
-  if (target.refused != 0) return target.refused;
   const int bscan = target.bscan;
   const fs::path& base = target.base;
   const HeidelbergOutputs outputs{base.string() + ".nrrd", base.string() + "_layers.csv",
