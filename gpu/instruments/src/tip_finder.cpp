@@ -213,7 +213,9 @@ SurfaceAt surfaces_at(const InstrumentFindings& f, const Surfaces& s, double bsc
     };
     const auto ok = [&](std::int64_t i) { return across_bscans ? usable(i, a0) : usable(b0, i); };
     std::int64_t lo = static_cast<std::int64_t>(std::floor(at));
-    std::int64_t hi = lo + 1;
+    // A tip fitted beyond the volume's first A-scan or B-scan has no lower side: its upper search
+    // starts at the first one, never before it.
+    std::int64_t hi = std::max<std::int64_t>(lo + 1, 0);
     lo = std::min(lo, n - 1);
     while (lo >= 0 && !ok(lo)) --lo;
     while (hi < n && !ok(hi)) ++hi;
