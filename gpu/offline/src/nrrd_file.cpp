@@ -1,5 +1,6 @@
 #include "ioct/gpu/offline/nrrd_file.hpp"
 
+#include <array>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -104,160 +105,229 @@ std::string trimmed(std::string text) {
   return first == std::string::npos ? std::string() : text.substr(first, last - first + 1);
 }
 
+// The header up to its blank line: fields ("name: value"), keys ("key:=value") in the file's
+// order, and its length in bytes (where the data starts).
+struct NrrdHeader {
+  std::map<std::string, std::string> fields;
+  std::vector<std::pair<std::string, std::string>> key_values;
+  std::size_t bytes = 0;
+};
+
+NrrdHeader read_header(std::istream& in, const std::filesystem::path& path) {
+  std::string line;
+  if (!std::getline(in, line) || line.size() != 8 || line.compare(0, 7, "NRRD000") != 0 ||
+      line[7] < '1' || line[7] > '5') {
+    throw InputFileError(path, "not a NRRD file (the first line must be NRRD0001 to NRRD0005)");
+  }
+  NrrdHeader header;
+  header.bytes = line.size() + 1;
+  int line_number = 1;
+  while (true) {
+    if (!std::getline(in, line))
+      throw InputFileError(path, "the header never ends (no blank line before the data)");
+    ++line_number;
+    header.bytes += line.size() + 1;
+    if (header.bytes > kMaxHeaderBytes)
+      throw InputFileError(path, "header longer than 64 KiB: not a volume we wrote");
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) break;
+    if (line[0] == '#') continue;
+    const std::string where = "line " + std::to_string(line_number) + ": ";
+    if (const auto kv = line.find(":="); kv != std::string::npos) {
+      header.key_values.emplace_back(line.substr(0, kv), line.substr(kv + 2));
+      continue;
+    }
+    const auto colon = line.find(": ");
+    if (colon == std::string::npos || colon == 0) {
+      throw InputFileError(path,
+                           where + "'" + quote_input(line) +
+                               "' is neither a field ('name: value') nor a key ('key:=value')");
+    }
+    const std::string name = line.substr(0, colon);
+    if (!header.fields.emplace(name, trimmed(line.substr(colon + 2))).second) {
+      throw InputFileError(path, where + "field '" + quote_input(name) + "' appears twice");
+    }
+  }
+  return header;
+}
+
+const std::string& required_field(const std::map<std::string, std::string>& fields,
+                                  const std::string& name, const std::filesystem::path& path) {
+  const auto it = fields.find(name);
+  if (it == fields.end()) throw InputFileError(path, "required field '" + name + "' is missing");
+  return it->second;
+}
+
+// Refuses what ioct volumes never are: another type or dimension, an encoding, detached data or
+// skipped bytes.
+void check_supported_layout(const std::map<std::string, std::string>& fields,
+                            const std::filesystem::path& path) {
+  const std::string& type = required_field(fields, "type", path);
+  if (type != "uint8" && type != "uchar" && type != "unsigned char" && type != "uint8_t") {
+    throw InputFileError(
+        path, "type '" + quote_input(type) + "' is not supported: ioct volumes are uint8");
+  }
+  if (required_field(fields, "dimension", path) != "3") {
+    throw InputFileError(path, "dimension '" +
+                                   quote_input(required_field(fields, "dimension", path)) +
+                                   "' is not supported: ioct volumes have 3");
+  }
+  const std::string& encoding = required_field(fields, "encoding", path);
+  if (encoding != "raw") {
+    throw InputFileError(path,
+                         "encoding '" + quote_input(encoding) + "' is not supported: only raw");
+  }
+  for (const char* detached : {"data file", "datafile"}) {
+    if (fields.contains(detached)) {
+      throw InputFileError(path, "detached data ('data file') is not supported");
+    }
+  }
+  for (const char* skip : {"byte skip", "byteskip", "line skip", "lineskip"}) {
+    if (fields.contains(skip) && fields.at(skip) != "0") {
+      throw InputFileError(path, std::string("field '") + skip +
+                                     "' = " + quote_input(fields.at(skip)) + " is not supported");
+    }
+  }
+}
+
+// The three sizes, depth fastest.
+std::array<std::uint64_t, 3> parse_sizes(const std::string& text,
+                                         const std::filesystem::path& path) {
+  const auto words = words_of(text);
+  if (words.size() != 3) {
+    throw InputFileError(path, "sizes '" + quote_input(text) + "' must be three numbers");
+  }
+  std::array<std::uint64_t, 3> sizes = {};
+  for (int i = 0; i < 3; ++i) {
+    const auto& w = words[i];
+    const auto result = std::from_chars(w.data(), w.data() + w.size(), sizes[i]);
+    if (result.ec != std::errc() || result.ptr != w.data() + w.size() || sizes[i] == 0 ||
+        sizes[i] > 65536) {
+      throw InputFileError(path,
+                           "sizes: '" + quote_input(w) + "' is not a whole number in [1, 65536]");
+    }
+  }
+  return sizes;
+}
+
+std::array<double, 3> parse_spacings(const std::string& text, const std::filesystem::path& path) {
+  const auto words = words_of(text);
+  if (words.size() != 3) {
+    throw InputFileError(path, "spacings '" + quote_input(text) + "' must be three numbers");
+  }
+  std::array<double, 3> spacings = {};
+  for (int i = 0; i < 3; ++i) {
+    const auto& w = words[i];
+    if (w == "nan" || w == "NaN" || w == "NAN") {
+      spacings[i] = std::nan("");
+      continue;
+    }
+    double value = 0;
+    const auto result = std::from_chars(w.data(), w.data() + w.size(), value);
+    if (result.ec != std::errc() || result.ptr != w.data() + w.size() || !std::isfinite(value) ||
+        value <= 0) {
+      throw InputFileError(path,
+                           "spacings: '" + quote_input(w) + "' is not a positive number (or nan)");
+    }
+    spacings[i] = value;
+  }
+  return spacings;
+}
+
+// The one unit of all three axes: NrrdMetadata has no room for one per axis.
+std::string parse_unit(const std::string& text, const std::filesystem::path& path) {
+  const auto words = words_of(text);
+  if (words.size() != 3) {
+    throw InputFileError(path, "units '" + quote_input(text) + "' must be three words");
+  }
+  auto unquote = [](std::string w) {
+    return w.size() >= 2 && w.front() == '"' && w.back() == '"' ? w.substr(1, w.size() - 2) : w;
+  };
+  std::string unit = unquote(words[0]);
+  if (unquote(words[1]) != unit || unquote(words[2]) != unit) {
+    throw InputFileError(path,
+                         "units '" + quote_input(text) + "' differ between axes: not supported");
+  }
+  return unit;
+}
+
+// Moves the header's keys into the metadata; its fields stay.
+NrrdMetadata metadata_of(NrrdHeader& header, const std::filesystem::path& path) {
+  NrrdMetadata metadata;
+  metadata.key_values = std::move(header.key_values);
+  const auto& fields = header.fields;
+  if (fields.contains("spacings")) metadata.spacings = parse_spacings(fields.at("spacings"), path);
+  if (fields.contains("units")) metadata.unit = parse_unit(fields.at("units"), path);
+  if (fields.contains("content")) metadata.content = fields.at("content");
+  return metadata;
+}
+
+// The voxels that `sizes` need, checked against the limit and the file's length before any byte
+// is allocated for them.
+std::uint64_t checked_voxels(const std::array<std::uint64_t, 3>& sizes,
+                             const std::string& sizes_text, std::uint64_t file_bytes,
+                             std::size_t header_bytes, const std::filesystem::path& path) {
+  // Each size is at most 65536, so the product fits.
+  const std::uint64_t voxels = sizes[0] * sizes[1] * sizes[2];
+  if (voxels > kMaxVoxels) {
+    throw InputFileError(path, "sizes " + quote_input(sizes_text) + ": " + std::to_string(voxels) +
+                                   " voxels, more than the " + std::to_string(kMaxVoxels) +
+                                   " a volume may have");
+  }
+  if (file_bytes < header_bytes || file_bytes - header_bytes < voxels) {
+    throw InputFileError(
+        path,
+        "truncated: " + std::to_string(file_bytes > header_bytes ? file_bytes - header_bytes : 0) +
+            " of the " + std::to_string(voxels) + " data bytes that sizes " +
+            quote_input(sizes_text) + " need");
+  }
+  return voxels;
+}
+
+// Checks the length again as it reads: the file may have changed since it was measured.
+void read_voxels(std::istream& in, Volume& volume, std::uint64_t voxels,
+                 const std::string& sizes_text, std::size_t header_bytes,
+                 const std::filesystem::path& path) {
+  std::uint64_t got = 0;
+  for (std::uint32_t b = 0; b < volume.bscans(); ++b) {
+    auto pixels = volume.bscan(b);
+    in.read(reinterpret_cast<char*>(pixels.data()), static_cast<std::streamsize>(pixels.size()));
+    got += static_cast<std::uint64_t>(in.gcount());
+    if (!in) break;
+  }
+  if (got < voxels) {
+    throw InputFileError(path, "truncated: " + std::to_string(got) + " of the " +
+                                   std::to_string(voxels) + " data bytes that sizes " +
+                                   quote_input(sizes_text) + " need");
+  }
+  if (in.peek() != std::char_traits<char>::eof()) {
+    in.seekg(0, std::ios::end);
+    const auto end = static_cast<std::uint64_t>(in.tellg());
+    throw InputFileError(path, std::to_string(end - header_bytes - voxels) + " bytes after the " +
+                                   std::to_string(voxels) + " data bytes that sizes " +
+                                   quote_input(sizes_text) + " need");
+  }
+}
+
 }  // namespace
 
 NrrdVolume read_nrrd_file(const std::filesystem::path& path) {
   const std::uint64_t file_bytes = checked_input_size(path);  // before a FIFO could block
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputFileError(path, std::string("cannot open: ") + std::strerror(errno));
-  const auto fail = [&](const std::string& problem) -> InputFileError {
-    return InputFileError(path, problem);
-  };
 
-  std::string line;
-  if (!std::getline(in, line) || line.size() != 8 || line.compare(0, 7, "NRRD000") != 0 ||
-      line[7] < '1' || line[7] > '5') {
-    throw fail("not a NRRD file (the first line must be NRRD0001 to NRRD0005)");
-  }
-  std::map<std::string, std::string> fields;
-  NrrdMetadata metadata;
-  std::size_t header_bytes = line.size() + 1;
-  int line_number = 1;
-  while (true) {
-    if (!std::getline(in, line))
-      throw fail("the header never ends (no blank line before the data)");
-    ++line_number;
-    header_bytes += line.size() + 1;
-    if (header_bytes > kMaxHeaderBytes)
-      throw fail("header longer than 64 KiB: not a volume we wrote");
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) break;
-    if (line[0] == '#') continue;
-    const std::string where = "line " + std::to_string(line_number) + ": ";
-    if (const auto kv = line.find(":="); kv != std::string::npos) {
-      metadata.key_values.emplace_back(line.substr(0, kv), line.substr(kv + 2));
-      continue;
-    }
-    const auto colon = line.find(": ");
-    if (colon == std::string::npos || colon == 0) {
-      throw fail(where + "'" + quote_input(line) +
-                 "' is neither a field ('name: value') nor a key ('key:=value')");
-    }
-    const std::string name = line.substr(0, colon);
-    if (!fields.emplace(name, trimmed(line.substr(colon + 2))).second) {
-      throw fail(where + "field '" + quote_input(name) + "' appears twice");
-    }
-  }
+  NrrdHeader header = read_header(in, path);
+  check_supported_layout(header.fields, path);
+  const std::string& sizes_text = required_field(header.fields, "sizes", path);
+  const std::array<std::uint64_t, 3> sizes = parse_sizes(sizes_text, path);
+  NrrdMetadata metadata = metadata_of(header, path);
+  const std::uint64_t voxels = checked_voxels(sizes, sizes_text, file_bytes, header.bytes, path);
 
-  const auto field = [&](const std::string& name) -> const std::string& {
-    const auto it = fields.find(name);
-    if (it == fields.end()) throw fail("required field '" + name + "' is missing");
-    return it->second;
-  };
-  const std::string& type = field("type");
-  if (type != "uint8" && type != "uchar" && type != "unsigned char" && type != "uint8_t") {
-    throw fail("type '" + quote_input(type) + "' is not supported: ioct volumes are uint8");
-  }
-  if (field("dimension") != "3") {
-    throw fail("dimension '" + quote_input(field("dimension")) +
-               "' is not supported: ioct volumes have 3");
-  }
-  const std::string& encoding = field("encoding");
-  if (encoding != "raw") {
-    throw fail("encoding '" + quote_input(encoding) + "' is not supported: only raw");
-  }
-  for (const char* detached : {"data file", "datafile"}) {
-    if (fields.contains(detached)) throw fail("detached data ('data file') is not supported");
-  }
-  for (const char* skip : {"byte skip", "byteskip", "line skip", "lineskip"}) {
-    if (fields.contains(skip) && fields.at(skip) != "0") {
-      throw fail(std::string("field '") + skip + "' = " + quote_input(fields.at(skip)) +
-                 " is not supported");
-    }
-  }
-  std::uint64_t sizes[3] = {};
-  {
-    const auto words = words_of(field("sizes"));
-    if (words.size() != 3)
-      throw fail("sizes '" + quote_input(field("sizes")) + "' must be three numbers");
-    for (int i = 0; i < 3; ++i) {
-      const auto& w = words[i];
-      const auto result = std::from_chars(w.data(), w.data() + w.size(), sizes[i]);
-      if (result.ec != std::errc() || result.ptr != w.data() + w.size() || sizes[i] == 0 ||
-          sizes[i] > 65536) {
-        throw fail("sizes: '" + quote_input(w) + "' is not a whole number in [1, 65536]");
-      }
-    }
-  }
-  if (fields.contains("spacings")) {
-    const auto words = words_of(fields.at("spacings"));
-    if (words.size() != 3)
-      throw fail("spacings '" + quote_input(fields.at("spacings")) + "' must be three numbers");
-    for (int i = 0; i < 3; ++i) {
-      const auto& w = words[i];
-      if (w == "nan" || w == "NaN" || w == "NAN") {
-        metadata.spacings[i] = std::nan("");
-        continue;
-      }
-      double value = 0;
-      const auto result = std::from_chars(w.data(), w.data() + w.size(), value);
-      if (result.ec != std::errc() || result.ptr != w.data() + w.size() || !std::isfinite(value) ||
-          value <= 0) {
-        throw fail("spacings: '" + quote_input(w) + "' is not a positive number (or nan)");
-      }
-      metadata.spacings[i] = value;
-    }
-  }
-  if (fields.contains("units")) {
-    const auto words = words_of(fields.at("units"));
-    if (words.size() != 3)
-      throw fail("units '" + quote_input(fields.at("units")) + "' must be three words");
-    auto unquote = [](std::string w) {
-      return w.size() >= 2 && w.front() == '"' && w.back() == '"' ? w.substr(1, w.size() - 2) : w;
-    };
-    metadata.unit = unquote(words[0]);
-    if (unquote(words[1]) != metadata.unit || unquote(words[2]) != metadata.unit) {
-      throw fail("units '" + quote_input(fields.at("units")) +
-                 "' differ between axes: not supported");
-    }
-  }
-  if (fields.contains("content")) metadata.content = fields.at("content");
-
-  // Each size is at most 65536, so the product fits; checked against the file before any byte
-  // is allocated for it.
-  const std::uint64_t voxels = sizes[0] * sizes[1] * sizes[2];
-  if (voxels > kMaxVoxels) {
-    throw fail("sizes " + quote_input(field("sizes")) + ": " + std::to_string(voxels) +
-               " voxels, more than the " + std::to_string(kMaxVoxels) + " a volume may have");
-  }
-  if (file_bytes < header_bytes || file_bytes - header_bytes < voxels) {
-    throw fail(
-        "truncated: " + std::to_string(file_bytes > header_bytes ? file_bytes - header_bytes : 0) +
-        " of the " + std::to_string(voxels) + " data bytes that sizes " +
-        quote_input(field("sizes")) + " need");
-  }
   NrrdVolume result;
   result.volume.reshape(static_cast<std::uint32_t>(sizes[2]), static_cast<std::uint32_t>(sizes[1]),
                         static_cast<std::uint32_t>(sizes[0]));
   result.metadata = std::move(metadata);
-  std::uint64_t got = 0;
-  for (std::uint32_t b = 0; b < result.volume.bscans(); ++b) {
-    auto pixels = result.volume.bscan(b);
-    in.read(reinterpret_cast<char*>(pixels.data()), static_cast<std::streamsize>(pixels.size()));
-    got += static_cast<std::uint64_t>(in.gcount());
-    if (!in) break;
-  }
-  if (got < voxels) {
-    throw fail("truncated: " + std::to_string(got) + " of the " + std::to_string(voxels) +
-               " data bytes that sizes " + quote_input(field("sizes")) + " need");
-  }
-  if (in.peek() != std::char_traits<char>::eof()) {
-    in.seekg(0, std::ios::end);
-    const auto end = static_cast<std::uint64_t>(in.tellg());
-    throw fail(std::to_string(end - header_bytes - voxels) + " bytes after the " +
-               std::to_string(voxels) + " data bytes that sizes " + quote_input(field("sizes")) +
-               " need");
-  }
+  read_voxels(in, result.volume, voxels, sizes_text, header.bytes, path);
   return result;
 }
 

@@ -29,6 +29,62 @@ std::string identity(const UsbInstrumentConfig& config) {
   return hex4(config.vendor_id) + ":" + hex4(config.product_id);
 }
 
+// Why no matching instrument could be had: the last one that would not open, else the keys that
+// select it (and the serials present when a serial was asked for).
+UsbError no_instrument_error(const UsbInstrumentConfig& config, int open_error,
+                             const std::string& open_error_where,
+                             const std::vector<std::string>& other_serials) {
+  if (open_error != 0) {
+    return UsbError(describe_usb_failure("usb: cannot open instrument " + identity(config) +
+                                             " at " + open_error_where,
+                                         open_error),
+                    open_error);
+  }
+  std::string text =
+      "usb: no instrument " + identity(config) + " is connected (usb.vendor_id, usb.product_id";
+  if (!config.serial.empty()) {
+    text += ", usb.serial = \"" + config.serial + "\"; serials present:";
+    for (const std::string& s : other_serials) text += " " + s;
+    if (other_serials.empty()) text += " none";
+  }
+  text += ")";
+  return UsbError(text, LIBUSB_ERROR_NOT_FOUND);
+}
+
+// wMaxPacketSize of the protocol's endpoints on interface 0 (alternate setting 0); 0 where one is
+// missing or has another transfer type.
+struct EndpointSizes {
+  std::uint32_t record = 0;
+  std::uint32_t galvo = 0;
+  std::uint32_t status = 0;
+};
+
+EndpointSizes protocol_endpoint_sizes(const libusb_config_descriptor& configuration) {
+  EndpointSizes sizes;
+  for (std::uint8_t i = 0; i < configuration.bNumInterfaces; ++i) {
+    const libusb_interface& interface = configuration.interface[i];
+    if (interface.num_altsetting < 1) continue;
+    const libusb_interface_descriptor& setting = interface.altsetting[0];
+    if (setting.bInterfaceNumber != protocol::kInterfaceNumber) continue;
+    for (std::uint8_t e = 0; e < setting.bNumEndpoints; ++e) {
+      const libusb_endpoint_descriptor& endpoint = setting.endpoint[e];
+      const auto type = endpoint.bmAttributes & LIBUSB_TRANSFER_TYPE_MASK;
+      const std::uint32_t size = endpoint.wMaxPacketSize & 0x7FFu;
+      if (endpoint.bEndpointAddress == protocol::kRecordEndpoint &&
+          type == LIBUSB_TRANSFER_TYPE_BULK) {
+        sizes.record = size;
+      } else if (endpoint.bEndpointAddress == protocol::kGalvoEndpoint &&
+                 type == LIBUSB_TRANSFER_TYPE_BULK) {
+        sizes.galvo = size;
+      } else if (endpoint.bEndpointAddress == protocol::kStatusEndpoint &&
+                 type == LIBUSB_TRANSFER_TYPE_INTERRUPT) {
+        sizes.status = size;
+      }
+    }
+  }
+  return sizes;
+}
+
 // Waits until `count` reaches 0, at most `limit`; for cancellations, which complete on the
 // event thread.
 bool wait_for_zero(const std::atomic<int>& count, std::chrono::milliseconds limit) {
@@ -115,12 +171,39 @@ void UsbInstrument::connect() {
     ~ListGuard() { libusb_free_device_list(list, 1); }
   } guard{list};
 
-  libusb_device_handle* handle = nullptr;
   libusb_device* device = nullptr;
+  libusb_device_handle* handle = open_matching_device(list, count, device);
+  struct HandleGuard {
+    libusb_device_handle* handle;
+    ~HandleGuard() {
+      if (handle != nullptr) libusb_close(handle);
+    }
+  } handle_guard{handle};
+
+  libusb_set_auto_detach_kernel_driver(handle, 1);  // unsupported: nothing to detach
+  if (const int r = libusb_claim_interface(handle, protocol::kInterfaceNumber); r != 0) {
+    throw UsbError(describe_usb_failure("usb: cannot claim interface 0 of " + description_, r), r);
+  }
+  read_endpoint_sizes(device, handle);
+
+  // From here disconnect() releases the interface and closes the handle.
+  handle_.store(handle, std::memory_order_release);
+  handle_guard.handle = nullptr;
+  try {
+    info_ = read_device_info();
+  } catch (...) {
+    disconnect();
+    throw;
+  }
+}
+
+libusb_device_handle* UsbInstrument::open_matching_device(libusb_device** list,
+                                                          std::ptrdiff_t count,
+                                                          libusb_device*& device) {
   int open_error = 0;
   std::string open_error_where;
   std::vector<std::string> other_serials;
-  for (ssize_t i = 0; i < count && handle == nullptr; ++i) {
+  for (std::ptrdiff_t i = 0; i < count; ++i) {
     libusb_device_descriptor descriptor{};
     if (libusb_get_device_descriptor(list[i], &descriptor) != 0) continue;
     if (descriptor.idVendor != config_.vendor_id || descriptor.idProduct != config_.product_id) {
@@ -142,71 +225,26 @@ void UsbInstrument::connect() {
         continue;
       }
     }
-    handle = candidate;
     device = list[i];
     description_ = "instrument " + identity(config_) + " at " + where +
                    (config_.serial.empty() ? "" : " serial " + config_.serial);
+    return candidate;
   }
+  throw no_instrument_error(config_, open_error, open_error_where, other_serials);
+}
 
-  if (handle == nullptr) {
-    if (open_error != 0) {
-      throw UsbError(describe_usb_failure("usb: cannot open instrument " + identity(config_) +
-                                              " at " + open_error_where,
-                                          open_error),
-                     open_error);
-    }
-    std::string text =
-        "usb: no instrument " + identity(config_) + " is connected (usb.vendor_id, usb.product_id";
-    if (!config_.serial.empty()) {
-      text += ", usb.serial = \"" + config_.serial + "\"; serials present:";
-      for (const std::string& s : other_serials) text += " " + s;
-      if (other_serials.empty()) text += " none";
-    }
-    text += ")";
-    throw UsbError(text, LIBUSB_ERROR_NOT_FOUND);
-  }
-
-  struct HandleGuard {
-    libusb_device_handle* handle;
-    ~HandleGuard() {
-      if (handle != nullptr) libusb_close(handle);
-    }
-  } handle_guard{handle};
-
-  libusb_set_auto_detach_kernel_driver(handle, 1);  // unsupported: nothing to detach
-  if (const int r = libusb_claim_interface(handle, protocol::kInterfaceNumber); r != 0) {
-    throw UsbError(describe_usb_failure("usb: cannot claim interface 0 of " + description_, r), r);
-  }
-
+void UsbInstrument::read_endpoint_sizes(libusb_device* device, libusb_device_handle* handle) {
   libusb_config_descriptor* configuration = nullptr;
   if (const int r = libusb_get_active_config_descriptor(device, &configuration); r != 0) {
     libusb_release_interface(handle, protocol::kInterfaceNumber);
     throw UsbError(describe_usb_failure("usb: cannot read the configuration of " + description_, r),
                    r);
   }
-  record_packet_bytes_ = galvo_packet_bytes_ = status_packet_bytes_ = 0;
-  for (std::uint8_t i = 0; i < configuration->bNumInterfaces; ++i) {
-    const libusb_interface& interface = configuration->interface[i];
-    if (interface.num_altsetting < 1) continue;
-    const libusb_interface_descriptor& setting = interface.altsetting[0];
-    if (setting.bInterfaceNumber != protocol::kInterfaceNumber) continue;
-    for (std::uint8_t e = 0; e < setting.bNumEndpoints; ++e) {
-      const libusb_endpoint_descriptor& endpoint = setting.endpoint[e];
-      const auto type = endpoint.bmAttributes & LIBUSB_TRANSFER_TYPE_MASK;
-      const std::uint32_t size = endpoint.wMaxPacketSize & 0x7FFu;
-      if (endpoint.bEndpointAddress == protocol::kRecordEndpoint &&
-          type == LIBUSB_TRANSFER_TYPE_BULK) {
-        record_packet_bytes_ = size;
-      } else if (endpoint.bEndpointAddress == protocol::kGalvoEndpoint &&
-                 type == LIBUSB_TRANSFER_TYPE_BULK) {
-        galvo_packet_bytes_ = size;
-      } else if (endpoint.bEndpointAddress == protocol::kStatusEndpoint &&
-                 type == LIBUSB_TRANSFER_TYPE_INTERRUPT) {
-        status_packet_bytes_ = size;
-      }
-    }
-  }
+  const EndpointSizes sizes = protocol_endpoint_sizes(*configuration);
   libusb_free_config_descriptor(configuration);
+  record_packet_bytes_ = sizes.record;
+  galvo_packet_bytes_ = sizes.galvo;
+  status_packet_bytes_ = sizes.status;
   const char* missing = record_packet_bytes_ == 0   ? "bulk IN endpoint 0x81"
                         : galvo_packet_bytes_ == 0  ? "bulk OUT endpoint 0x02"
                         : status_packet_bytes_ == 0 ? "interrupt IN endpoint 0x83"
@@ -220,33 +258,28 @@ void UsbInstrument::connect() {
   }
   status_packet_bytes_ =
       std::max<std::uint32_t>(status_packet_bytes_, protocol::kStatusReportBytes);
+}
 
-  handle_.store(handle, std::memory_order_release);
-  handle_guard.handle = nullptr;
-  try {
-    std::uint8_t block[protocol::kDeviceInfoBytes] = {};
-    const int r =
-        control(protocol::kRequestTypeIn, protocol::Request::get_info, 0, block, sizeof(block));
-    check_control(r, "GET_INFO", sizeof(block));
-    protocol::DeviceInfo info;
-    if (!protocol::decode(block, info)) {
-      throw UsbError("usb: " + description_ +
-                         " answered GET_INFO without the protocol's magic: its firmware does not "
-                         "speak the ioct USB protocol (docs/usb-protocol.md)",
-                     0);
-    }
-    if (info.protocol_major != protocol::kProtocolMajor) {
-      throw UsbError("usb: " + description_ + " speaks protocol " +
-                         std::to_string(info.protocol_major) + "." +
-                         std::to_string(info.protocol_minor) + "; this host speaks " +
-                         std::to_string(protocol::kProtocolMajor) + ".x (docs/usb-protocol.md)",
-                     0);
-    }
-    info_ = info;
-  } catch (...) {
-    disconnect();
-    throw;
+protocol::DeviceInfo UsbInstrument::read_device_info() {
+  std::uint8_t block[protocol::kDeviceInfoBytes] = {};
+  const int r =
+      control(protocol::kRequestTypeIn, protocol::Request::get_info, 0, block, sizeof(block));
+  check_control(r, "GET_INFO", sizeof(block));
+  protocol::DeviceInfo info;
+  if (!protocol::decode(block, info)) {
+    throw UsbError("usb: " + description_ +
+                       " answered GET_INFO without the protocol's magic: its firmware does not "
+                       "speak the ioct USB protocol (docs/usb-protocol.md)",
+                   0);
   }
+  if (info.protocol_major != protocol::kProtocolMajor) {
+    throw UsbError("usb: " + description_ + " speaks protocol " +
+                       std::to_string(info.protocol_major) + "." +
+                       std::to_string(info.protocol_minor) + "; this host speaks " +
+                       std::to_string(protocol::kProtocolMajor) + ".x (docs/usb-protocol.md)",
+                   0);
+  }
+  return info;
 }
 
 void UsbInstrument::disconnect() noexcept {

@@ -12,6 +12,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <cstddef>
 #include <cstdint>
 #include <exception>
 #include <functional>
@@ -104,6 +105,16 @@ class UsbInstrument {
  private:
   explicit UsbInstrument(const UsbInstrumentConfig& config);
   void connect();  // find, open, claim, check: sets handle_, info_, description_
+  // The first device of `list` with the config's vendor and product ID (and serial, where one is
+  // set) that opens: its handle, and the device in `device`; sets description_. Throws UsbError
+  // when there is none.
+  libusb_device_handle* open_matching_device(libusb_device** list, std::ptrdiff_t count,
+                                             libusb_device*& device);
+  // Sets the endpoints' packet sizes from the active configuration. Releases the claimed
+  // interface before it throws UsbError (no configuration, or an endpoint of the protocol missing).
+  void read_endpoint_sizes(libusb_device* device, libusb_device_handle* handle);
+  // GET_INFO, checked for the protocol's magic and major version.
+  protocol::DeviceInfo read_device_info();
   void disconnect() noexcept;
   void event_loop();
   void housekeeping();
