@@ -12,10 +12,8 @@ namespace {
 constexpr auto kHeartbeatPeriod = std::chrono::milliseconds(50);
 
 // Bands a frame is encoded in, and the threads (the publishing one included) that encode them:
-// eight bands of a 768-row render are 96 rows each (six MCU rows of 4:2:0), so a host with the
-// cores to spare encodes a frame in an eighth of the time; more threads than cores would only
-// queue.
-constexpr unsigned kEncodeBands = 8;
+// four bands of a 768-row render are 192 rows each; more threads than cores would only queue.
+constexpr unsigned kEncodeBands = 4;
 unsigned encode_threads() {
   return std::clamp(std::thread::hardware_concurrency(), 1u, kEncodeBands);
 }
