@@ -309,4 +309,20 @@ std::string ScanPattern::describe() const {
   return text;
 }
 
+ScanPattern plan_raster(const hal::RasterScan& field, const hal::DigitizerConfig& digitizer,
+                        ScanKind kind, const GalvoLimits& limits) {
+  if (field.ascans_per_bscan != digitizer.ascans_per_bscan) {
+    throw ConfigError("scan.ascans_per_bscan", format_value(std::uint64_t{field.ascans_per_bscan}),
+                      "must be the digitizer's digitizer.ascans_per_bscan = " +
+                          format_value(std::uint64_t{digitizer.ascans_per_bscan}));
+  }
+  ScanSpec spec;
+  spec.kind = kind;
+  spec.extent_x = field.extent_x;
+  spec.extent_y = field.extent_y;
+  spec.offset_x = field.center_x;
+  spec.offset_y = field.center_y;
+  return build_scan_pattern(spec, ScanTiming::of(digitizer, field.bscans_per_volume), limits);
+}
+
 }  // namespace ioct::scan

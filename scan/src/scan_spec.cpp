@@ -31,16 +31,6 @@ std::optional<ScanKind> scan_kind_from_string(std::string_view name) noexcept {
   return std::nullopt;
 }
 
-ScanSpec ScanSpec::raster_over(const hal::RasterScan& field, ScanKind kind) {
-  ScanSpec spec;
-  spec.kind = kind;
-  spec.extent_x = field.extent_x;
-  spec.extent_y = field.extent_y;
-  spec.offset_x = field.center_x;
-  spec.offset_y = field.center_y;
-  return spec;
-}
-
 void ScanSpec::validate() const {
   if (to_string(kind) == "unknown") {
     throw ConfigError("scan.pattern", format_value(std::uint64_t{static_cast<std::uint32_t>(kind)}),

@@ -20,6 +20,7 @@
 #include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/recording/recording_writer.hpp"
 #include "ioct/scan/scan_builder.hpp"
+#include "ioct/scan/scan_infeasible.hpp"
 #include "ioct/sim/instrument_spec.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "ioct/sim/simulated_galvo_output.hpp"
@@ -185,16 +186,20 @@ void report(const Options& o, const recording::RecordingMetadata& metadata,
 
 // The scan a driven galvo follows, planned as ioct-rt plans it (within the default galvo limits)
 // over ioct-rt's default field; `field`, where the ideal beam and the truth place A-scans, is set
-// to the same field. Throws ScanInfeasible when the flyback is too short for the mirrors.
+// to the same field. A scan the mirrors cannot follow is refused in this command's own terms.
 scan::ScanPattern plan_galvo_scan(const Options& o, const hal::DigitizerConfig& geometry,
                                   hal::RasterScan& field) {
-  const scan::ScanSpec planned;
-  field.extent_x = static_cast<float>(planned.extent_x);
-  field.extent_y = static_cast<float>(planned.extent_y);
+  field.extent_x = field.extent_y = static_cast<float>(scan::ScanSpec::kDefaultExtent);
   const auto kind = o.bidirectional ? scan::ScanKind::bidirectional : scan::ScanKind::raster;
-  return scan::build_scan_pattern(scan::ScanSpec::raster_over(field, kind),
-                                  scan::ScanTiming::of(geometry, field.bscans_per_volume),
-                                  scan::GalvoLimits{});
+  try {
+    return scan::plan_raster(field, geometry, kind, scan::GalvoLimits{});
+  } catch (const scan::ScanInfeasible& e) {
+    throw ConfigError(o.bidirectional ? "--bidirectional" : "--galvo", "true",
+                      std::string(e.what()) +
+                          " (the driven galvo's scan is planned as ioct-rt plans it, over a field "
+                          "of +-0.95 within the default galvo limits: give more --flyback sweeps, "
+                          "a lower --rate or more --ascans)");
+  }
 }
 
 // The command's work: the simulated acquisition of the groups, written as a recording.

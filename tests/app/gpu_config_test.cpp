@@ -22,7 +22,7 @@ test_support::TempPath config_file(const std::string& text) {
 
 std::string error_for(const std::string& file, const config::Overrides& overrides = {}) {
   try {
-    make_gpu_setup(file, overrides);
+    make_gpu_setup(file, overrides, {});
   } catch (const std::exception& e) {
     return e.what();
   }
@@ -30,7 +30,7 @@ std::string error_for(const std::string& file, const config::Overrides& override
 }
 
 TEST(GpuConfig, TheAppliancesFileResolvesToItsRingFramesAndViewSocket) {
-  const GpuSetup setup = make_gpu_setup(IOCT_GPU_CONFIG_DIR "/appliance.toml", {});
+  const GpuSetup setup = make_gpu_setup(IOCT_GPU_CONFIG_DIR "/appliance.toml", {}, {});
   EXPECT_EQ(setup.live.ring_name, "/dev/shm/ioct/ring");
   EXPECT_EQ(setup.live.wait_s, 3600.0);
   EXPECT_EQ(setup.live.out_dir, "/var/lib/ioct/frames");
@@ -48,7 +48,7 @@ TEST(GpuConfig, FlagsOverrideTheFileAndTheDefaultsFillTheRest) {
   const auto file =
       config_file("[processing]\nthreads = 3\nbackend = \"cpu\"\n[render]\nmode = \"la-mip\"\n");
   const GpuSetup setup = make_gpu_setup(
-      file.str(), {{"processing.threads", {"4"}}, {"stages.filter", {"median-bscan"}}});
+      file.str(), {{"processing.threads", {"4"}}, {"stages.filter", {"median-bscan"}}}, {});
   EXPECT_EQ(setup.live.processing.threads, 4u) << "the flag wins";
   EXPECT_EQ(setup.live.backend, Backend::cpu) << "the file's";
   ASSERT_TRUE(setup.stages);
@@ -57,7 +57,7 @@ TEST(GpuConfig, FlagsOverrideTheFileAndTheDefaultsFillTheRest) {
   EXPECT_FALSE(setup.stages->filter.gaussian) << "median-bscan";
   EXPECT_EQ(setup.stages->frame_ring, "ioct-ring.frames") << "the ring's name + .frames";
   EXPECT_FALSE(setup.socket);
-  EXPECT_FALSE(make_gpu_setup("", {{"stages.enabled", {"false"}}}).stages);
+  EXPECT_FALSE(make_gpu_setup("", {{"stages.enabled", {"false"}}}, {}).stages);
 }
 
 TEST(GpuConfig, AFilesErrorIsLocatedAndAFlagsNamesItsKey) {
@@ -95,10 +95,10 @@ TEST(GpuConfig, AFilesErrorIsLocatedAndAFlagsNamesItsKey) {
 
 TEST(GpuConfig, ThePrintedConfigurationReadsBackAsTheSame) {
   const auto file = config_file("[processing]\ndispersion_c2 = -12.5\nresample_poly = \"0,1\"\n");
-  const GpuSetup setup = make_gpu_setup(file.str(), {});
+  const GpuSetup setup = make_gpu_setup(file.str(), {}, {});
   const std::string printed = gpu_keys().to_toml(setup.config);
   const auto again = config_file(printed);
-  EXPECT_EQ(gpu_keys().to_toml(make_gpu_setup(again.str(), {}).config), printed);
+  EXPECT_EQ(gpu_keys().to_toml(make_gpu_setup(again.str(), {}, {}).config), printed);
 }
 
 // docs/config-keys.md holds the table `ioct-gpu --config-keys` prints, as it is now.
@@ -108,6 +108,19 @@ TEST(GpuConfig, TheDocsKeyTableIsTheDeclarations) {
   const std::string docs((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   EXPECT_NE(docs.find(gpu_keys().markdown()), std::string::npos)
       << "regenerate the ioct-gpu table of docs/config-keys.md with ioct-gpu --config-keys";
+}
+
+// The run's limits come from the command line alone and are checked with the rest, once.
+TEST(GpuConfig, TheRunsLimitsAreCarriedAndChecked) {
+  const GpuSetup setup = make_gpu_setup("", {}, {2.5, true});
+  EXPECT_EQ(setup.live.run_s, 2.5);
+  EXPECT_TRUE(setup.live.exit_when_producer_gone);
+  try {
+    (void)make_gpu_setup("", {}, {-1.0, false});
+    ADD_FAILURE() << "a negative run time was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "seconds");
+  }
 }
 
 }  // namespace

@@ -222,6 +222,46 @@ INSTANTIATE_TEST_SUITE_P(Kinds, EveryKind,
                            return std::string(to_string(kind.param));
                          });
 
+// The simulator's tools drive their galvo with plan_raster(): on every recorded A-scan the planned
+// trajectory is where the ideal beam of the same field (hal::RasterScan) stands, reversed lines
+// included, for volumes of even and odd B-scan counts.
+TEST(ScanPattern, PlannedRasterPlacesEachRecordedAscanWhereTheIdealBeamDoes) {
+  for (const auto kind : {scan::ScanKind::raster, scan::ScanKind::bidirectional}) {
+    for (const std::uint32_t bscans : {8u, 7u}) {
+      hal::RasterScan field;
+      field.ascans_per_bscan = 64;
+      field.bscans_per_volume = bscans;
+      field.center_x = 0.1f;
+      field.center_y = -0.05f;
+      field.extent_x = 0.8f;
+      field.extent_y = 0.5f;
+      hal::DigitizerConfig digitizer;
+      digitizer.ascans_per_bscan = 64;
+      digitizer.flyback_sweeps = 16;
+      const scan::ScanPattern pattern = scan::plan_raster(field, digitizer, kind, unlimited());
+      const std::uint64_t per_bscan = pattern.timing.sweeps_per_bscan();
+      for (std::uint32_t b = 0; b < bscans; ++b) {
+        const bool reversed = kind == scan::ScanKind::bidirectional && b % 2 == 1;
+        ASSERT_EQ(pattern.bscans[b].reversed, reversed) << b;
+        for (std::uint32_t i = 0; i < field.ascans_per_bscan; ++i) {
+          const hal::BeamPosition ideal = field.position(b, reversed ? 63 - i : i);
+          const hal::GalvoSample planned = pattern.at(b * per_bscan + i);
+          ASSERT_NEAR(planned.x, ideal.x, 1e-6) << to_string(kind) << " B-scan " << b << " " << i;
+          ASSERT_NEAR(planned.y, ideal.y, 1e-6) << to_string(kind) << " B-scan " << b << " " << i;
+        }
+      }
+    }
+  }
+  hal::RasterScan other;
+  other.ascans_per_bscan = 32;
+  try {
+    (void)scan::plan_raster(other, hal::DigitizerConfig{}, scan::ScanKind::raster, unlimited());
+    ADD_FAILURE() << "a field of other A-scans than the digitizer's was planned";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "scan.ascans_per_bscan");
+  }
+}
+
 TEST(QuinticTransition, MatchesItsEndsAndFindsItsPeaks) {
   const scan::QuinticTransition t(1.0, 0.5, -1.0, 0.5, 10.0);
   EXPECT_DOUBLE_EQ(t.position(0.0), 1.0);

@@ -170,10 +170,9 @@ BidirectionalRun run_raster(bool bidirectional, std::uint32_t lead, std::uint32_
   digitizer.prepare(geometry);
   // Planned as ioct-rt plans a scan, within limits loose enough for the short flybacks these
   // tests give the simulated mirrors on purpose.
-  const scan::ScanPattern waveform = scan::build_scan_pattern(
-      scan::ScanSpec::raster_over(
-          s.scan, bidirectional ? scan::ScanKind::bidirectional : scan::ScanKind::raster),
-      scan::ScanTiming::of(geometry, s.scan.bscans_per_volume), scan::GalvoLimits{1e7, 1e13});
+  const scan::ScanPattern waveform = scan::plan_raster(
+      s.scan, geometry, bidirectional ? scan::ScanKind::bidirectional : scan::ScanKind::raster,
+      scan::GalvoLimits{1e7, 1e13});
   const std::uint64_t sweeps = 3 * geometry.sweeps_per_group();
   std::vector<hal::GalvoSample> samples(sweeps);
   waveform.fill(0, samples);

@@ -52,6 +52,6 @@ struct RunLimits {
 // each component's validate(), once. Throws config::ConfigFileError ("file:line:col: key = value:
 // allowed") for what the file got wrong, ioct::ConfigError naming the key otherwise.
 GpuSetup make_gpu_setup(const std::string& file, const config::Overrides& overrides,
-                        const RunLimits& limits = {});
+                        const RunLimits& limits);
 
 }  // namespace ioct::gpu

@@ -160,7 +160,8 @@ std::vector<Footprint> footprints(const InstrumentFindings& f, std::uint32_t min
 }
 
 // A surface (ILM or RPE, px) at fractional (bscan, ascan) from the nearest unshadowed, measured
-// A-scans; `own` says whether the nearest A-scan itself was usable.
+// A-scans; `source` says whether the nearest A-scan itself was usable (measured) or the surfaces
+// were interpolated from its neighbours (inferred).
 struct SurfaceAt {
   double ilm = InstrumentTip::kNone;
   double rpe = InstrumentTip::kNone;
@@ -552,9 +553,9 @@ double footprint_mismatch(const Sphere& s, const Axis& axis, const MaskedRuns& m
     const double dy = static_cast<double>(b) * sy - s.cy;
     const double dy2 = dy * dy;
     if (dy2 > reach2) continue;
-    // The row's A-scans are all tested (a cell-by-cell count would look at the chord and a cell
-    // beyond each end only: all those further away fail the reach test by more than a cell's
-    // width); the chord only guesses the runs' ends.
+    // Every A-scan of the row is counted, but only the runs' ends are tested (a cell-by-cell count
+    // would look at the chord and a cell beyond each end only: all those further away fail the
+    // reach test by more than a cell's width); the chord only guesses where the ends lie.
     const double half_chord = std::sqrt(reach2 - dy2);
     const DiscRow row = disc.row(dy);
     const Run ahead = disc.ahead(row);

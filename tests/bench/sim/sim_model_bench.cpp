@@ -54,13 +54,11 @@ Result measure(const Scenario& scenario, hal::DigitizerConfig geometry, int grou
   std::unique_ptr<sim::SimulatedGalvoOutput> galvo;
   std::optional<scan::ScanPattern> waveform;
   if (scenario.galvo) {
-    // Planned as ioct-rt plans its default scan: the same field and galvo limits.
-    const scan::ScanSpec planned;
-    simulation.scan.extent_x = static_cast<float>(planned.extent_x);
-    simulation.scan.extent_y = static_cast<float>(planned.extent_y);
-    waveform = scan::build_scan_pattern(
-        scan::ScanSpec::raster_over(simulation.scan, scan::ScanKind::bidirectional),
-        scan::ScanTiming::of(geometry, simulation.scan.bscans_per_volume), scan::GalvoLimits{});
+    // Planned as ioct-rt plans a scan, over its default field and within its galvo limits.
+    simulation.scan.extent_x = simulation.scan.extent_y =
+        static_cast<float>(scan::ScanSpec::kDefaultExtent);
+    waveform = scan::plan_raster(simulation.scan, geometry, scan::ScanKind::bidirectional,
+                                 scan::GalvoLimits{});
   }
   std::uint64_t written = 0;
   std::vector<hal::GalvoSample> samples(geometry.sweeps_per_group());

@@ -4,7 +4,7 @@
 // axis is x (one B-scan is a line from -extent_x to +extent_x about center_x, recorded left to
 // right); the slow axis y steps once per B-scan. The simulator aims its beam here when no galvo is
 // attached, and the instrument truth maps positions back to voxels with it. A real (or simulated)
-// galvo follows the trajectory that scan/ plans over the same field (scan::ScanSpec::raster_over).
+// galvo follows the trajectory that scan/ plans over the same field (scan::plan_raster).
 #pragma once
 
 #include <cstdint>

@@ -10,7 +10,6 @@
 #include <string_view>
 
 #include "ioct/hal/digitizer_config.hpp"
-#include "ioct/hal/raster_scan.hpp"
 
 namespace ioct::scan {
 
@@ -29,19 +28,17 @@ struct ScanSpec {
   ScanKind kind = ScanKind::raster;
   // B-scans in a row on the same line (averaging, OCT angiography); divides bscans_per_volume.
   std::uint32_t repeats = 1;
-  // Half-size of the field along the pattern's own axes (before rotation), in scan units.
-  double extent_x = 0.95;
-  double extent_y = 0.95;
+  // Half-size of the field along the pattern's own axes (before rotation), in scan units. The
+  // default leaves the quintic turn-arounds room inside the scanner's range.
+  static constexpr double kDefaultExtent = 0.95;
+  double extent_x = kDefaultExtent;
+  double extent_y = kDefaultExtent;
   double offset_x = 0.0;  // centre of the field, scan units
   double offset_y = 0.0;
   double rotation_deg = 0.0;  // counter-clockwise rotation of the whole pattern about its centre
   // Recorded A-scans at each end of a B-scan that lie outside the active range: the galvo is still
   // accelerating through them, which gives the turn-around more time.
   std::uint32_t inactive_ascans = 0;
-
-  // A raster (or bidirectional raster) over the field a hal::RasterScan describes: the lines
-  // the simulator's ideal beam takes, so a planned galvo and the ideal beam agree.
-  static ScanSpec raster_over(const hal::RasterScan& field, ScanKind kind = ScanKind::raster);
 
   // Checks each key on its own range; throws ConfigError("scan.<key>"). The checks that need the
   // geometry and the galvo (divisibility, field, speed) are build_scan_pattern()'s.

@@ -69,7 +69,7 @@ struct RecordingGeometry {
 // The scan pattern the groups were recorded with, so that a reader can place each B-scan.
 struct RecordingScan {
   std::string pattern = "raster";  // lines along x, stepping in y once per B-scan
-  bool bidirectional = false;      // odd lines (counted from the first sweep) run right to left
+  bool bidirectional = false;      // the odd B-scans of each volume run right to left
   double center_x = 0.0;           // scan units: [-1, 1] spans the field
   double center_y = 0.0;
   double extent_x = 1.0;  // half-width of a line
