@@ -71,6 +71,20 @@ class Client {
       buffer_.append(chunk, static_cast<std::size_t>(got));
     }
   }
+  // Closes this side and waits (up to `timeout`) until the server has closed the other: from
+  // then on this client holds none of the server's places.
+  bool hang_up(std::chrono::milliseconds timeout = 5s) {
+    ::shutdown(fd_, SHUT_WR);
+    const auto end = std::chrono::steady_clock::now() + timeout;
+    for (;;) {
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+          end - std::chrono::steady_clock::now());
+      pollfd p{fd_, POLLIN, 0};
+      if (left.count() <= 0 || ::poll(&p, 1, static_cast<int>(left.count())) <= 0) return false;
+      char chunk[4096];
+      if (::recv(fd_, chunk, sizeof(chunk), 0) <= 0) return true;
+    }
+  }
   nlohmann::json ask(const std::string& request) {
     send(request + "\n");
     const std::optional<std::string> reply = line();
@@ -98,8 +112,16 @@ class ControlSocket : public testing::Test {
         ring_.str(), {"--status-interval", "0.5", "--control-socket", socket_});
     for (const std::string& a : extra_arguments()) arguments.push_back(a);
     rt_.emplace(ChildProcess::spawn(test_support::sibling_executable("ioct-rt"), arguments));
+    // The socket's file appears at bind(), a moment before listen(): a connection made in between
+    // is refused. Wait until one is served, then hang it up and wait until the server has let it
+    // go, so that the test starts with every client place free.
     const auto end = std::chrono::steady_clock::now() + 20s;
-    while (!std::filesystem::exists(socket_) && std::chrono::steady_clock::now() < end) {
+    while (std::chrono::steady_clock::now() < end) {
+      Client probe(socket_);
+      if (probe.connected() && probe.ask(R"({"cmd":"status"})").value("ok", false)) {
+        ASSERT_TRUE(probe.hang_up()) << "ioct-rt did not close a client that hung up";
+        break;
+      }
       std::this_thread::sleep_for(10ms);
     }
   }
