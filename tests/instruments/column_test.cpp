@@ -3,11 +3,14 @@
 // was drawn and its distance to the surfaces given.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include "ioct/gpu/instruments/column_classification.hpp"
 #include "ioct/gpu/instruments/instrument_detector.hpp"
+#include "ioct/gpu/instruments/tip_finder.hpp"
 
 namespace ioct::gpu::instruments {
 namespace {
@@ -185,6 +188,56 @@ TEST(Tips, GroupsOutsideTheVolumeAreRefused) {
   InstrumentFindings findings;
   const auto detector = make_instrument_detector(Backend::cpu, {}, {}, 1);
   EXPECT_THROW(detector->detect_group(volume, {6, 4}, {}, findings), std::out_of_range);
+}
+
+// A tool whose rounded end's centre lies beyond the volume's first A-scan: its fitted sphere's
+// centre (the tip) falls before A-scan 0, more than one A-scan out. The surfaces at the tip then
+// come from its one side only, and nothing reads before the mask (an earlier search started at a
+// negative index there; ASan saw it).
+TEST(Tips, ATipFittedBeforeTheVolumeTakesItsSurfacesFromInside) {
+  constexpr std::uint32_t kBscans = 8, kAscans = 96;
+  segmentation::VolumeSampling sampling;
+  sampling.ascan_spacing_um = 10.0;
+  sampling.bscan_spacing_um = 10.0;
+  sampling.axial_um_per_px = 4.0;
+  InstrumentConfig config;
+  InstrumentFindings findings;
+  findings.reset(kBscans, kAscans);
+  // A wide tool (a capsule of radius 250 um) coming in from the left over a field 80 um high:
+  // its end's centre lies at x = -50 um, outside the field, and only the front of its cap
+  // (x >= 0, 200 um long, cut by the field's top and bottom) is scanned.
+  const double radius = 250.0, tx = -50.0, ty = 35.0, ex = -2000.0, ey = 35.0;
+  const double um_per_px_medium = sampling.axial_um_per_px / config.medium_group_index;
+  for (std::uint32_t b = 0; b < kBscans; ++b) {
+    for (std::uint32_t a = 0; a < kAscans; ++a) {
+      const double x = a * sampling.ascan_spacing_um, y = b * sampling.bscan_spacing_um;
+      const double vx = ex - tx, vy = ey - ty;
+      const double t = std::clamp(((x - tx) * vx + (y - ty) * vy) / (vx * vx + vy * vy), 0.0, 1.0);
+      const double d = std::hypot(x - (tx + t * vx), y - (ty + t * vy));
+      if (d >= radius) continue;
+      const std::size_t k = findings.index(b, a);
+      findings.columns[k] = ColumnKind::shadow;
+      findings.reflex_px[k] =
+          static_cast<float>(200.0 - std::sqrt(radius * radius - d * d) / um_per_px_medium);
+    }
+  }
+  segmentation::Surfaces surfaces;
+  surfaces.reset(kBscans, kAscans, 688);
+  for (std::size_t k = 0; k < surfaces.size(); ++k) {
+    surfaces.state[k] = segmentation::SurfaceState::measured;
+    surfaces.ilm[k] = 300.0f;
+    surfaces.rpe[k] = 400.0f;
+  }
+  find_tips(findings, surfaces, config, sampling);
+  ASSERT_EQ(findings.tips.size(), 1u);
+  const InstrumentTip& tip = findings.tips[0];
+  std::printf("[ tip      ] ascan %.2f bscan %.2f depth %.1f px, ILM %.1f RPE %.1f px (%s)\n",
+              tip.ascan, tip.bscan, tip.depth_px, tip.ilm_px, tip.rpe_px,
+              tip.source == DistanceSource::inferred ? "inferred" : "measured");
+  EXPECT_LT(tip.ascan, -1.0) << "the fitted end lies before the first A-scan";
+  EXPECT_EQ(tip.source, DistanceSource::inferred);
+  EXPECT_FLOAT_EQ(static_cast<float>(tip.ilm_px), 300.0f);
+  EXPECT_FLOAT_EQ(static_cast<float>(tip.rpe_px), 400.0f);
 }
 
 }  // namespace
