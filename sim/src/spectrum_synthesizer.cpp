@@ -83,10 +83,9 @@ SpectrumSynthesizer::SpectrumSynthesizer(const SynthesisSetup& setup)
     direct_plan_ =
         fftwf_plan_dft_1d(static_cast<int>(m), in, reinterpret_cast<fftwf_complex*>(direct_out_),
                           FFTW_BACKWARD, FFTW_ESTIMATE | FFTW_PRESERVE_INPUT);
-    wide_plan_ =
-        fftwf_plan_dft_1d(static_cast<int>(2 * m), in,
-                          reinterpret_cast<fftwf_complex*>(wide_out_ + 2 * kWidePrefix),
-                          FFTW_BACKWARD, FFTW_ESTIMATE | FFTW_PRESERVE_INPUT);
+    wide_plan_ = fftwf_plan_dft_1d(static_cast<int>(2 * m), in,
+                                   reinterpret_cast<fftwf_complex*>(wide_out_ + 2 * kWidePrefix),
+                                   FFTW_BACKWARD, FFTW_ESTIMATE | FFTW_PRESERVE_INPUT);
   }
   if (direct_plan_ == nullptr || wide_plan_ == nullptr) {
     release_fftw();
@@ -175,7 +174,6 @@ void SpectrumSynthesizer::build_rows(SampledRows& rows, const SynthesisSetup& se
       setup.detector.light_background(envelope, rows.sampling.k_index, setup.sample_bits);
   rows.sigma = setup.detector.noise_sigma(envelope, setup.sample_bits);
   if (rows.uniform) return;
-  const std::uint32_t wide = 2 * fft_points_;
   rows.tap_first.resize(samples_);
   rows.tap_weight.resize(std::size_t{samples_} * kTaps);
   for (std::uint32_t i = 0; i < samples_; ++i) {
@@ -227,10 +225,10 @@ void SpectrumSynthesizer::synthesize(const SweepNoise& noise, bool light,
       for (std::uint32_t i = 0; i < samples_; ++i) {
         const float* __restrict c = wide + 2 * std::size_t{first[i]};
         const float* __restrict w = weight + std::size_t{i} * kTaps;
-        resampled[2 * i] = w[0] * c[0] + w[1] * c[2] + w[2] * c[4] + w[3] * c[6] +
-                           w[4] * c[8] + w[5] * c[10];
-        resampled[2 * i + 1] = w[0] * c[1] + w[1] * c[3] + w[2] * c[5] + w[3] * c[7] +
-                               w[4] * c[9] + w[5] * c[11];
+        resampled[2 * i] =
+            w[0] * c[0] + w[1] * c[2] + w[2] * c[4] + w[3] * c[6] + w[4] * c[8] + w[5] * c[10];
+        resampled[2 * i + 1] =
+            w[0] * c[1] + w[1] * c[3] + w[2] * c[5] + w[3] * c[7] + w[4] * c[9] + w[5] * c[11];
       }
       spectrum = resampled_.data();
     }

@@ -211,8 +211,8 @@ int record(const Options& o) {
   s.validate();
 
   const bool driven = o.galvo || o.bidirectional;
-  const std::optional<scan::ScanPattern> pattern =
-      driven ? std::optional(plan_galvo_scan(o, geometry, s.scan)) : std::nullopt;
+  scan::ScanPattern pattern;  // empty unless a galvo is driven
+  if (driven) pattern = plan_galvo_scan(o, geometry, s.scan);
   auto bench = std::make_shared<sim::SimulatedBench>(s.bench);
   std::unique_ptr<sim::SimulatedGalvoOutput> galvo;
   if (driven) galvo = std::make_unique<sim::SimulatedGalvoOutput>(bench);
@@ -227,7 +227,7 @@ int record(const Options& o) {
     const std::uint64_t want = 2 * geometry.sweeps_per_group();
     if (status.fifo_fill >= want) return;
     samples.resize(want - status.fifo_fill);
-    pattern->fill(sweeps_written, samples);
+    pattern.fill(sweeps_written, samples);
     sweeps_written += galvo->write(samples);
   };
   if (galvo) {

@@ -94,7 +94,9 @@ TEST(VolumeStagesConfig, BadConfigIsRefusedNamingTheKey) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, VolumeStagesTest, ::testing::Values(Backend::cpu, Backend::cuda),
-                         [](const auto& info) { return std::string(to_string(info.param)); });
+                         [](const auto& param_info) {
+                           return std::string(to_string(param_info.param));
+                         });
 
 }  // namespace
 }  // namespace ioct::gpu::live

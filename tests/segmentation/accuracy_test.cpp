@@ -169,7 +169,7 @@ INSTANTIATE_TEST_SUITE_P(
                      s.simulation.detector.read_noise_counts *= 4.0;
                      s.simulation.detector.shot_noise_counts *= 4.0;
                    }}),
-    [](const ::testing::TestParamInfo<RetinaCase>& info) { return info.param.name; });
+    [](const ::testing::TestParamInfo<RetinaCase>& param_info) { return param_info.param.name; });
 
 void expect_no_retina(const Surfaces& out) {
   for (std::uint32_t b = 0; b < out.bscans; ++b) {

@@ -315,7 +315,7 @@ TEST_F(Recording, ReplayDigitizerDeliversTheRecordedGroupsAndLoops) {
   const Written w = write(stem, 3);
   for (const bool preload : {false, true}) {
     SCOPED_TRACE(preload ? "preloaded" : "streamed");
-    ReplayDigitizer replay(stem, {true, preload});
+    ReplayDigitizer replay(stem, {true, preload, nullptr});
     EXPECT_EQ(replay.backend(), "replay");
     replay.prepare(replay.recorded_config());
     replay.start();
@@ -336,7 +336,7 @@ TEST_F(Recording, ReplayDigitizerDeliversTheRecordedGroupsAndLoops) {
 TEST_F(Recording, ReplayEndsWithDeviceLostAndRefusesAnotherGeometry) {
   const fs::path stem = dir_ / "once";
   const Written w = write(stem, 2);
-  ReplayDigitizer replay(stem, {false, false});
+  ReplayDigitizer replay(stem, {false, false, nullptr});
   hal::DigitizerConfig other = replay.recorded_config();
   other.samples_per_ascan = 256;
   try {

@@ -90,12 +90,14 @@ RenderParams bake_params(const RenderConfig& config, VolumeDims dims, float mean
   const float vz = static_cast<float>(config.spacing.depth / largest);
   const float vmin = std::min({vx, vy, vz});
   p.gradient_scale = {vmin / vx, vmin / vy, -vmin / vz};
-  const Vec3 half{0.5f * vx * p.dim_a, 0.5f * vy * p.dim_b, 0.5f * vz * p.dim_d};
+  const float dim_a = static_cast<float>(p.dim_a), dim_b = static_cast<float>(p.dim_b),
+              dim_d = static_cast<float>(p.dim_d);
+  const Vec3 half{0.5f * vx * dim_a, 0.5f * vy * dim_b, 0.5f * vz * dim_d};
   const float radius = length(half);
   const auto to_voxel_dir = [&](Vec3 w) { return Vec3{w.x / vx, w.y / vy, -w.z / vz}; };
   const auto to_voxel_pos = [&](Vec3 w) {
-    return Vec3{w.x / vx + 0.5f * (p.dim_a - 1), w.y / vy + 0.5f * (p.dim_b - 1),
-                -w.z / vz + 0.5f * (p.dim_d - 1)};
+    return Vec3{w.x / vx + 0.5f * (dim_a - 1.0f), w.y / vy + 0.5f * (dim_b - 1.0f),
+                -w.z / vz + 0.5f * (dim_d - 1.0f)};
   };
   p.half_height = static_cast<float>(radius / view.zoom);
   p.half_width = p.half_height * static_cast<float>(view.output_width) / view.output_height;

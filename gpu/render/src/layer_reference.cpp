@@ -75,7 +75,8 @@ LayerReference make_layer_reference(std::uint32_t bscans, std::uint32_t ascans, 
       ++both;
     }
   }
-  if (both > 0 && thickness > 0.0) ref.mean_thickness_px = static_cast<float>(thickness / both);
+  if (both > 0 && thickness > 0.0)
+    ref.mean_thickness_px = static_cast<float>(thickness / static_cast<double>(both));
   std::vector<bool> has_row(bscans, false);
   for (std::uint32_t b = 0; b < bscans; ++b)
     has_row[b] = fill_row(ref.rpe_px.data() + std::size_t{b} * ascans, ascans);

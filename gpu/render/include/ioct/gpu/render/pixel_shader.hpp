@@ -92,7 +92,8 @@ IOCT_HD Vec3 gradient_at(const RenderParams& p, const Sampler& s, Vec3 v) {
 // Ray parameter range [t_near, t_far] inside the volume's box [-0.5, n - 0.5] (voxel space).
 IOCT_HD bool intersect_box(const RenderParams& p, Vec3 o, Vec3 d, float& t_near, float& t_far) {
   const float lo[3] = {-0.5f, -0.5f, -0.5f};
-  const float hi[3] = {p.dim_a - 0.5f, p.dim_b - 0.5f, p.dim_d - 0.5f};
+  const float hi[3] = {static_cast<float>(p.dim_a) - 0.5f, static_cast<float>(p.dim_b) - 0.5f,
+                       static_cast<float>(p.dim_d) - 0.5f};
   const float oo[3] = {o.x, o.y, o.z};
   const float dd[3] = {d.x, d.y, d.z};
   t_near = -1e30f;
@@ -116,8 +117,9 @@ IOCT_HD bool intersect_box(const RenderParams& p, Vec3 o, Vec3 d, float& t_near,
 }
 
 IOCT_HD bool inside_box(const RenderParams& p, Vec3 v) {
-  return v.x >= -0.5f && v.y >= -0.5f && v.z >= -0.5f && v.x <= p.dim_a - 0.5f &&
-         v.y <= p.dim_b - 0.5f && v.z <= p.dim_d - 0.5f;
+  return v.x >= -0.5f && v.y >= -0.5f && v.z >= -0.5f &&
+         v.x <= static_cast<float>(p.dim_a) - 0.5f && v.y <= static_cast<float>(p.dim_b) - 0.5f &&
+         v.z <= static_cast<float>(p.dim_d) - 0.5f;
 }
 
 // Front-to-back compositing of one sample (Viehland Eq. 1, the product over the samples in
