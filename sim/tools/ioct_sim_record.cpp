@@ -197,8 +197,10 @@ scan::ScanPattern plan_galvo_scan(const Options& o, const hal::DigitizerConfig& 
     throw ConfigError(o.bidirectional ? "--bidirectional" : "--galvo", "true",
                       std::string(e.what()) +
                           " (the driven galvo's scan is planned as ioct-rt plans it, over a field "
-                          "of +-0.95 within the default galvo limits: give more --flyback sweeps, "
-                          "a lower --rate or more --ascans)");
+                          "of +-" +
+                          format_value(scan::ScanSpec::kDefaultExtent) +
+                          " within the default galvo limits: give more --flyback sweeps, a lower "
+                          "--rate or more --ascans)");
   }
 }
 

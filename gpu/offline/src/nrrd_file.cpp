@@ -167,10 +167,10 @@ void check_supported_layout(const std::map<std::string, std::string>& fields,
     throw InputFileError(
         path, "type '" + quote_input(type) + "' is not supported: ioct volumes are uint8");
   }
-  if (required_field(fields, "dimension", path) != "3") {
-    throw InputFileError(path, "dimension '" +
-                                   quote_input(required_field(fields, "dimension", path)) +
-                                   "' is not supported: ioct volumes have 3");
+  const std::string& dimension = required_field(fields, "dimension", path);
+  if (dimension != "3") {
+    throw InputFileError(
+        path, "dimension '" + quote_input(dimension) + "' is not supported: ioct volumes have 3");
   }
   const std::string& encoding = required_field(fields, "encoding", path);
   if (encoding != "raw") {
