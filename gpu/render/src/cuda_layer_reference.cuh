@@ -40,7 +40,9 @@ class DeviceLayerReference {
   cuda::DeviceArray<float> rpe_, axial_;
   // [0] mean thickness px, [1] centre of mass px, [2] 1 when some B-scan has an RPE value.
   cuda::DeviceArray<float> scalars_;
-  cuda::DeviceArray<std::uint32_t> has_row_;  // per B-scan: 1 when its RPE has a value
+  // Per B-scan: 1 when its RPE has a value, the A-scans with both surfaces, their thickness.
+  cuda::DeviceArray<std::uint32_t> has_row_, row_both_;
+  cuda::DeviceArray<double> row_thickness_;
 };
 
 }  // namespace ioct::gpu::render
