@@ -16,7 +16,9 @@
 #if IOCT_RENDER_HAVE_CUDA
 #include <random>
 
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
+#include "ioct/gpu/segmentation/cuda_segmenter.hpp"
 #endif
 
 namespace {
@@ -121,6 +123,59 @@ TEST(CudaVsCpu, GroupUpdatesMatchAFreshVolume) {
 }
 
 #if IOCT_RENDER_HAVE_CUDA
+// The live chain updates the renderer in two parts (the volume while the segmentation runs, then
+// the layer reference): the same texture, bricks, sums and layer reference, so the same frames,
+// bit for bit, as the update in one call, for a group in the middle and after a new shape.
+TEST(CudaVsCpu, UpdateInTwoPartsIsTheUpdateInOne) {
+  if (auto reason = cuda_unavailable_reason()) GTEST_SKIP() << "no CUDA renderer: " << *reason;
+  const auto first = ioct::render_test::make_synthetic_retina(32, 96, 128, 1);
+  const auto second = ioct::render_test::make_synthetic_retina(32, 96, 128, 2);
+  const VolumeDims dims = VolumeDims::of(second.volume);
+  const std::size_t n = std::size_t{dims.bscans} * dims.ascans;
+  ioct::gpu::cuda::DeviceArray<std::uint8_t> pixels(dims.bytes());
+  ioct::gpu::cuda::DeviceArray<float> ilm(n), rpe(n);
+  IOCT_CUDA_CHECK(cudaMemcpy(pixels.data(), second.volume.pixels().data(), dims.bytes(),
+                             cudaMemcpyHostToDevice));
+  IOCT_CUDA_CHECK(cudaMemcpy(ilm.data(), second.surfaces.ilm.data(), n * sizeof(float),
+                             cudaMemcpyHostToDevice));
+  IOCT_CUDA_CHECK(cudaMemcpy(rpe.data(), second.surfaces.rpe.data(), n * sizeof(float),
+                             cudaMemcpyHostToDevice));
+  segmentation::DeviceSurfaceView surfaces;
+  surfaces.ilm = ilm.data();
+  surfaces.rpe = rpe.data();
+  surfaces.bscans = dims.bscans;
+  surfaces.ascans = dims.ascans;
+  const VolumeRef volume = VolumeRef::on_device(pixels.data(), dims, nullptr);
+
+  RenderConfig config;
+  config.view.output_width = 128;
+  config.view.output_height = 96;
+  for (const bool new_shape : {false, true}) {
+    SCOPED_TRACE(new_shape ? "after a new shape" : "a group of B-scans 8-23");
+    CudaRenderer whole, parts;
+    if (!new_shape) {
+      whole.set_volume(first.volume, &first.surfaces);
+      parts.set_volume(first.volume, &first.surfaces);
+    }
+    whole.update_bscans(volume, 8, 16, surfaces);
+    parts.update_volume(volume, 8, 16);
+    parts.update_layers(surfaces);
+    const LayerReference a = whole.layer_reference();
+    const LayerReference b = parts.layer_reference();
+    EXPECT_EQ(a.rpe_px, b.rpe_px);
+    EXPECT_EQ(a.axial_plane_px, b.axial_plane_px);
+    EXPECT_EQ(a.mean_thickness_px, b.mean_thickness_px);
+    for (const RenderMode mode :
+         {RenderMode::enhanced, RenderMode::axial_colorization, RenderMode::layer_aware}) {
+      config.mode = mode;
+      RgbaImage from_whole, from_parts;
+      whole.render(config, from_whole);
+      parts.render(config, from_parts);
+      EXPECT_EQ(from_whole.rgba, from_parts.rgba) << to_string(mode);
+    }
+  }
+}
+
 // The CUDA renderer makes its layer reference on the device (no round trip to the host): the same
 // rows, bit for bit, as make_layer_reference() on the host, on fresh random volumes and surfaces
 // with holes of every kind (single A-scans, runs at either end, whole B-scans, none at all).

@@ -57,11 +57,14 @@ struct DeviceStageChain::Impl {
   segmentation::CudaSegmenter& segmenter;
   render::CudaRenderer& renderer;
 
-  cuda::Stream stream;       // the passes
-  cuda::Stream copy_stream;  // the hand-overs
+  cuda::Stream stream;         // the passes: take, filter, segmentation
+  cuda::Stream render_stream;  // the renderer's update and frames
+  cuda::Stream copy_stream;    // the hand-overs
   cuda::Event pending_ready;
   cuda::Event input_taken;
   bool input_taken_recorded = false;
+  cuda::Event filtered_read;  // the renderer has taken the pass's filtered B-scans
+  bool filtered_read_recorded = false;
   TimingEvent started, filtered_done, segmented_done, rendered_done;
 
   VolumeDims pending_dims, input_dims;
@@ -69,7 +72,7 @@ struct DeviceStageChain::Impl {
 
   Impl(filters::CudaVolumeFilter& f, segmentation::CudaSegmenter& s, render::CudaRenderer& r)
       : filter(f), segmenter(s), renderer(r) {
-    renderer.use_stream(stream.get());
+    renderer.use_stream(render_stream.get());
   }
 
   // The input (and the filtered volume) take the pending volume's dimensions: true when they
@@ -186,20 +189,31 @@ DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t first, std:
   const VolumeRef input = VolumeRef::on_device(m.input.data(), dims, stream);
   const VolumeRef filtered = VolumeRef::on_device(m.filtered.data(), dims, stream);
 
+  // The last pass's renderer update must have read the filtered volume before this pass's
+  // filter writes it.
+  if (m.filtered_read_recorded) {
+    IOCT_CUDA_CHECK(cudaStreamWaitEvent(stream, m.filtered_read.get(), 0));
+  }
   m.started.record(stream);
   const filters::BscanRange outputs = m.filter.filter_group(
       input, MutableVolumeRef::on_device(m.filtered.data(), dims, stream), {first, count});
   m.filtered_done.record(stream);
+  // The renderer takes the filtered B-scans (texture, bricks, sums) on its own stream while the
+  // segmentation runs: the segmentation's searches keep few multiprocessors busy.
+  m.renderer.update_volume(filtered, outputs.first, outputs.count);
+  IOCT_CUDA_CHECK(cudaEventRecord(m.filtered_read.get(), m.render_stream.get()));
+  m.filtered_read_recorded = true;
   const segmentation::BscanSpan affected =
       m.segmenter.segment_group(filtered, {outputs.first, outputs.count}, nullptr);
   m.segmented_done.record(stream);
-  m.renderer.update_bscans(filtered, affected.first, affected.count, m.segmenter.device_surfaces());
+  IOCT_CUDA_CHECK(cudaStreamWaitEvent(m.render_stream.get(), m.segmented_done.get(), 0));
+  m.renderer.update_layers(m.segmenter.device_surfaces());
   if (frame != nullptr) {
     m.renderer.render(view, *frame);
   } else {
     m.renderer.render_on_device(view);
   }
-  m.rendered_done.record(stream);
+  m.rendered_done.record(m.render_stream.get());
   IOCT_CUDA_CHECK(cudaEventSynchronize(m.rendered_done.get()));
   const std::uint64_t now = ioct::monotonic_ns();
 

@@ -8,11 +8,14 @@
 // and the pass uploads it (the stages' host path).
 //
 // Pass (the stages' thread): the pending B-scans are copied into the input volume, then the
-// filter, the segmentation and the renderer's update and frame are enqueued on one stream, each
-// on the previous one's device output, with no copy of the volume to the host and no wait for the
-// host in between (the renderer makes its layer reference on the device too); the pass ends by
-// waiting for its frame. Only what is asked for (a frame to write, the files at the end; with
-// instrument detection the surfaces, the A-scans' classes and the tip's B-scan pair) comes back.
+// filter and the segmentation are enqueued on the pass stream, and the renderer's update and
+// frame on the render stream: the texture, bricks and sums of the filtered B-scans while the
+// segmentation runs (its searches leave most of the GPU idle), the layer reference and the frame
+// once the surfaces are made. Each works on the previous one's device output, with no copy of the
+// volume to the host and no wait for the host in between (the renderer makes its layer reference
+// on the device too); the pass ends by waiting for its frame. Only what is asked for (a frame to
+// write, the files at the end; with instrument detection the surfaces, the A-scans' classes and the
+// tip's B-scan pair) comes back.
 #pragma once
 
 #include <cstdint>
@@ -52,8 +55,8 @@ class DeviceStageChain {
   };
 
   // Null when the stages are not all CUDA ones (or the build has no CUDA): they then work on
-  // host volumes. Moves the renderer onto the chain's stream. `detector` (none: null) must be
-  // a CUDA one too: it reads the chain's input in place (input()).
+  // host volumes. Moves the renderer onto the chain's render stream. `detector` (none: null) must
+  // be a CUDA one too: it reads the chain's input in place (input()).
   static std::unique_ptr<DeviceStageChain> make(filters::VolumeFilter& filter,
                                                 segmentation::Segmenter& segmenter,
                                                 render::Renderer& renderer,

@@ -329,6 +329,16 @@ struct CudaRenderer::State {
   void upload(const std::uint8_t* pixels, bool on_device, std::uint32_t first, std::uint32_t count,
               const segmentation::Surfaces* surfaces,
               const segmentation::DeviceSurfaceView* device_surfaces) {
+    upload_volume(pixels, on_device, first, count);
+    make_layers(surfaces, device_surfaces);
+    // A host volume may be pinned (then its copy is truly asynchronous): the caller may change it
+    // once this returns.
+    if (!on_device) IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
+  }
+
+  // The volume's part of upload(): the B-scans, the bricks and the centre-of-mass sums.
+  void upload_volume(const std::uint8_t* pixels, bool on_device, std::uint32_t first,
+                     std::uint32_t count) {
     const std::size_t bscan_bytes = std::size_t{dims.ascans} * dims.depth;
     std::uint8_t* changed = linear.data() + first * bscan_bytes;
     if (on_device) {
@@ -370,6 +380,12 @@ struct CudaRenderer::State {
                             32 * kCentreOfMassWarps, 0, stream>>>(linear.data(), dims.ascans,
                                                                   dims.depth, first, sums.data());
     IOCT_CUDA_CHECK(cudaGetLastError());
+  }
+
+  // The layers' part of upload(): the layer reference from the surfaces (device ones where given,
+  // or host ones uploaded) and the centre-of-mass sums.
+  void make_layers(const segmentation::Surfaces* surfaces,
+                   const segmentation::DeviceSurfaceView* device_surfaces) {
     const std::size_t n = std::size_t{dims.bscans} * dims.ascans;
     const float* ilm = nullptr;
     const float* rpe = nullptr;
@@ -393,9 +409,6 @@ struct CudaRenderer::State {
       rpe = uploaded_rpe.data();
     }
     layers.make(sums.data(), dims.depth, ilm, rpe, stream);
-    // A host volume may be pinned (then its copy is truly asynchronous): the caller may change it
-    // once this returns.
-    if (!on_device) IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
   }
 
   void prepare_tables(const RenderConfig& config) {
@@ -476,9 +489,16 @@ void CudaRenderer::update_bscans(VolumeRef volume, std::uint32_t first, std::uin
 void CudaRenderer::update_device(VolumeRef volume, std::uint32_t first, std::uint32_t count,
                                  const segmentation::Surfaces* surfaces,
                                  const segmentation::DeviceSurfaceView* device_surfaces) {
+  if (prepare_update(volume, first, count)) {
+    first = 0;
+    count = volume.dims().bscans;
+  }
+  state_->upload(volume.device(), true, first, count, surfaces, device_surfaces);
+}
+
+bool CudaRenderer::prepare_update(VolumeRef volume, std::uint32_t first, std::uint32_t count) {
   State& s = *state_;
   const VolumeDims& d = volume.dims();
-  const std::uint8_t* pixels = volume.device();
   if (volume.stream() != s.stream) {
     IOCT_CUDA_CHECK(cudaEventRecord(s.volume_ready.get(), volume.stream()));
     IOCT_CUDA_CHECK(cudaStreamWaitEvent(s.stream, s.volume_ready.get(), 0));
@@ -486,12 +506,25 @@ void CudaRenderer::update_device(VolumeRef volume, std::uint32_t first, std::uin
   if (!s.has_volume || !(s.dims == d)) {
     IOCT_CUDA_CHECK(cudaStreamSynchronize(s.stream));  // nothing may still read the old texture
     s.allocate(d);
-    first = 0;
-    count = d.bscans;
-  } else {
-    check_bscan_range(d.bscans, first, count);
+    return true;
   }
-  s.upload(pixels, true, first, count, surfaces, device_surfaces);
+  check_bscan_range(d.bscans, first, count);
+  return false;
+}
+
+void CudaRenderer::update_volume(VolumeRef volume, std::uint32_t first, std::uint32_t count) {
+  if (!volume.is_device()) throw std::logic_error("update_volume() takes a device volume");
+  State& s = *state_;
+  if (prepare_update(volume, first, count)) {
+    first = 0;
+    count = volume.dims().bscans;
+  }
+  s.upload_volume(volume.device(), true, first, count);
+}
+
+void CudaRenderer::update_layers(const segmentation::DeviceSurfaceView& surfaces) {
+  if (!state_->has_volume) throw std::logic_error("update_layers() before update_volume()");
+  state_->make_layers(nullptr, &surfaces);
 }
 
 void CudaRenderer::set_volume(const Volume& volume, const segmentation::Surfaces* surfaces) {

@@ -35,6 +35,12 @@ class CudaRenderer final : public Renderer {
   // layer reference is made on the device too, so nothing comes to the host.
   void update_bscans(VolumeRef volume, std::uint32_t first, std::uint32_t count,
                      const segmentation::DeviceSurfaceView& surfaces);
+  // The same update in its two parts, so that the first can run while the surfaces are being
+  // made: the B-scans of a device volume into the texture, the bricks and the centre-of-mass
+  // sums (waiting for the volume's stream), then the layer reference from the device surfaces
+  // (the caller orders them before the renderer's stream). A render needs both.
+  void update_volume(VolumeRef volume, std::uint32_t first, std::uint32_t count);
+  void update_layers(const segmentation::DeviceSurfaceView& surfaces);
   void render(const RenderConfig& config, RgbaImage& image) override;
   std::string_view backend_name() const noexcept override { return "cuda"; }
 
@@ -54,6 +60,9 @@ class CudaRenderer final : public Renderer {
   void update_device(VolumeRef volume, std::uint32_t first, std::uint32_t count,
                      const segmentation::Surfaces* surfaces,
                      const segmentation::DeviceSurfaceView* device_surfaces);
+  // Orders the renderer's stream after the volume's, and allocates anew for other dimensions:
+  // true when it did (the whole volume must then be uploaded).
+  bool prepare_update(VolumeRef volume, std::uint32_t first, std::uint32_t count);
 
   struct State;
   std::unique_ptr<State> state_;
