@@ -8,13 +8,6 @@
 
 namespace ioct::gpu::filters {
 
-void check_cuda(cudaError_t status, const char* what) {
-  if (status != cudaSuccess) {
-    throw std::runtime_error(std::string("CUDA: ") + what + " failed: " + cudaGetErrorName(status) +
-                             " (" + cudaGetErrorString(status) + ")");
-  }
-}
-
 namespace {
 
 // Why the filters cannot run here, or empty.
@@ -42,7 +35,7 @@ CudaVolumeFilter::CudaVolumeFilter(const VolumeFilterConfig& config, CudaFilterT
   if (const std::string problem = device_problem(); !problem.empty()) {
     throw BackendUnavailable("backend cuda: " + problem);
   }
-  check_cuda(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
+  IOCT_CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
 }
 
 CudaVolumeFilter::~CudaVolumeFilter() {
@@ -110,7 +103,7 @@ void CudaVolumeFilter::run(const Volume& in, Volume& out, BscanRange outputs) {
   cuda::copy_async(out.bscan(outputs.first).data(), out_.data() + outputs.first * bscan_bytes,
                    outputs.count * bscan_bytes, cudaMemcpyDeviceToHost, stream_,
                    cuda::Payload::volume, "copy of the filtered B-scans to the host");
-  check_cuda(cudaStreamSynchronize(stream_), "the volume filter kernels");
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(stream_));  // also reports the kernels' errors
 }
 
 }  // namespace ioct::gpu::filters

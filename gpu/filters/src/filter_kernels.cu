@@ -360,7 +360,7 @@ void enqueue_median(const std::uint8_t* in, std::uint8_t* out, VolumeDims volume
       const dim3 grid(blocks_for(std::uint64_t{dims.ascans} * dims.words, kThreads),
                       std::min(kMaxGridY, outputs.end() - first));
       median_bscan_kernel<U8x4><<<grid, kThreads, 0, stream>>>(in, out, dims, first);
-      check_cuda(cudaGetLastError(), "median (3x3 per B-scan) kernel launch");
+      cuda::check_launch("median_bscan_kernel");
     }
     return;
   }
@@ -391,7 +391,8 @@ void enqueue_median(const std::uint8_t* in, std::uint8_t* out, VolumeDims volume
                                                        walk);
       break;
   }
-  check_cuda(cudaGetLastError(), "median kernel launch");
+  cuda::check_launch(tuning.median_kernel == MedianKernel::forgetful ? "median_forgetful_kernel"
+                                                                     : "median_sorted_runs_kernel");
 }
 
 void enqueue_gaussian(const std::uint8_t* in, std::uint8_t* out, VolumeDims volume,
@@ -408,7 +409,7 @@ void enqueue_gaussian(const std::uint8_t* in, std::uint8_t* out, VolumeDims volu
                     std::min(kMaxGridY, bscans.end() - first));
     gaussian_kernel<<<grid, kThreads, 0, stream>>>(
         in, out, dims, first, Taps{taps.taps[0], taps.taps[1], taps.taps[2]}, walk);
-    check_cuda(cudaGetLastError(), "Gaussian kernel launch");
+    cuda::check_launch("gaussian_kernel");
   }
 }
 
@@ -425,9 +426,9 @@ void enqueue_volume_filter(const std::uint8_t* in, std::uint8_t* median, std::ui
   } else if (config.gaussian) {
     enqueue_gaussian(in, out, dims, outputs, taps, tuning, stream);
   } else {
-    check_cuda(cudaMemcpyAsync(out + outputs.first * bscan_bytes, in + outputs.first * bscan_bytes,
-                               outputs.count * bscan_bytes, cudaMemcpyDeviceToDevice, stream),
-               "cudaMemcpyAsync (filters off)");
+    IOCT_CUDA_CHECK(cudaMemcpyAsync(out + outputs.first * bscan_bytes,
+                                    in + outputs.first * bscan_bytes, outputs.count * bscan_bytes,
+                                    cudaMemcpyDeviceToDevice, stream));
   }
 }
 

@@ -14,35 +14,6 @@
 
 namespace ioct::gpu::segmentation {
 
-void check_cuda_status(cudaError_t status, const char* what) {
-  if (status != cudaSuccess) {
-    throw std::runtime_error(std::string("CUDA: ") + what + " failed: " + cudaGetErrorName(status) +
-                             " (" + cudaGetErrorString(status) + ")");
-  }
-}
-
-DeviceBuffer::DeviceBuffer(std::size_t bytes) : size_(bytes) {
-  if (bytes == 0) return;
-  check_cuda_status(cudaMalloc(&data_, bytes),
-                    ("cudaMalloc of " + std::to_string(bytes) + " bytes").c_str());
-}
-
-DeviceBuffer::DeviceBuffer(DeviceBuffer&& other) noexcept
-    : data_(std::exchange(other.data_, nullptr)), size_(std::exchange(other.size_, 0)) {}
-
-DeviceBuffer& DeviceBuffer::operator=(DeviceBuffer&& other) noexcept {
-  if (this != &other) {
-    if (data_ != nullptr) cudaFree(data_);
-    data_ = std::exchange(other.data_, nullptr);
-    size_ = std::exchange(other.size_, 0);
-  }
-  return *this;
-}
-
-DeviceBuffer::~DeviceBuffer() {
-  if (data_ != nullptr) cudaFree(data_);
-}
-
 namespace {
 
 using detail::kHistogramBins;
@@ -537,14 +508,22 @@ struct CudaSegmenter::DeviceState {
   std::uint32_t depth = 0;
   SegmentationParams params;
   std::size_t max_steps_shared = 0;
-  DeviceBuffer volume;  // host volumes are copied here
+  cuda::DeviceArray<std::uint8_t> volume;  // host volumes are copied here
   // Memory of the volume.
-  DeviceBuffer coarse, coarse_valid, floors, raw_ilm, raw_rpe, raw_bm, raw_confidence, raw_verdict;
+  cuda::DeviceArray<std::int32_t> coarse;
+  cuda::DeviceArray<std::uint8_t> coarse_valid, floors;
+  cuda::DeviceArray<std::uint8_t> raw_verdict;  // BscanVerdict values, as the kernels write them
+  cuda::DeviceArray<float> raw_ilm, raw_rpe, raw_bm, raw_confidence;
   // Surfaces.
-  DeviceBuffer ilm, rpe, bm, confidence, state, verdict;
+  cuda::DeviceArray<float> ilm, rpe, bm, confidence;
+  cuda::DeviceArray<SurfaceState> state;
+  cuda::DeviceArray<BscanVerdict> verdict;
   // Scratch of one group (sized for a whole volume).
-  DeviceBuffer histograms, coarse_cost, coarse_path, band_origin, band_cost, ilm_px, rpe_px,
-      global_steps, contrasts;
+  cuda::DeviceArray<std::uint32_t> histograms;
+  cuda::DeviceArray<std::int32_t> coarse_cost, coarse_path, band_origin, band_cost, ilm_px, rpe_px;
+  // Empty (null) unless the search steps do not fit in shared memory.
+  cuda::DeviceArray<std::int8_t> global_steps;
+  cuda::DeviceArray<std::uint8_t> contrasts;
   int histogram_blocks = 0;  // coarse cost blocks per B-scan
   // The groups' launches captured as CUDA graphs, by volume, group and stream.
   std::map<std::tuple<const void*, std::uint32_t, std::uint32_t, cudaStream_t>, cudaGraphExec_t>
@@ -559,8 +538,8 @@ struct CudaSegmenter::DeviceState {
 namespace {
 
 template <class T>
-DeviceBuffer device_array(std::size_t count) {
-  return DeviceBuffer(std::max<std::size_t>(count, 1) * sizeof(T));
+cuda::DeviceArray<T> device_array(std::size_t count) {
+  return cuda::DeviceArray<T>(std::max<std::size_t>(count, 1));
 }
 
 int round_up_warp(int n) {
@@ -599,21 +578,19 @@ CudaSegmenter::CudaSegmenter(const SegmentationConfig& config, const VolumeSampl
   if (const std::string problem = cuda_segmentation_problem(); !problem.empty()) {
     throw BackendUnavailable("backend cuda: " + problem);
   }
-  check_cuda_status(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking), "cudaStreamCreate");
+  IOCT_CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
   int device = 0;
-  check_cuda_status(cudaGetDevice(&device), "cudaGetDevice");
+  IOCT_CUDA_CHECK(cudaGetDevice(&device));
   int optin = 0;
-  check_cuda_status(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, device),
-                    "cudaDeviceGetAttribute(shared memory per block)");
+  IOCT_CUDA_CHECK(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, device));
   std::size_t dynamic_limit = static_cast<std::size_t>(optin);
   for (const auto kernel : kPathKernels) {
     // What the kernel's own (static) shared memory leaves of the block's.
     cudaFuncAttributes attributes{};
-    check_cuda_status(cudaFuncGetAttributes(&attributes, kernel), "cudaFuncGetAttributes");
+    IOCT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, kernel));
     const int dynamic = optin - static_cast<int>(attributes.sharedSizeBytes);
-    check_cuda_status(
-        cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, dynamic),
-        "cudaFuncSetAttribute(path_kernel)");
+    IOCT_CUDA_CHECK(
+        cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, dynamic));
     dynamic_limit = std::min(dynamic_limit, static_cast<std::size_t>(dynamic));
   }
   state_ = std::make_unique<DeviceState>();
@@ -631,10 +608,8 @@ CudaSegmenter::~CudaSegmenter() {
 void CudaSegmenter::forget() {
   DeviceState& d = *state_;
   if (d.bscans == 0) return;
-  check_cuda_status(cudaMemsetAsync(d.coarse_valid.as<void>(), 0, d.bscans, stream_),
-                    "cudaMemsetAsync(coarse_valid)");
-  check_cuda_status(cudaMemsetAsync(d.raw_verdict.as<void>(), 0, d.bscans, stream_),
-                    "cudaMemsetAsync(verdict)");
+  IOCT_CUDA_CHECK(cudaMemsetAsync(d.coarse_valid.data(), 0, d.bscans, stream_));
+  IOCT_CUDA_CHECK(cudaMemsetAsync(d.raw_verdict.data(), 0, d.bscans, stream_));
 }
 
 void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uint32_t depth) {
@@ -644,7 +619,7 @@ void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uin
     d.params = params;
     return;
   }
-  check_cuda_status(cudaStreamSynchronize(stream_), "cudaStreamSynchronize");
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(stream_));
   const std::size_t n = static_cast<std::size_t>(bscans) * ascans;
   const std::size_t band_states = static_cast<std::size_t>(params.band);
   const std::size_t max_steps_shared = d.max_steps_shared;
@@ -665,8 +640,8 @@ void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uin
   d.rpe = device_array<float>(n);
   d.bm = device_array<float>(n);
   d.confidence = device_array<float>(n);
-  d.state = device_array<std::uint8_t>(n);
-  d.verdict = device_array<std::uint8_t>(bscans);
+  d.state = device_array<SurfaceState>(n);
+  d.verdict = device_array<BscanVerdict>(bscans);
   d.histogram_blocks = (params.coarse_columns + kPairsPerCostBlock - 1) / kPairsPerCostBlock;
   d.histograms = device_array<std::uint32_t>(static_cast<std::size_t>(bscans) * d.histogram_blocks *
                                              kHistogramBins);
@@ -686,14 +661,11 @@ void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uin
                                                std::max(coarse_steps, fine_steps));
   }
   d.contrasts = device_array<std::uint8_t>(3 * n);
-  check_cuda_status(cudaMemsetAsync(d.coarse_valid.as<void>(), 0, bscans, stream_),
-                    "cudaMemsetAsync");
-  check_cuda_status(cudaMemsetAsync(d.raw_verdict.as<void>(), 0, bscans, stream_),
-                    "cudaMemsetAsync");
-  check_cuda_status(cudaMemsetAsync(d.verdict.as<void>(), 0, bscans, stream_), "cudaMemsetAsync");
-  check_cuda_status(cudaMemsetAsync(d.state.as<void>(), 0, n, stream_), "cudaMemsetAsync");
-  check_cuda_status(cudaMemsetAsync(d.raw_confidence.as<void>(), 0, n * sizeof(float), stream_),
-                    "cudaMemsetAsync");
+  IOCT_CUDA_CHECK(cudaMemsetAsync(d.coarse_valid.data(), 0, bscans, stream_));
+  IOCT_CUDA_CHECK(cudaMemsetAsync(d.raw_verdict.data(), 0, bscans, stream_));
+  IOCT_CUDA_CHECK(cudaMemsetAsync(d.verdict.data(), 0, bscans, stream_));
+  IOCT_CUDA_CHECK(cudaMemsetAsync(d.state.data(), 0, n, stream_));
+  IOCT_CUDA_CHECK(cudaMemsetAsync(d.raw_confidence.data(), 0, n * sizeof(float), stream_));
   d.bscans = bscans;
   d.ascans = ascans;
   d.depth = depth;
@@ -709,7 +681,7 @@ void launch_path(const PathJob& job, int count, std::size_t max_steps_shared, cu
   const std::size_t shared = path_shared_bytes(j.columns, j.states, j.shared_steps);
   const auto kernel = kPathKernels[j.max_step <= kFixedSteps ? j.max_step : 0];
   kernel<<<count, 2 * j.half_threads, shared, stream>>>(j);
-  check_cuda_status(cudaGetLastError(), "path_kernel launch");
+  cuda::check_launch("path_kernel");
 }
 
 }  // namespace
@@ -722,7 +694,7 @@ BscanSpan CudaSegmenter::enqueue_group(const std::uint8_t* device_volume, BscanS
   // recorded into the caller's graph as it is, and stage events go around the graph.
   cudaStreamCaptureStatus capturing = cudaStreamCaptureStatusNone;
   if (stream != nullptr) {
-    check_cuda_status(cudaStreamIsCapturing(stream, &capturing), "cudaStreamIsCapturing");
+    IOCT_CUDA_CHECK(cudaStreamIsCapturing(stream, &capturing));
   }
   if (!use_graphs_ || stage_events_ != nullptr || stream == nullptr ||
       capturing != cudaStreamCaptureStatusNone) {
@@ -733,8 +705,7 @@ BscanSpan CudaSegmenter::enqueue_group(const std::uint8_t* device_volume, BscanS
   auto found = d.graphs.find(key);
   if (found == d.graphs.end()) {
     cudaGraph_t graph = nullptr;
-    check_cuda_status(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal),
-                      "cudaStreamBeginCapture");
+    IOCT_CUDA_CHECK(cudaStreamBeginCapture(stream, cudaStreamCaptureModeThreadLocal));
     try {
       enqueue_direct(device_volume, group, stream);
     } catch (...) {
@@ -742,14 +713,14 @@ BscanSpan CudaSegmenter::enqueue_group(const std::uint8_t* device_volume, BscanS
       if (graph != nullptr) cudaGraphDestroy(graph);
       throw;
     }
-    check_cuda_status(cudaStreamEndCapture(stream, &graph), "cudaStreamEndCapture");
+    IOCT_CUDA_CHECK(cudaStreamEndCapture(stream, &graph));
     cudaGraphExec_t exec = nullptr;
     const cudaError_t status = cudaGraphInstantiate(&exec, graph, 0);
     cudaGraphDestroy(graph);
-    check_cuda_status(status, "cudaGraphInstantiate");
+    cuda::check(status, "cudaGraphInstantiate");
     found = d.graphs.emplace(key, exec).first;
   }
-  check_cuda_status(cudaGraphLaunch(found->second, stream), "cudaGraphLaunch");
+  IOCT_CUDA_CHECK(cudaGraphLaunch(found->second, stream));
   return outputs_affected(group, d.bscans);
 }
 
@@ -775,35 +746,34 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
   int stage = 0;
   const auto stage_done = [&] {
     if (stage_events_ != nullptr) {
-      check_cuda_status(cudaEventRecord(stage_events_[stage], stream), "cudaEventRecord");
+      IOCT_CUDA_CHECK(cudaEventRecord(stage_events_[stage], stream));
     }
     ++stage;
   };
   const int count = static_cast<int>(group.count);
   const int first = static_cast<int>(group.first);
   {
-    const CoarseCostJob job{device_volume, d.histograms.as<std::uint32_t>(),
-                            d.coarse_cost.as<std::int32_t>(), first, p};
+    const CoarseCostJob job{device_volume, d.histograms.data(), d.coarse_cost.data(), first, p};
     const dim3 grid(
         static_cast<unsigned>((p.coarse_columns + kPairsPerCostBlock - 1) / kPairsPerCostBlock),
         static_cast<unsigned>(count));
     const std::size_t shared = static_cast<std::size_t>(kPairsPerCostBlock) * kCoarsePair *
                                (static_cast<std::size_t>(p.depth) + p.coarse_cells);
     coarse_cost_kernel<<<grid, kCostThreads, shared, stream>>>(job);
-    check_cuda_status(cudaGetLastError(), "coarse_cost_kernel launch");
+    cuda::check_launch("coarse_cost_kernel");
   }
   stage_done();
   {
     PathJob job{};
-    job.cost = d.coarse_cost.as<std::int32_t>();
+    job.cost = d.coarse_cost.data();
     job.origin = nullptr;
-    job.path = d.coarse_path.as<std::int32_t>();
-    job.global_steps = d.global_steps.as<std::int8_t>();
-    job.histograms = d.histograms.as<std::uint32_t>();
+    job.path = d.coarse_path.data();
+    job.global_steps = d.global_steps.data();
+    job.histograms = d.histograms.data();
     job.histogram_blocks = d.histogram_blocks;
-    job.coarse = d.coarse.as<std::int32_t>();
-    job.coarse_valid = d.coarse_valid.as<std::uint8_t>();
-    job.floors = d.floors.as<std::uint8_t>();
+    job.coarse = d.coarse.data();
+    job.coarse_valid = d.coarse_valid.data();
+    job.floors = d.floors.data();
     job.first = first;
     job.p = p;
     job.columns = p.coarse_columns;
@@ -820,37 +790,37 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
   const std::size_t band_shared = static_cast<std::size_t>(kColumnsPerCostBlock) * p.depth;
   for (const bool rpe : {false, true}) {
     const BandCostJob job{device_volume,
-                          d.floors.as<std::uint8_t>(),
-                          d.coarse.as<std::int32_t>(),
-                          d.coarse_valid.as<std::uint8_t>(),
-                          d.ilm_px.as<std::int32_t>(),
-                          d.band_origin.as<std::int32_t>(),
-                          d.band_cost.as<std::int32_t>(),
+                          d.floors.data(),
+                          d.coarse.data(),
+                          d.coarse_valid.data(),
+                          d.ilm_px.data(),
+                          d.band_origin.data(),
+                          d.band_cost.data(),
                           first,
                           static_cast<int>(d.bscans),
                           p,
                           rpe};
     band_cost_kernel<<<band_grid, kCostThreads, band_shared, stream>>>(job);
-    check_cuda_status(cudaGetLastError(), "band_cost_kernel launch");
+    cuda::check_launch("band_cost_kernel");
     stage_done();
     PathJob path{};
-    path.cost = d.band_cost.as<std::int32_t>();
-    path.origin = d.band_origin.as<std::int32_t>();
-    path.path = rpe ? d.rpe_px.as<std::int32_t>() : d.ilm_px.as<std::int32_t>();
-    path.global_steps = d.global_steps.as<std::int8_t>();
+    path.cost = d.band_cost.data();
+    path.origin = d.band_origin.data();
+    path.path = rpe ? d.rpe_px.data() : d.ilm_px.data();
+    path.global_steps = d.global_steps.data();
     path.first = first;
     path.p = p;
     path.columns = p.ascans;
     // The RPE search goes on to the fits.
-    path.floors = d.floors.as<std::uint8_t>();
+    path.floors = d.floors.data();
     path.volume = device_volume;
-    path.ilm_px = d.ilm_px.as<std::int32_t>();
-    path.ilm = d.raw_ilm.as<float>();
-    path.rpe = d.raw_rpe.as<float>();
-    path.bm = d.raw_bm.as<float>();
-    path.confidence = d.raw_confidence.as<float>();
-    path.verdict = d.raw_verdict.as<std::uint8_t>();
-    path.contrasts = d.contrasts.as<std::uint8_t>();
+    path.ilm_px = d.ilm_px.data();
+    path.ilm = d.raw_ilm.data();
+    path.rpe = d.raw_rpe.data();
+    path.bm = d.raw_bm.data();
+    path.confidence = d.raw_confidence.data();
+    path.verdict = d.raw_verdict.data();
+    path.contrasts = d.contrasts.data();
     path.states = p.band;
     path.max_step = p.max_step;
     path.penalty = p.step_penalty;
@@ -861,32 +831,29 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
   const BscanSpan outputs = outputs_affected(group, d.bscans);
   {
     FinishJob job{};
-    job.raw = detail::RawFits{d.raw_ilm.as<float>(),
-                              d.raw_rpe.as<float>(),
-                              d.raw_bm.as<float>(),
-                              d.raw_confidence.as<float>(),
-                              d.raw_verdict.as<std::uint8_t>(),
-                              static_cast<int>(d.bscans),
-                              static_cast<int>(d.ascans)};
+    job.raw =
+        detail::RawFits{d.raw_ilm.data(),          d.raw_rpe.data(),     d.raw_bm.data(),
+                        d.raw_confidence.data(),   d.raw_verdict.data(), static_cast<int>(d.bscans),
+                        static_cast<int>(d.ascans)};
     job.settings = detail::FinishSettings{p.min_confidence,
                                           p.smooth_tolerance_px,
                                           static_cast<float>(sampling_.ascan_spacing_um),
                                           static_cast<float>(sampling_.bscan_spacing_um),
                                           p.bridge_bscans,
                                           p.smooth};
-    job.ilm = d.ilm.as<float>();
-    job.rpe = d.rpe.as<float>();
-    job.bm = d.bm.as<float>();
-    job.confidence = d.confidence.as<float>();
-    job.state = d.state.as<SurfaceState>();
-    job.verdict = d.verdict.as<BscanVerdict>();
+    job.ilm = d.ilm.data();
+    job.rpe = d.rpe.data();
+    job.bm = d.bm.data();
+    job.confidence = d.confidence.data();
+    job.state = d.state.data();
+    job.verdict = d.verdict.data();
     job.first = static_cast<int>(outputs.first);
     job.group_first = first;
     job.group_end = first + count;
     const dim3 grid(static_cast<unsigned>((p.ascans + kFinishThreads - 1) / kFinishThreads),
                     outputs.count);
     finish_kernel<<<grid, kFinishThreads, 0, stream>>>(job);
-    check_cuda_status(cudaGetLastError(), "finish_kernel launch");
+    cuda::check_launch("finish_kernel");
   }
   stage_done();
   return outputs;
@@ -894,14 +861,8 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
 
 DeviceSurfaceView CudaSegmenter::device_surfaces() const noexcept {
   const DeviceState& d = *state_;
-  return {d.ilm.as<float>(),
-          d.rpe.as<float>(),
-          d.bm.as<float>(),
-          d.confidence.as<float>(),
-          d.state.as<SurfaceState>(),
-          d.verdict.as<BscanVerdict>(),
-          d.bscans,
-          d.ascans};
+  return {d.ilm.data(),   d.rpe.data(),     d.bm.data(), d.confidence.data(),
+          d.state.data(), d.verdict.data(), d.bscans,    d.ascans};
 }
 
 BscanSpan CudaSegmenter::segment_group(const Volume& volume, BscanSpan group, Surfaces& surfaces) {
@@ -916,27 +877,25 @@ BscanSpan CudaSegmenter::segment_group(const Volume& volume, BscanSpan group, Su
     surfaces.reset(volume.bscans(), volume.ascans(), volume.depth());
   }
   const std::size_t bscan_px = volume.bscan_pixels();
-  cuda::copy_async(d.volume.as<std::uint8_t>() + group.first * bscan_px,
-                   volume.bscan(group.first).data(), group.count * bscan_px, cudaMemcpyHostToDevice,
-                   stream_, cuda::Payload::volume, "copy of the group to the device");
-  const BscanSpan outputs = enqueue_group(d.volume.as<std::uint8_t>(), group, stream_);
+  cuda::copy_async(d.volume.data() + group.first * bscan_px, volume.bscan(group.first).data(),
+                   group.count * bscan_px, cudaMemcpyHostToDevice, stream_, cuda::Payload::volume,
+                   "copy of the group to the device");
+  const BscanSpan outputs = enqueue_group(d.volume.data(), group, stream_);
   const std::size_t offset = surfaces.index(outputs.first, 0);
   const std::size_t n = static_cast<std::size_t>(outputs.count) * volume.ascans();
-  const auto copy_back = [&](void* host, const DeviceBuffer& device, std::size_t element) {
-    cuda::copy_async(host, device.as<std::uint8_t>() + offset * element, n * element,
-                     cudaMemcpyDeviceToHost, stream_, cuda::Payload::other,
-                     "copy of the surfaces to the host");
+  const auto copy_back = [&]<class T>(T* host, const T* device) {
+    cuda::copy_async(host, device + offset, n * sizeof(T), cudaMemcpyDeviceToHost, stream_,
+                     cuda::Payload::other, "copy of the surfaces to the host");
   };
-  copy_back(surfaces.ilm.data() + offset, d.ilm, sizeof(float));
-  copy_back(surfaces.rpe.data() + offset, d.rpe, sizeof(float));
-  copy_back(surfaces.bm.data() + offset, d.bm, sizeof(float));
-  copy_back(surfaces.confidence.data() + offset, d.confidence, sizeof(float));
-  copy_back(surfaces.state.data() + offset, d.state, 1);
-  check_cuda_status(cudaMemcpyAsync(surfaces.verdict.data() + outputs.first,
-                                    d.verdict.as<std::uint8_t>() + outputs.first, outputs.count,
-                                    cudaMemcpyDeviceToHost, stream_),
-                    "cudaMemcpyAsync(verdicts to host)");
-  check_cuda_status(cudaStreamSynchronize(stream_), "cudaStreamSynchronize");
+  copy_back(surfaces.ilm.data() + offset, d.ilm.data());
+  copy_back(surfaces.rpe.data() + offset, d.rpe.data());
+  copy_back(surfaces.bm.data() + offset, d.bm.data());
+  copy_back(surfaces.confidence.data() + offset, d.confidence.data());
+  copy_back(surfaces.state.data() + offset, d.state.data());
+  IOCT_CUDA_CHECK(cudaMemcpyAsync(surfaces.verdict.data() + outputs.first,
+                                  d.verdict.data() + outputs.first, outputs.count,
+                                  cudaMemcpyDeviceToHost, stream_));
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(stream_));
   return outputs;
 }
 
@@ -947,7 +906,7 @@ BscanSpan CudaSegmenter::segment_group(VolumeRef volume, BscanSpan group, Surfac
   const DeviceState& d = *state_;
   if (d.bscans != dims.bscans || d.ascans != dims.ascans || d.depth != dims.depth) {
     // The state is about to be replaced: nothing may still be reading it.
-    check_cuda_status(cudaStreamSynchronize(volume.stream()), "cudaStreamSynchronize");
+    IOCT_CUDA_CHECK(cudaStreamSynchronize(volume.stream()));
   }
   prepare(dims.bscans, dims.ascans, dims.depth);
   return enqueue_group(volume.device(), group, volume.stream());
@@ -957,37 +916,35 @@ void CudaSegmenter::download_surfaces(Surfaces& surfaces, cudaStream_t stream) {
   const DeviceState& d = *state_;
   surfaces.reset(d.bscans, d.ascans, d.depth);
   const std::size_t n = static_cast<std::size_t>(d.bscans) * d.ascans;
-  const auto copy = [&](void* host, const DeviceBuffer& device, std::size_t bytes) {
-    cuda::copy_async(host, device.as<void>(), bytes, cudaMemcpyDeviceToHost, stream,
-                     cuda::Payload::other, "copy of the surfaces to the host");
+  const auto copy = [&](void* host, const void* device, std::size_t bytes) {
+    cuda::copy_async(host, device, bytes, cudaMemcpyDeviceToHost, stream, cuda::Payload::other,
+                     "copy of the surfaces to the host");
   };
-  copy(surfaces.ilm.data(), d.ilm, n * sizeof(float));
-  copy(surfaces.rpe.data(), d.rpe, n * sizeof(float));
-  copy(surfaces.bm.data(), d.bm, n * sizeof(float));
-  copy(surfaces.confidence.data(), d.confidence, n * sizeof(float));
-  copy(surfaces.state.data(), d.state, n);
-  copy(surfaces.verdict.data(), d.verdict, d.bscans);
-  check_cuda_status(cudaStreamSynchronize(stream), "cudaStreamSynchronize");
+  copy(surfaces.ilm.data(), d.ilm.data(), n * sizeof(float));
+  copy(surfaces.rpe.data(), d.rpe.data(), n * sizeof(float));
+  copy(surfaces.bm.data(), d.bm.data(), n * sizeof(float));
+  copy(surfaces.confidence.data(), d.confidence.data(), n * sizeof(float));
+  copy(surfaces.state.data(), d.state.data(), n);
+  copy(surfaces.verdict.data(), d.verdict.data(), d.bscans);
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
 }
 
 void CudaSegmenter::download_memory(VolumeMemory& memory) {
   const DeviceState& d = *state_;
   memory.reset(d.bscans, d.ascans, d.depth);
   const std::size_t n = static_cast<std::size_t>(d.bscans) * d.ascans;
-  const auto copy = [&](void* host, const DeviceBuffer& device, std::size_t bytes) {
-    check_cuda_status(
-        cudaMemcpyAsync(host, device.as<void>(), bytes, cudaMemcpyDeviceToHost, stream_),
-        "cudaMemcpyAsync(memory to host)");
+  const auto copy = [&](void* host, const void* device, std::size_t bytes) {
+    IOCT_CUDA_CHECK(cudaMemcpyAsync(host, device, bytes, cudaMemcpyDeviceToHost, stream_));
   };
-  copy(memory.coarse.data(), d.coarse, n * sizeof(std::int32_t));
-  copy(memory.coarse_valid.data(), d.coarse_valid, d.bscans);
-  copy(memory.floor.data(), d.floors, d.bscans);
-  copy(memory.ilm.data(), d.raw_ilm, n * sizeof(float));
-  copy(memory.rpe.data(), d.raw_rpe, n * sizeof(float));
-  copy(memory.bm.data(), d.raw_bm, n * sizeof(float));
-  copy(memory.confidence.data(), d.raw_confidence, n * sizeof(float));
-  copy(memory.verdict.data(), d.raw_verdict, d.bscans);
-  check_cuda_status(cudaStreamSynchronize(stream_), "cudaStreamSynchronize");
+  copy(memory.coarse.data(), d.coarse.data(), n * sizeof(std::int32_t));
+  copy(memory.coarse_valid.data(), d.coarse_valid.data(), d.bscans);
+  copy(memory.floor.data(), d.floors.data(), d.bscans);
+  copy(memory.ilm.data(), d.raw_ilm.data(), n * sizeof(float));
+  copy(memory.rpe.data(), d.raw_rpe.data(), n * sizeof(float));
+  copy(memory.bm.data(), d.raw_bm.data(), n * sizeof(float));
+  copy(memory.confidence.data(), d.raw_confidence.data(), n * sizeof(float));
+  copy(memory.verdict.data(), d.raw_verdict.data(), d.bscans);
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(stream_));
 }
 
 }  // namespace ioct::gpu::segmentation

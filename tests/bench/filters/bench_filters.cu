@@ -33,19 +33,19 @@ struct Timing {
 Timing time_on_device(const std::string& name, cudaStream_t stream, int warmup, int reps,
                       const std::function<void()>& launch) {
   for (int i = 0; i < warmup; ++i) launch();
-  check_cuda(cudaStreamSynchronize(stream), "warm-up");
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
   std::vector<cudaEvent_t> events(2 * reps);
-  for (cudaEvent_t& e : events) check_cuda(cudaEventCreate(&e), "cudaEventCreate");
+  for (cudaEvent_t& e : events) IOCT_CUDA_CHECK(cudaEventCreate(&e));
   for (int i = 0; i < reps; ++i) {
-    check_cuda(cudaEventRecord(events[2 * i], stream), "cudaEventRecord");
+    IOCT_CUDA_CHECK(cudaEventRecord(events[2 * i], stream));
     launch();
-    check_cuda(cudaEventRecord(events[2 * i + 1], stream), "cudaEventRecord");
+    IOCT_CUDA_CHECK(cudaEventRecord(events[2 * i + 1], stream));
   }
-  check_cuda(cudaStreamSynchronize(stream), "timed runs");
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
   std::vector<double> ms(reps);
   for (int i = 0; i < reps; ++i) {
     float elapsed = 0;
-    check_cuda(cudaEventElapsedTime(&elapsed, events[2 * i], events[2 * i + 1]), "elapsed");
+    IOCT_CUDA_CHECK(cudaEventElapsedTime(&elapsed, events[2 * i], events[2 * i + 1]));
     ms[i] = elapsed;
   }
   for (cudaEvent_t e : events) cudaEventDestroy(e);
@@ -124,9 +124,9 @@ int main(int argc, char** argv) {
                 static_cast<std::streamsize>(bytes));
     }
 
-    check_cuda(cudaSetDevice(device), "cudaSetDevice");
+    IOCT_CUDA_CHECK(cudaSetDevice(device));
     cudaDeviceProp prop{};
-    check_cuda(cudaGetDeviceProperties(&prop, device), "cudaGetDeviceProperties");
+    IOCT_CUDA_CHECK(cudaGetDeviceProperties(&prop, device));
     int driver = 0, runtime = 0;
     cudaDriverGetVersion(&driver);
     cudaRuntimeGetVersion(&runtime);
@@ -139,10 +139,9 @@ int main(int argc, char** argv) {
               << warmup << " warm-up, median [min, max]\n\n";
 
     cudaStream_t stream;
-    check_cuda(cudaStreamCreateWithFlags(&stream, cudaStreamNonBlocking), "cudaStreamCreate");
+    IOCT_CUDA_CHECK(cudaStreamCreateWithFlags(&stream, cudaStreamNonBlocking));
     cuda::DeviceArray<std::uint8_t> in(bytes), median(bytes), out(bytes), copy(bytes);
-    check_cuda(cudaMemcpy(in.data(), volume.pixels().data(), bytes, cudaMemcpyHostToDevice),
-               "upload");
+    IOCT_CUDA_CHECK(cudaMemcpy(in.data(), volume.pixels().data(), bytes, cudaMemcpyHostToDevice));
     const VolumeDims dims{d[0], d[1], d[2]};
     const BscanRange all{0, d[0]};
     VolumeFilterConfig config;
@@ -157,9 +156,8 @@ int main(int argc, char** argv) {
     };
     const Timing anchor =
         time_on_device("anchor: device copy of the volume", stream, warmup, reps, [&] {
-          check_cuda(
-              cudaMemcpyAsync(copy.data(), in.data(), bytes, cudaMemcpyDeviceToDevice, stream),
-              "copy");
+          IOCT_CUDA_CHECK(
+              cudaMemcpyAsync(copy.data(), in.data(), bytes, cudaMemcpyDeviceToDevice, stream));
         });
     add(anchor);
 
@@ -189,8 +187,7 @@ int main(int argc, char** argv) {
                        stream);
       });
       add(t);
-      check_cuda(cudaMemcpy(result.data(), median.data(), bytes, cudaMemcpyDeviceToHost),
-                 "download");
+      IOCT_CUDA_CHECK(cudaMemcpy(result.data(), median.data(), bytes, cudaMemcpyDeviceToHost));
       if (reference_median.empty()) {
         reference_median = result;
       } else if (result != reference_median) {
@@ -246,9 +243,9 @@ int main(int argc, char** argv) {
     // The full filter once more, then checked against the CPU.
     enqueue_volume_filter(in.data(), median.data(), out.data(), dims, all, config, taps,
                           best_tuning, stream);
-    check_cuda(cudaStreamSynchronize(stream), "final filter");
+    IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
     std::vector<std::uint8_t> filtered(bytes);
-    check_cuda(cudaMemcpy(filtered.data(), out.data(), bytes, cudaMemcpyDeviceToHost), "download");
+    IOCT_CUDA_CHECK(cudaMemcpy(filtered.data(), out.data(), bytes, cudaMemcpyDeviceToHost));
     std::string cpu_verdict = "not checked";
     if (cpu_check) {
       CpuVolumeFilter cpu(config, 4);

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/filters/cuda_volume_filter.hpp"
 #include "ioct/gpu/filters/gaussian_taps.hpp"
 #include "ioct/gpu/segmentation/cpu_segmenter.hpp"
@@ -49,8 +50,8 @@ nlohmann::json to_json(const Timing& t) {
 class EventPair {
  public:
   EventPair() {
-    check_cuda_status(cudaEventCreate(&start_), "cudaEventCreate");
-    check_cuda_status(cudaEventCreate(&stop_), "cudaEventCreate");
+    IOCT_CUDA_CHECK(cudaEventCreate(&start_));
+    IOCT_CUDA_CHECK(cudaEventCreate(&stop_));
   }
   ~EventPair() {
     cudaEventDestroy(start_);
@@ -60,8 +61,8 @@ class EventPair {
   cudaEvent_t stop() const { return stop_; }
   double elapsed_us() const {
     float ms = 0.0f;
-    check_cuda_status(cudaEventSynchronize(stop_), "cudaEventSynchronize");
-    check_cuda_status(cudaEventElapsedTime(&ms, start_, stop_), "cudaEventElapsedTime");
+    IOCT_CUDA_CHECK(cudaEventSynchronize(stop_));
+    IOCT_CUDA_CHECK(cudaEventElapsedTime(&ms, start_, stop_));
     return 1000.0 * ms;
   }
 
@@ -94,7 +95,7 @@ int main(int argc, char** argv) {
       return 2;
     }
     cudaDeviceProp properties{};
-    check_cuda_status(cudaGetDeviceProperties(&properties, 0), "cudaGetDeviceProperties");
+    IOCT_CUDA_CHECK(cudaGetDeviceProperties(&properties, 0));
 
     // The simulated retina, processed and filtered on the CPU as the tests do.
     const auto t0 = std::chrono::steady_clock::now();
@@ -117,21 +118,20 @@ int main(int argc, char** argv) {
     segmenter.set_use_graphs(false);
     cudaStream_t stream = segmenter.stream();
     const std::size_t bytes = volume.pixels().size();
-    DeviceBuffer device_volume(bytes);
-    DeviceBuffer scratch(bytes);
-    DeviceBuffer filtered(bytes);
-    check_cuda_status(
-        cudaMemcpy(device_volume.as<void>(), volume.pixels().data(), bytes, cudaMemcpyHostToDevice),
-        "cudaMemcpy(volume)");
+    gpu::cuda::DeviceArray<std::uint8_t> device_volume(bytes);
+    gpu::cuda::DeviceArray<std::uint8_t> scratch(bytes);
+    gpu::cuda::DeviceArray<std::uint8_t> filtered(bytes);
+    IOCT_CUDA_CHECK(
+        cudaMemcpy(device_volume.data(), volume.pixels().data(), bytes, cudaMemcpyHostToDevice));
     segmenter.prepare(volume.bscans(), volume.ascans(), volume.depth());
     const std::uint32_t groups = volume.bscans() / group;
     for (std::uint32_t g = 0; g < groups; ++g) {  // warm-up: every B-scan segmented once
-      segmenter.enqueue_group(device_volume.as<std::uint8_t>(), {g * group, group}, stream);
+      segmenter.enqueue_group(device_volume.data(), {g * group, group}, stream);
     }
-    check_cuda_status(cudaStreamSynchronize(stream), "cudaStreamSynchronize");
+    IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
 
     std::vector<cudaEvent_t> stage_events(CudaSegmenter::kStages);
-    for (cudaEvent_t& e : stage_events) check_cuda_status(cudaEventCreate(&e), "cudaEventCreate");
+    for (cudaEvent_t& e : stage_events) IOCT_CUDA_CHECK(cudaEventCreate(&e));
     EventPair events;
     std::vector<double> segment_us, copy_us, filter_us;
     std::vector<std::vector<double>> stage_us(CudaSegmenter::kStages);
@@ -142,35 +142,31 @@ int main(int argc, char** argv) {
       for (std::uint32_t g = 0; g < groups; ++g) {
         const std::uint32_t first = g * group;
         // Anchor 1: a device copy of the group.
-        check_cuda_status(cudaEventRecord(events.start(), stream), "cudaEventRecord");
-        check_cuda_status(
-            cudaMemcpyAsync(scratch.as<std::uint8_t>() + first * volume.bscan_pixels(),
-                            device_volume.as<std::uint8_t>() + first * volume.bscan_pixels(),
-                            group_bytes, cudaMemcpyDeviceToDevice, stream),
-            "cudaMemcpyAsync(device copy)");
-        check_cuda_status(cudaEventRecord(events.stop(), stream), "cudaEventRecord");
+        IOCT_CUDA_CHECK(cudaEventRecord(events.start(), stream));
+        IOCT_CUDA_CHECK(cudaMemcpyAsync(scratch.data() + first * volume.bscan_pixels(),
+                                        device_volume.data() + first * volume.bscan_pixels(),
+                                        group_bytes, cudaMemcpyDeviceToDevice, stream));
+        IOCT_CUDA_CHECK(cudaEventRecord(events.stop(), stream));
         copy_us.push_back(events.elapsed_us());
         // Anchor 2: the volume filters of the group's outputs.
         const gpu::filters::BscanRange outputs =
             gpu::filters::outputs_affected_by({first, group}, volume.bscans());
-        check_cuda_status(cudaEventRecord(events.start(), stream), "cudaEventRecord");
-        gpu::filters::enqueue_volume_filter(device_volume.as<std::uint8_t>(),
-                                            scratch.as<std::uint8_t>(), filtered.as<std::uint8_t>(),
+        IOCT_CUDA_CHECK(cudaEventRecord(events.start(), stream));
+        gpu::filters::enqueue_volume_filter(device_volume.data(), scratch.data(), filtered.data(),
                                             dims, outputs, {}, taps, {}, stream);
-        check_cuda_status(cudaEventRecord(events.stop(), stream), "cudaEventRecord");
+        IOCT_CUDA_CHECK(cudaEventRecord(events.stop(), stream));
         filter_us.push_back(events.elapsed_us());
         // The segmentation of the group, with its stages.
         segmenter.set_stage_events(stage_events.data());
-        check_cuda_status(cudaEventRecord(events.start(), stream), "cudaEventRecord");
-        segmenter.enqueue_group(device_volume.as<std::uint8_t>(), {first, group}, stream);
-        check_cuda_status(cudaEventRecord(events.stop(), stream), "cudaEventRecord");
+        IOCT_CUDA_CHECK(cudaEventRecord(events.start(), stream));
+        segmenter.enqueue_group(device_volume.data(), {first, group}, stream);
+        IOCT_CUDA_CHECK(cudaEventRecord(events.stop(), stream));
         segment_us.push_back(events.elapsed_us());
         segmenter.set_stage_events(nullptr);
         cudaEvent_t previous = events.start();
         for (int s = 0; s < CudaSegmenter::kStages; ++s) {
           float ms = 0.0f;
-          check_cuda_status(cudaEventElapsedTime(&ms, previous, stage_events[s]),
-                            "cudaEventElapsedTime");
+          IOCT_CUDA_CHECK(cudaEventElapsedTime(&ms, previous, stage_events[s]));
           stage_us[s].push_back(1000.0 * ms);
           previous = stage_events[s];
         }
@@ -180,15 +176,15 @@ int main(int argc, char** argv) {
     // The same groups through the segmenter's CUDA graphs (captured on first use).
     segmenter.set_use_graphs(true);
     for (std::uint32_t g = 0; g < groups; ++g) {
-      segmenter.enqueue_group(device_volume.as<std::uint8_t>(), {g * group, group}, stream);
+      segmenter.enqueue_group(device_volume.data(), {g * group, group}, stream);
     }
-    check_cuda_status(cudaStreamSynchronize(stream), "cudaStreamSynchronize");
+    IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
     std::vector<double> graph_us;
     for (int round = 0; round < rounds; ++round) {
       for (std::uint32_t g = 0; g < groups; ++g) {
-        check_cuda_status(cudaEventRecord(events.start(), stream), "cudaEventRecord");
-        segmenter.enqueue_group(device_volume.as<std::uint8_t>(), {g * group, group}, stream);
-        check_cuda_status(cudaEventRecord(events.stop(), stream), "cudaEventRecord");
+        IOCT_CUDA_CHECK(cudaEventRecord(events.start(), stream));
+        segmenter.enqueue_group(device_volume.data(), {g * group, group}, stream);
+        IOCT_CUDA_CHECK(cudaEventRecord(events.stop(), stream));
         graph_us.push_back(events.elapsed_us());
       }
     }

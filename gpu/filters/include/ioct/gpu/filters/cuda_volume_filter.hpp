@@ -41,9 +41,6 @@ struct CudaFilterTuning {
   std::uint32_t ascans_per_gaussian_thread = 16;
 };
 
-// Throws std::runtime_error naming `what` and CUDA's message unless `status` is cudaSuccess.
-void check_cuda(cudaError_t status, const char* what);
-
 // Kernel launches on device volumes, for the live pipeline whose volume already lives on the GPU
 // and for benchmarks. Enqueued on `stream`; nothing is synchronised. `in` and `out` hold the
 // whole volume and are 4-byte aligned (as cudaMalloc returns them); `median` is scratch of the same

@@ -12,7 +12,6 @@
 
 #include <cuda_runtime_api.h>
 
-#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -21,31 +20,6 @@
 #include "ioct/gpu/segmentation/volume_memory.hpp"
 
 namespace ioct::gpu::segmentation {
-
-// Device memory that frees itself.
-class DeviceBuffer {
- public:
-  DeviceBuffer() = default;
-  explicit DeviceBuffer(std::size_t bytes);
-  DeviceBuffer(DeviceBuffer&& other) noexcept;
-  DeviceBuffer& operator=(DeviceBuffer&& other) noexcept;
-  DeviceBuffer(const DeviceBuffer&) = delete;
-  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
-  ~DeviceBuffer();
-
-  template <class T>
-  T* as() const noexcept {
-    return static_cast<T*>(data_);
-  }
-  std::size_t size() const noexcept { return size_; }
-
- private:
-  void* data_ = nullptr;
-  std::size_t size_ = 0;
-};
-
-// Throws std::runtime_error naming `what` and CUDA's message unless `status` is cudaSuccess.
-void check_cuda_status(cudaError_t status, const char* what);
 
 // Where the surfaces of the volume live on the device, [bscan][ascan] (for renderers that read
 // them there). Valid until the next call that changes the volume's dimensions.
