@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <utility>
 
 #include "ioct/concurrency/monotonic_clock.hpp"
 
@@ -33,6 +34,7 @@ FramePublisher::FramePublisher(const shm::FrameRingConfig& ring)
     push_status_locked();
   }
   heartbeat_ = std::thread([this] { beat(); });
+  encoder_ = std::thread([this] { encode_frames(); });
 }
 
 FramePublisher::~FramePublisher() {
@@ -40,6 +42,12 @@ FramePublisher::~FramePublisher() {
 }
 
 void FramePublisher::close() {
+  {
+    std::lock_guard lock(frame_mutex_);
+    frames_stopping_ = true;
+  }
+  frame_wake_.notify_all();
+  if (encoder_.joinable()) encoder_.join();
   {
     std::lock_guard lock(mutex_);
     if (closed_) return;
@@ -116,45 +124,103 @@ void FramePublisher::note_device_memory(std::uint64_t used_bytes, std::uint64_t 
   push_status_locked();
 }
 
-void FramePublisher::set_bscan(const segmentation::RgbImage& image, std::uint32_t index,
+void FramePublisher::set_bscan(segmentation::RgbImage image, std::uint32_t index,
                                std::uint32_t bscans) {
-  const std::span<const std::byte> jpeg =
-      bscan_encoder_.encode(image.pixels, image.width, image.height, PixelLayout::rgb);
-  bscan_jpeg_.assign(jpeg.begin(), jpeg.end());
-  bscan_width_ = image.width;
-  bscan_height_ = image.height;
-  bscan_index_ = index;
-  bscans_ = bscans;
+  std::lock_guard lock(frame_mutex_);
+  new_bscan_ = NewBscan{std::move(image), index, bscans};
 }
 
 void FramePublisher::set_tip_bscans(const instruments::TipBscans* pair) {
-  if (pair == nullptr || pair->width == 0 || pair->height == 0) {
-    tip_bscans_jpeg_.clear();
-    tip_bscan_width_ = tip_bscan_height_ = 0;
-    return;
-  }
-  const std::span<const std::byte> jpeg =
-      tip_bscans_encoder_.encode(pair->pixels, pair->stride(), pair->height, PixelLayout::gray);
-  tip_bscans_jpeg_.assign(jpeg.begin(), jpeg.end());
-  tip_bscan_width_ = pair->width;
-  tip_bscan_height_ = pair->height;
+  std::lock_guard lock(frame_mutex_);
+  new_tip_bscans_ = pair != nullptr ? *pair : instruments::TipBscans{};
 }
 
-std::uint64_t FramePublisher::publish(shm::FrameMeta meta, const render::RgbaImage& render) {
+void FramePublisher::encode_bscans(std::optional<NewBscan> bscan,
+                                   std::optional<instruments::TipBscans> tip_bscans) {
+  if (bscan) {
+    const segmentation::RgbImage& image = bscan->image;
+    const std::span<const std::byte> jpeg =
+        bscan_encoder_.encode(image.pixels, image.width, image.height, PixelLayout::rgb);
+    std::lock_guard lock(mutex_);
+    bscan_jpeg_.assign(jpeg.begin(), jpeg.end());
+    bscan_width_ = image.width;
+    bscan_height_ = image.height;
+    bscan_index_ = bscan->index;
+    bscans_ = bscan->bscans;
+  }
+  if (tip_bscans) {
+    const instruments::TipBscans& pair = *tip_bscans;
+    std::span<const std::byte> jpeg;
+    if (pair.width != 0 && pair.height != 0) {
+      jpeg = tip_bscans_encoder_.encode(pair.pixels, pair.stride(), pair.height, PixelLayout::gray);
+    }
+    std::lock_guard lock(mutex_);
+    tip_bscans_jpeg_.assign(jpeg.begin(), jpeg.end());
+    tip_bscan_width_ = jpeg.empty() ? 0 : pair.width;
+    tip_bscan_height_ = jpeg.empty() ? 0 : pair.height;
+  }
+}
+
+void FramePublisher::publish(shm::FrameMeta meta, render::RgbaImage& render) {
+  {
+    std::lock_guard lock(frame_mutex_);
+    if (frame_waiting_) {
+      std::lock_guard counts(mutex_);
+      ++frame_counts_.replaced;
+    }
+    waiting_meta_ = meta;
+    std::swap(waiting_, render);
+    frame_waiting_ = true;
+  }
+  frame_wake_.notify_one();
+}
+
+void FramePublisher::encode_frames() {
+  std::unique_lock lock(frame_mutex_);
+  for (;;) {
+    frame_wake_.wait(lock, [this] { return frame_waiting_ || frames_stopping_; });
+    if (!frame_waiting_) return;  // stopping, with nothing left to write
+    std::swap(waiting_, encoding_);
+    const shm::FrameMeta meta = waiting_meta_;
+    frame_waiting_ = false;
+    std::optional<NewBscan> bscan = std::exchange(new_bscan_, std::nullopt);
+    std::optional<instruments::TipBscans> tip_bscans = std::exchange(new_tip_bscans_, std::nullopt);
+    lock.unlock();
+    const std::uint64_t started_ns = ioct::monotonic_ns();
+    encode_bscans(std::move(bscan), std::move(tip_bscans));
+    write_frame(meta, encoding_);
+    note_frame(ioct::monotonic_ns() - started_ns);
+    lock.lock();
+  }
+}
+
+void FramePublisher::write_frame(shm::FrameMeta meta, const render::RgbaImage& render) {
   const std::span<const std::byte> jpeg =
       render_encoder_.encode(render.rgba, render.width, render.height, PixelLayout::rgba);
   meta.format = static_cast<std::uint32_t>(shm::FrameFormat::jpeg);
   meta.width = render.width;
   meta.height = render.height;
+  std::lock_guard lock(mutex_);
+  if (closed_) return;
   meta.bscan_width = bscan_width_;
   meta.bscan_height = bscan_height_;
   meta.bscan_index = bscan_index_;
   meta.bscans = bscans_;
   meta.tip_bscan_width = tip_bscan_width_;
   meta.tip_bscan_height = tip_bscan_height_;
+  try {
+    writer_.publish(meta, jpeg, bscan_jpeg_, tip_bscans_jpeg_);
+    ++frame_counts_.written;
+  } catch (const std::exception& e) {
+    // A frame too large for the ring costs the viewers that frame, never the pipeline.
+    ++frame_counts_.errors;
+    frame_counts_.problem = e.what();
+  }
+}
+
+FramePublisher::FrameCounts FramePublisher::frame_counts() const {
   std::lock_guard lock(mutex_);
-  if (closed_) return 0;
-  return writer_.publish(meta, jpeg, bscan_jpeg_, tip_bscans_jpeg_);
+  return frame_counts_;
 }
 
 }  // namespace ioct::gpu::live

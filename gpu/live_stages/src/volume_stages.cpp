@@ -350,23 +350,24 @@ void VolumeStages::render_views(const std::vector<DueRender>& renders, SnapshotW
 
 void VolumeStages::deliver(const DueRender& render, std::uint64_t rendered_ns,
                            SnapshotWaiters& waiters) {
-  // The viewers first: the files can wait.
-  if (publisher_) publish_frame(render, rendered_ns);
-  if (render.view_id != kSharedView) return;
-  if (!waiters.empty()) {
-    ViewSnapshot shot;
-    shot.image = image_;
-    shot.params = render::to_json(render.config);
-    shot.generation = render.generation;
-    shot.group_index = shown_stamp_.group_index;
-    for (const auto& waiter : waiters) waiter->set_value(shot);
-    waiters.clear();
+  // A snapshot and the live image copy the frame before the viewers' publisher takes its pixels
+  // (it swaps them out, to encode them on a thread of its own).
+  if (render.view_id == kSharedView) {
+    if (!waiters.empty()) {
+      ViewSnapshot shot;
+      shot.image = image_;
+      shot.params = render::to_json(render.config);
+      shot.generation = render.generation;
+      shot.group_index = shown_stamp_.group_index;
+      for (const auto& waiter : waiters) waiter->set_value(shot);
+      waiters.clear();
+    }
+    write_live_image(rendered_ns);
   }
-  write_live_image(rendered_ns);
+  if (publisher_) publish_frame(render, rendered_ns);
 }
 
 void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered_ns) {
-  const std::uint64_t started_ns = ioct::monotonic_ns();
   try {
     const std::uint32_t bscans = device_ != nullptr ? device_->bscans() : filtered_.bscans();
     const std::uint32_t bscan = shown_bscan(render.config.slice, bscans);
@@ -404,13 +405,12 @@ void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered
     const std::string_view mode = render::to_string(render.config.mode);
     std::copy_n(mode.data(), std::min(mode.size(), sizeof meta.mode - 1), meta.mode);
     meta.instrument = instrument_for(render.config);
-    publisher_->publish(meta, image_);
-    publisher_->note_frame(ioct::monotonic_ns() - started_ns);
+    publisher_->publish(meta, image_);  // takes image_'s pixels; the next render refills it
     std::lock_guard lock(mutex_);
     ++figures_.frames_published;
   } catch (const std::exception& e) {
-    // A frame that cannot be published (too large for the ring) costs the viewers that frame,
-    // never the pipeline.
+    // A frame that cannot be made (its B-scan pair, say) costs the viewers that frame, never the
+    // pipeline.
     std::lock_guard lock(mutex_);
     ++figures_.frame_errors;
     figures_.frame_problem = e.what();
@@ -695,6 +695,8 @@ nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
     }
   }
 
+  // ioct-view shows NO SIGNAL from now; the frame still waiting is written first, and counted.
+  if (publisher_) publisher_->close();
   std::lock_guard lock(mutex_);
   const Figures& f = figures_;
   nlohmann::json j;
@@ -708,8 +710,13 @@ nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
   j["interactive_renders"] = f.interactive_renders;
   j["frame_ring"] = publisher_ ? nlohmann::json(publisher_->name()) : nlohmann::json(nullptr);
   j["frames_published"] = f.frames_published;
-  j["frame_errors"] = f.frame_errors;
-  j["frame_problem"] = f.frame_problem;
+  // The publisher's own count: frames refused by the ring (too large) count as errors too.
+  const FramePublisher::FrameCounts frames =
+      publisher_ ? publisher_->frame_counts() : FramePublisher::FrameCounts{};
+  j["frames_written"] = frames.written;
+  j["frames_replaced"] = frames.replaced;
+  j["frame_errors"] = f.frame_errors + frames.errors;
+  j["frame_problem"] = frames.problem.empty() ? f.frame_problem : frames.problem;
   j["live_images_written"] = live_images.written;
   if (live_images.failed > 0) {
     j["live_images_failed"] = live_images.failed;
@@ -727,7 +734,6 @@ nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
   j["surfaces"] = surfaces_.bscans > 0 ? describe(surfaces_) : nlohmann::json(nullptr);
   j["files"] = files;
   j["problem"] = problem;
-  if (publisher_) publisher_->close();  // ioct-view shows NO SIGNAL from now
   return j;
 }
 

@@ -7,12 +7,17 @@
 // status is set from the live loop at every group, so "no new group" (STALE) is seen as soon as it
 // happens, and the stages' times (histograms, shm/stage_histogram.hpp) with it, for /metrics.
 // All calls into the ring go through one mutex, held only for the copy into the ring.
+//
+// Frames are encoded on a thread of the publisher's own: publish() hands the pixels over and
+// returns, so the stages never wait for JPEG (a group that arrives while a turning view's frame
+// is being encoded is not held up by it). One frame waits at most; a newer one replaces it.
 #pragma once
 
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <string>
 #include <thread>
@@ -36,17 +41,27 @@ class FramePublisher {
   FramePublisher(const FramePublisher&) = delete;
   FramePublisher& operator=(const FramePublisher&) = delete;
 
-  // The B-scan sent with the following frames (publishing thread): encoded once here, since it
-  // changes only with a pass or the chosen position. `image` is the B-scan with depth downwards.
-  void set_bscan(const segmentation::RgbImage& image, std::uint32_t index, std::uint32_t bscans);
+  // The B-scan sent with the following frames (publishing thread): encoded once, on the encoding
+  // thread before its next frame, since it changes only with a pass or the chosen position.
+  // `image` is the B-scan with depth downwards.
+  void set_bscan(segmentation::RgbImage image, std::uint32_t index, std::uint32_t bscans);
   // The B-scan pair through the instrument's tip sent with the following frames (publishing
-  // thread), encoded once here; null: none (no instrument, or detection off).
+  // thread), encoded once as the B-scan is; null: none (no instrument, or detection off).
   void set_tip_bscans(const instruments::TipBscans* pair);
 
-  // Encodes `render` and publishes it with the current B-scan (publishing thread). `meta` gives
-  // the view, generation, group stamp, times and mode; the sizes are filled in here. Returns the
-  // frame index.
-  std::uint64_t publish(shm::FrameMeta meta, const render::RgbaImage& render);
+  // Hands `render` to the encoding thread, which encodes it and publishes it with the B-scan
+  // current then, and returns at once (publishing thread). Takes the pixels: `render` is left
+  // with another buffer, of no particular content. `meta` gives the view, generation, group
+  // stamp, times and mode; the sizes are filled in there.
+  void publish(shm::FrameMeta meta, render::RgbaImage& render);
+
+  // What became of the frames handed over: written into the ring, replaced by a newer one before
+  // their turn, or refused by the ring (too large: not fatal, the viewers miss that frame).
+  struct FrameCounts {
+    std::uint64_t written = 0, replaced = 0, errors = 0;
+    std::string problem;  // the last refusal
+  };
+  FrameCounts frame_counts() const;
 
   // The newest group handed to the stages (any thread): the books, its ingest time and its
   // publish -> processed latency.
@@ -62,34 +77,57 @@ class FramePublisher {
   // Device memory in use and in all (the CUDA backend; never called on the CPU backend).
   void note_device_memory(std::uint64_t used_bytes, std::uint64_t total_bytes);
 
-  // Stops the heartbeat and marks the ring closed (ioct-view then shows NO SIGNAL at once).
+  // Writes the frame still waiting, stops the encoding thread and the heartbeat, and marks the
+  // ring closed (ioct-view then shows NO SIGNAL at once).
   void close();
 
   const std::string& name() const noexcept { return name_; }
 
  private:
   void beat();
+  void encode_frames();
+  void write_frame(shm::FrameMeta meta, const render::RgbaImage& render);
   void push_status_locked();
 
   std::string name_;
-  std::mutex mutex_;  // the writer and status_
+  mutable std::mutex mutex_;  // the writer, status_, the B-scans' JPEGs and frame_counts_
   std::condition_variable wake_;
   shm::FrameRingWriter writer_;
   shm::FrameRingStatus status_{};
   bool closed_ = false;
+  FrameCounts frame_counts_;
 
-  // The publishing thread's own. A frame is encoded in bands on a few threads: on one core the
+  // The encoding thread's. A frame is encoded in bands on a few threads: on one core the
   // 1024 x 768 render took about 3 ms of the ~5 between a group's publish and its frame.
   WorkerPool encode_pool_;
   BandedJpegEncoder render_encoder_;
   BandedJpegEncoder bscan_encoder_;
+  BandedJpegEncoder tip_bscans_encoder_;
+  // The encoded B-scan and tip pair sent with each frame (under mutex_).
   std::vector<std::byte> bscan_jpeg_;
   std::uint32_t bscan_width_ = 0, bscan_height_ = 0, bscan_index_ = 0, bscans_ = 0;
-  BandedJpegEncoder tip_bscans_encoder_;
   std::vector<std::byte> tip_bscans_jpeg_;
   std::uint32_t tip_bscan_width_ = 0, tip_bscan_height_ = 0;
 
+  // What waits for the encoding thread (under frame_mutex_): the newest frame, and a new B-scan or
+  // tip pair to encode before it.
+  struct NewBscan {
+    segmentation::RgbImage image;
+    std::uint32_t index = 0, bscans = 0;
+  };
+  std::mutex frame_mutex_;
+  std::condition_variable frame_wake_;
+  bool frame_waiting_ = false;
+  bool frames_stopping_ = false;
+  shm::FrameMeta waiting_meta_{};
+  render::RgbaImage waiting_, encoding_;
+  std::optional<NewBscan> new_bscan_;
+  std::optional<instruments::TipBscans> new_tip_bscans_;  // an empty pair: none
+  void encode_bscans(std::optional<NewBscan> bscan,
+                     std::optional<instruments::TipBscans> tip_bscans);
+
   std::thread heartbeat_;
+  std::thread encoder_;
 };
 
 }  // namespace ioct::gpu::live

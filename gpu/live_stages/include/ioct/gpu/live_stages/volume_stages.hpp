@@ -151,7 +151,8 @@ class VolumeStages final : public LiveStage, public ViewControl {
   const Volume& filtered() const noexcept { return filtered_; }
   const segmentation::Surfaces& surfaces() const noexcept { return surfaces_; }
   const instruments::InstrumentFindings& findings() const noexcept { return findings_; }
-  // The last frame read back to the host (after finish(): the last one it rendered).
+  // The last frame read back to the host (after finish(): the last one it rendered), without a
+  // frame ring: with one, the publisher takes each frame's pixels.
   const render::RgbaImage& frame() const noexcept { return image_; }
 
  private:

@@ -1,0 +1,111 @@
+// The frame publisher encodes on a thread of its own: every frame handed over is written or
+// replaced by a newer one, the newest is always written (also when it is handed over just before
+// close), with the B-scan current at that time; a frame the ring refuses is counted, never thrown
+// at the stages.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdint>
+#include <random>
+#include <string>
+#include <thread>
+
+#include "ioct/gpu/live_stages/frame_publisher.hpp"
+#include "ioct/shm/frame_ring.hpp"
+
+namespace ioct::gpu::live {
+namespace {
+
+shm::FrameRingConfig ring_config(std::uint64_t max_payload_bytes) {
+  shm::FrameRingConfig ring;
+  ring.name = "ioct-test-publisher-" + std::to_string(::getpid()) + "-" +
+              ::testing::UnitTest::GetInstance()->current_test_info()->name();
+  ring.max_payload_bytes = max_payload_bytes;
+  return ring;
+}
+
+render::RgbaImage flat_image(std::uint32_t width, std::uint32_t height, std::uint8_t level) {
+  render::RgbaImage image;
+  image.resize(width, height);
+  std::ranges::fill(image.rgba, level);
+  return image;
+}
+
+segmentation::RgbImage flat_bscan(std::uint32_t width, std::uint32_t height) {
+  segmentation::RgbImage image;
+  image.width = width;
+  image.height = height;
+  image.pixels.assign(std::size_t{width} * height * 3, 90);
+  return image;
+}
+
+TEST(FramePublisher, EveryFrameIsWrittenOrReplacedAndTheNewestIsWritten) {
+  const shm::FrameRingConfig config = ring_config(8ull << 20);
+  FramePublisher publisher(config);
+  shm::FrameRingReader reader = shm::FrameRingReader::attach(config.name);
+  publisher.set_bscan(flat_bscan(64, 48), 5, 16);
+  constexpr std::uint64_t kFrames = 200;
+  for (std::uint64_t g = 0; g < kFrames; ++g) {
+    shm::FrameMeta meta{};
+    meta.group_index = g;
+    render::RgbaImage image = flat_image(160, 120, static_cast<std::uint8_t>(g));
+    const std::uint8_t* handed = image.rgba.data();
+    publisher.publish(meta, image);
+    EXPECT_NE(image.rgba.data(), handed) << "the publisher takes the pixels, it does not copy";
+  }
+  publisher.close();
+
+  const FramePublisher::FrameCounts counts = publisher.frame_counts();
+  EXPECT_EQ(counts.written + counts.replaced, kFrames);
+  EXPECT_GE(counts.written, 1u);
+  EXPECT_EQ(counts.errors, 0u) << counts.problem;
+  shm::Frame frame;
+  shm::Frame newest;
+  std::uint64_t read = 0;
+  while (reader.read_next(frame)) {
+    newest = frame;
+    ++read;
+  }
+  ASSERT_GT(read, 0u);
+  EXPECT_EQ(newest.meta.group_index, kFrames - 1) << "the newest frame is never the one lost";
+  EXPECT_EQ(newest.meta.width, 160u);
+  EXPECT_EQ(newest.meta.bscan_index, 5u);
+  EXPECT_EQ(newest.meta.bscan_width, 64u);
+  EXPECT_GT(newest.meta.bscan_bytes, 0u);
+}
+
+TEST(FramePublisher, AFrameTheRingRefusesIsCountedAndTheNextIsWritten) {
+  const shm::FrameRingConfig config = ring_config(64 * 1024);
+  FramePublisher publisher(config);
+  shm::FrameRingReader reader = shm::FrameRingReader::attach(config.name);
+  // Noise does not compress: far more than 64 kB of JPEG.
+  render::RgbaImage noise = flat_image(512, 512, 0);
+  std::mt19937 random(7);
+  for (std::uint8_t& v : noise.rgba) v = static_cast<std::uint8_t>(random());
+  shm::FrameMeta meta{};
+  meta.group_index = 1;
+  publisher.publish(meta, noise);
+  // Its turn comes on the encoding thread; then a frame that fits.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (publisher.frame_counts().errors == 0 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  render::RgbaImage small = flat_image(64, 48, 128);
+  meta.group_index = 2;
+  publisher.publish(meta, small);
+  publisher.close();  // writes the waiting frame first
+
+  const FramePublisher::FrameCounts counts = publisher.frame_counts();
+  EXPECT_EQ(counts.errors, 1u);
+  EXPECT_FALSE(counts.problem.empty());
+  EXPECT_EQ(counts.written, 1u);
+  shm::Frame frame;
+  ASSERT_TRUE(reader.read_next(frame));
+  EXPECT_EQ(frame.meta.group_index, 2u);
+  EXPECT_FALSE(reader.read_next(frame)) << "the refused frame left nothing in the ring";
+}
+
+}  // namespace
+}  // namespace ioct::gpu::live
