@@ -42,7 +42,7 @@ Difference compare(const RgbaImage& a, const RgbaImage& b) {
   Difference r;
   r.mean = sum / static_cast<double>(d.size());
   std::sort(d.begin(), d.end());
-  r.p99 = d[static_cast<std::size_t>(0.99 * (d.size() - 1))];
+  r.p99 = d[static_cast<std::size_t>(0.99 * static_cast<double>(d.size() - 1))];
   r.max = d.back();
   return r;
 }
@@ -176,6 +176,81 @@ TEST(CudaVsCpu, UpdateInTwoPartsIsTheUpdateInOne) {
   }
 }
 
+// The LA-MIP projections are kept between renders and made again only where the voxels or the
+// RPE changed: after groups anywhere (the middle B-scans too, whose RPE sets every curve's depth),
+// an RPE change without a voxel change (a B-scan that loses its RPE takes its neighbour's), and
+// renders of other modes in between, the frames are those of a renderer given the final volume
+// whole, bit for bit.
+TEST(CudaVsCpu, LaMipAfterGroupsIsTheFinalVolumesOwn) {
+  if (auto reason = cuda_unavailable_reason()) GTEST_SKIP() << "no CUDA renderer: " << *reason;
+  auto current = ioct::render_test::make_synthetic_retina(64, 96, 128, 1);
+  const auto next = ioct::render_test::make_synthetic_retina(64, 96, 128, 2);
+  const std::size_t bscan_px = current.volume.bscan_pixels();
+  const std::uint32_t ascans = current.volume.ascans();
+  RenderConfig la_mip;
+  la_mip.mode = RenderMode::la_mip_composite;
+  la_mip.view.output_width = 160;
+  la_mip.view.output_height = 120;
+  RenderConfig enhanced = la_mip;
+  enhanced.mode = RenderMode::enhanced;
+
+  CudaRenderer live;
+  live.set_volume(current.volume, &current.surfaces);
+  RgbaImage frame, fresh_frame;
+  live.render(la_mip, frame);
+  // Groups of B-scans from `next`: at the start, over the middle (B-scans 31 and 32, whose RPE
+  // sets every curve's depth), at the end with another mode rendered in between; then the middle's
+  // voxels alone (the RPE kept).
+  struct Step {
+    std::uint32_t first, count;
+    bool render_other_mode = false;
+    bool voxels_only = false;
+  };
+  for (const Step step : {Step{0, 8}, Step{28, 8}, Step{52, 12, true}, Step{30, 4, false, true}}) {
+    SCOPED_TRACE("group [" + std::to_string(step.first) + ", " +
+                 std::to_string(step.first + step.count) + ")");
+    if (!step.voxels_only) {
+      std::copy_n(next.volume.bscan(step.first).data(), step.count * bscan_px,
+                  current.volume.bscan(step.first).data());
+      const std::size_t from = std::size_t{step.first} * ascans;
+      const std::size_t n = std::size_t{step.count} * ascans;
+      std::copy_n(next.surfaces.ilm.begin() + from, n, current.surfaces.ilm.begin() + from);
+      std::copy_n(next.surfaces.rpe.begin() + from, n, current.surfaces.rpe.begin() + from);
+    } else {
+      // Other voxels, the same RPE: darken the B-scans.
+      for (std::uint32_t b = step.first; b < step.first + step.count; ++b) {
+        for (std::uint8_t& v : current.volume.bscan(b)) v = static_cast<std::uint8_t>(v / 2);
+      }
+    }
+    live.update_bscans(current.volume, step.first, step.count, &current.surfaces);
+    if (step.render_other_mode) live.render(enhanced, frame);
+    live.render(la_mip, frame);
+    CudaRenderer fresh;
+    fresh.set_volume(current.volume, &current.surfaces);
+    fresh.render(la_mip, fresh_frame);
+    EXPECT_EQ(frame.rgba, fresh_frame.rgba);
+  }
+  // B-scan 20 loses its RPE (its reference row becomes a neighbour's) while only B-scan 2's voxels
+  // change.
+  std::fill_n(current.surfaces.rpe.begin() + std::size_t{20} * ascans, ascans,
+              segmentation::Surfaces::kNone);
+  std::copy_n(next.volume.bscan(2).data(), bscan_px, current.volume.bscan(2).data());
+  live.update_bscans(current.volume, 2, 1, &current.surfaces);
+  live.render(la_mip, frame);
+  CudaRenderer fresh;
+  fresh.set_volume(current.volume, &current.surfaces);
+  fresh.render(la_mip, fresh_frame);
+  EXPECT_EQ(frame.rgba, fresh_frame.rgba) << "an RPE change without a voxel change";
+  // And against the CPU reference, within the renderers' tolerance.
+  CpuRenderer cpu(0);
+  cpu.set_volume(current.volume, &current.surfaces);
+  RgbaImage cpu_frame;
+  cpu.render(la_mip, cpu_frame);
+  const Difference d = compare(frame, cpu_frame);
+  EXPECT_LT(d.mean, 1.0);
+  EXPECT_LE(d.p99, 8);
+}
+
 // The CUDA renderer makes its layer reference on the device (no round trip to the host): the same
 // rows, bit for bit, as make_layer_reference() on the host, on fresh random volumes and surfaces
 // with holes of every kind (single A-scans, runs at either end, whole B-scans, none at all).
@@ -224,7 +299,9 @@ TEST(CudaVsCpu, LayerReferenceOnTheDeviceIsTheHosts) {
     // Sums of doubles in another order: equal to the last bits in practice, held to 1e-6.
     EXPECT_NEAR(on_device.mean_thickness_px, on_host.mean_thickness_px,
                 1e-6 * std::max(1.0f, on_host.mean_thickness_px));
-    if (holes == Holes::no_rpe) EXPECT_EQ(on_device.mean_thickness_px, 0.0f);
+    if (holes == Holes::no_rpe) {
+      EXPECT_EQ(on_device.mean_thickness_px, 0.0f);
+    }
   }
 
   // Without surfaces, or with surfaces of other dimensions: the axial plane stands in.

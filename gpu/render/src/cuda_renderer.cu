@@ -108,12 +108,14 @@ __global__ void plane_kernel(RenderParams p, TextureSampler sampler, uchar4* out
 // striding its depth (coalesced bytes: at whole positions a sample is its voxel / 255, so the
 // maximum is taken on the bytes), then a warp reduction that keeps the brightest and, among
 // equals, the shallowest: la_mip_en_face_texel()'s result.
-__global__ void la_mip_en_face_kernel(RenderParams p, const std::uint8_t* voxels, float* buffer) {
-  const int column = (blockIdx.x * blockDim.x + threadIdx.x) / 32;
+// Only B-scans [first, end), whose voxels changed.
+__global__ void la_mip_en_face_kernel(RenderParams p, const std::uint8_t* voxels, int first,
+                                      int end, float* buffer) {
+  const int column = first * p.dim_a + (blockIdx.x * blockDim.x + threadIdx.x) / 32;
   const int lane = threadIdx.x % 32;
   const int a = column % p.dim_a;
   const int b = column / p.dim_a;
-  if (b >= p.dim_b) return;  // whole warps: blockDim.x is a multiple of 32
+  if (b >= end) return;  // whole warps: blockDim.x is a multiple of 32
   const std::uint8_t* voxel = voxels + static_cast<std::size_t>(column) * p.dim_d;
   int best = 0;
   int best_d = 0;
@@ -140,26 +142,111 @@ __global__ void la_mip_en_face_kernel(RenderParams p, const std::uint8_t* voxels
   }
 }
 
+// The projections are kept between renders and made again only where they changed: the rows
+// (B-scans) whose voxels or RPE changed since they were made (`row_dirty`, from
+// la_mip_dirty_rows_kernel). A group changes a few of 128 B-scans, so a render with a new group
+// redoes a fraction of the work, with the same result as making them whole (maxima are exact).
+//
+// Which rows changed (kRowChanged): those of [first, end) (their voxels, known on the host),
+// every row when `all`, and those whose RPE differs from `made_with` (the reference the
+// projections were made with, which this kernel then brings up to date; these also get
+// kRpeChanged). A block per row, which also zeroes the row's LA-MIP along the A-scans when it
+// changed (la_mip_along_kernel adds its parts into it).
+constexpr std::uint8_t kRowChanged = 1;
+constexpr std::uint8_t kRpeChanged = 2;
+__global__ void la_mip_dirty_rows_kernel(RenderParams p, float* made_with, int first, int end,
+                                         bool all, std::uint8_t* row_dirty, float* buffer) {
+  const int b = blockIdx.x;
+  __shared__ int rpe_changed;
+  if (threadIdx.x == 0) rpe_changed = all ? 1 : 0;
+  __syncthreads();
+  const std::size_t row = static_cast<std::size_t>(b) * p.dim_a;
+  for (int a = threadIdx.x; a < p.dim_a; a += blockDim.x) {
+    const float now = p.reference_px[row + a];
+    if (__float_as_int(now) != __float_as_int(made_with[row + a])) {
+      rpe_changed = 1;  // every writer writes 1
+      made_with[row + a] = now;
+    }
+  }
+  __syncthreads();
+  const bool changed = rpe_changed != 0 || (b >= first && b < end);
+  if (changed) {
+    const LaMipBuffer l = la_mip_buffer(p);
+    for (int z = threadIdx.x; z < p.dim_d; z += blockDim.x) {
+      buffer[la_mip_texel(l, LaMipAxis::along_ascans, b, z)] = 0.0f;
+    }
+  }
+  if (threadIdx.x != 0) return;
+  row_dirty[b] =
+      static_cast<std::uint8_t>((changed ? kRowChanged : 0) | (rpe_changed != 0 ? kRpeChanged : 0));
+}
+
 // The two LA-MIPs: neighbouring threads take neighbouring panel depths z of one lateral position,
-// so they read neighbouring voxels of the same columns; grid z splits each curve into parts of
-// kLaMipPart samples, combined by atomicMax on the float's bits (order-preserving for the
-// non-negative maxima, the buffer zeroed first).
+// so they read neighbouring voxels of the same columns.
+//
+// Along the A-scans (a curve within one B-scan, its middle's RPE in the same row): only rows that
+// changed; grid z splits each curve into parts of kLaMipPart samples, combined by atomicMax on the
+// float's bits (order-preserving for the non-negative maxima) into texels zeroed first (by
+// la_mip_dirty_rows_kernel).
 constexpr int kLaMipPart = 32;
 
 __device__ void max_into(float* target, float value) {
   atomicMax(reinterpret_cast<int*>(target), __float_as_int(value));
 }
 
-// grid: x panel depths, y lateral positions, z parts of the curves.
-__global__ void la_mip_curve_kernel(RenderParams p, ColumnSampler sampler, LaMipAxis axis,
-                                    float* buffer) {
+// grid: x panel depths, y B-scans, z parts of the curves.
+__global__ void la_mip_along_kernel(RenderParams p, ColumnSampler sampler,
+                                    const std::uint8_t* row_dirty, float* buffer) {
   const int z = blockIdx.x * blockDim.x + threadIdx.x;
-  const int at = blockIdx.y;
+  const int b = blockIdx.y;
   const int k0 = blockIdx.z * kLaMipPart;
+  if (z >= p.dim_d || row_dirty[b] == 0) return;
+  const int k1 = min(k0 + kLaMipPart, p.dim_a);
+  const float best = la_mip_curve_max(p, sampler, LaMipAxis::along_ascans, b, z, k0, k1);
+  max_into(buffer + la_mip_texel(la_mip_buffer(p), LaMipAxis::along_ascans, b, z), best);
+}
+
+// Across the B-scans (a curve through every B-scan at one A-scan): the maximum over each part of
+// kLaMipAcrossPart B-scans is kept ([part][z][a]) and made again only when a row of the part
+// changed, or every part when the RPE of a row the curves' middle reads changed (it sets their
+// depth); then each texel is the maximum of its parts.
+constexpr int kLaMipAcrossPart = 16;
+
+IOCT_HD int la_mip_across_part_count(const RenderParams& p) {
+  return (p.dim_b + kLaMipAcrossPart - 1) / kLaMipAcrossPart;
+}
+
+// grid: x panel depths, y A-scans, z parts.
+__global__ void la_mip_across_part_kernel(RenderParams p, ColumnSampler sampler,
+                                          const std::uint8_t* row_dirty, float* parts) {
+  const int z = blockIdx.x * blockDim.x + threadIdx.x;
+  const int a = blockIdx.y;
+  const int part = blockIdx.z;
   if (z >= p.dim_d) return;
-  const int k1 = min(k0 + kLaMipPart, la_mip_curve_length(p, axis));
-  const float best = la_mip_curve_max(p, sampler, axis, at, z, k0, k1);
-  max_into(buffer + la_mip_texel(la_mip_buffer(p), axis, at, z), best);
+  const int k0 = part * kLaMipAcrossPart;
+  const int k1 = min(k0 + kLaMipAcrossPart, p.dim_b);
+  // The middle's RPE: reference_at(a, (dim_b - 1) / 2) reads these two rows.
+  const float middle = 0.5f * static_cast<float>(p.dim_b - 1);
+  const int m0 = static_cast<int>(floorf(middle));
+  const int m1 = m0 + 1 < p.dim_b ? m0 + 1 : m0;
+  bool dirty = ((row_dirty[m0] | row_dirty[m1]) & kRpeChanged) != 0;
+  for (int k = k0; k < k1 && !dirty; ++k) dirty = row_dirty[k] != 0;
+  if (!dirty) return;
+  parts[(static_cast<std::size_t>(part) * p.dim_d + z) * p.dim_a + a] =
+      la_mip_curve_max(p, sampler, LaMipAxis::across_bscans, a, z, k0, k1);
+}
+
+// grid: x A-scans, y panel depths.
+__global__ void la_mip_across_join_kernel(RenderParams p, const float* parts, float* buffer) {
+  const int a = blockIdx.x * blockDim.x + threadIdx.x;
+  const int z = blockIdx.y;
+  if (a >= p.dim_a) return;
+  const std::size_t plane = static_cast<std::size_t>(p.dim_d) * p.dim_a;
+  const float* texel = parts + static_cast<std::size_t>(z) * p.dim_a + a;
+  float best = 0.0f;
+  for (int part = 0; part < la_mip_across_part_count(p); ++part)
+    best = fmaxf(best, texel[part * plane]);
+  buffer[la_mip_texel(la_mip_buffer(p), LaMipAxis::across_bscans, a, z)] = best;
 }
 
 __global__ void la_mip_composite_kernel(RenderParams p, const float* buffer, uchar4* out) {
@@ -278,8 +365,16 @@ struct CudaRenderer::State {
   cuda::DeviceArray<uchar4> image;
   std::uint32_t width = 0, height = 0;
   // The LA-MIP projections of the current volume and RPE; stale after every upload.
+  // The LA-MIP composite's projections (la_mip.hpp's buffer), kept between renders: made again
+  // only for the B-scans whose voxels changed since (the host knows which: [first, end)) or whose
+  // RPE changed (found on the device against the reference they were made with).
   cuda::DeviceArray<float> la_mip;
-  bool la_mip_valid = false;
+  cuda::DeviceArray<float> la_mip_parts;      // [part][z][a], see la_mip_across_part_kernel
+  cuda::DeviceArray<float> la_mip_made_with;  // the RPE the projections were made with
+  cuda::DeviceArray<std::uint8_t> la_mip_row_dirty;
+  bool la_mip_whole = true;                        // none made yet for this volume: make them whole
+  bool la_mip_layers_new = false;                  // the layer reference was made again since
+  std::uint32_t la_mip_first = 0, la_mip_end = 0;  // B-scans whose voxels changed since
   bool owns_stream = true;
   cuda::Event volume_ready;  // a device volume's stream, when it is not ours
 
@@ -318,6 +413,7 @@ struct CudaRenderer::State {
     IOCT_CUDA_CHECK(
         cudaMemsetAsync(sums.data(), 0, sums.size() * sizeof(unsigned long long), stream));
     layers.resize(d.bscans, d.ascans);
+    la_mip_whole = true;
     has_volume = true;
   }
 
@@ -356,7 +452,8 @@ struct CudaRenderer::State {
     copy.extent = make_cudaExtent(dims.depth, dims.ascans, count);
     copy.kind = cudaMemcpyDeviceToDevice;
     IOCT_CUDA_CHECK(cudaMemcpy3DAsync(&copy, stream));
-    la_mip_valid = false;
+    la_mip_first = la_mip_first < la_mip_end ? std::min(la_mip_first, first) : first;
+    la_mip_end = std::max(la_mip_end, first + count);
     // Bricks whose voxels or apron reach into the changed B-scans, from the columns they read.
     const int by0 = std::max(0, (static_cast<int>(first) - kBrickApron) / kBrick);
     const int by1 =
@@ -409,6 +506,52 @@ struct CudaRenderer::State {
       rpe = uploaded_rpe.data();
     }
     layers.make(sums.data(), dims.depth, ilm, rpe, stream);
+    la_mip_layers_new = true;
+  }
+
+  // Brings the LA-MIP projections up to date with the volume and the layer reference (`p`: the
+  // render's parameters, reference_px the RPE).
+  void update_la_mip(const RenderParams& p) {
+    const bool changed = la_mip_whole || la_mip_layers_new || la_mip_first < la_mip_end;
+    if (!changed) return;
+    const LaMipBuffer l = la_mip_buffer(p);
+    if (la_mip_whole) {
+      la_mip.resize(l.size());
+      la_mip_parts.resize(std::size_t(la_mip_across_part_count(p)) * l.d * l.a);
+      la_mip_made_with.resize(l.a * l.b);
+      la_mip_row_dirty.resize(l.b);
+      la_mip_first = 0;
+      la_mip_end = dims.bscans;
+    }
+    la_mip_dirty_rows_kernel<<<static_cast<unsigned>(l.b), 128, 0, stream>>>(
+        p, la_mip_made_with.data(), static_cast<int>(la_mip_first), static_cast<int>(la_mip_end),
+        la_mip_whole, la_mip_row_dirty.data(), la_mip.data());
+    IOCT_CUDA_CHECK(cudaGetLastError());
+    if (la_mip_first < la_mip_end) {
+      const std::size_t columns = std::size_t{la_mip_end - la_mip_first} * l.a;
+      la_mip_en_face_kernel<<<static_cast<unsigned>((columns * 32 + 255) / 256), 256, 0, stream>>>(
+          p, linear.data(), static_cast<int>(la_mip_first), static_cast<int>(la_mip_end),
+          la_mip.data());
+      IOCT_CUDA_CHECK(cudaGetLastError());
+    }
+    const int threads = 128;
+    const unsigned z_blocks = static_cast<unsigned>((p.dim_d + threads - 1) / threads);
+    const ColumnSampler sampler{linear.data(), static_cast<int>(dims.ascans),
+                                static_cast<int>(dims.depth)};
+    la_mip_along_kernel<<<dim3(z_blocks, static_cast<unsigned>(p.dim_b),
+                               static_cast<unsigned>((p.dim_a + kLaMipPart - 1) / kLaMipPart)),
+                          threads, 0, stream>>>(p, sampler, la_mip_row_dirty.data(), la_mip.data());
+    la_mip_across_part_kernel<<<dim3(z_blocks, static_cast<unsigned>(p.dim_a),
+                                     static_cast<unsigned>(la_mip_across_part_count(p))),
+                                threads, 0, stream>>>(p, sampler, la_mip_row_dirty.data(),
+                                                      la_mip_parts.data());
+    la_mip_across_join_kernel<<<dim3(static_cast<unsigned>((p.dim_a + 127) / 128),
+                                     static_cast<unsigned>(p.dim_d)),
+                                128, 0, stream>>>(p, la_mip_parts.data(), la_mip.data());
+    IOCT_CUDA_CHECK(cudaGetLastError());
+    la_mip_whole = false;
+    la_mip_layers_new = false;
+    la_mip_first = la_mip_end = 0;
   }
 
   void prepare_tables(const RenderConfig& config) {
@@ -565,28 +708,7 @@ void CudaRenderer::render_on_device(const RenderConfig& config) {
     volume_kernel<<<grid, block, 0, s.stream>>>(p, sampler, skipper, skipper.level > 0.0f,
                                                 s.image.data());
   } else if (config.mode == RenderMode::la_mip_composite) {
-    if (!s.la_mip_valid) {
-      const ColumnSampler column_sampler{s.linear.data(), static_cast<int>(s.dims.ascans),
-                                         static_cast<int>(s.dims.depth)};
-      s.la_mip.resize(la_mip_buffer(p).size());
-      const int threads = 128;
-      const std::size_t columns = std::size_t(p.dim_a) * p.dim_b;
-      la_mip_en_face_kernel<<<static_cast<unsigned>((columns * 32 + 255) / 256), 256, 0,
-                              s.stream>>>(p, s.linear.data(), s.la_mip.data());
-      const LaMipBuffer l = la_mip_buffer(p);
-      IOCT_CUDA_CHECK(cudaMemsetAsync(s.la_mip.data() + l.across_bscans(), 0,
-                                      (l.size() - l.across_bscans()) * sizeof(float), s.stream));
-      const unsigned z_blocks = static_cast<unsigned>((p.dim_d + threads - 1) / threads);
-      for (const LaMipAxis axis : {LaMipAxis::across_bscans, LaMipAxis::along_ascans}) {
-        const int length = la_mip_curve_length(p, axis);
-        const dim3 grid_curves(z_blocks, static_cast<unsigned>(la_mip_positions(p, axis)),
-                               static_cast<unsigned>((length + kLaMipPart - 1) / kLaMipPart));
-        la_mip_curve_kernel<<<grid_curves, threads, 0, s.stream>>>(p, column_sampler, axis,
-                                                                   s.la_mip.data());
-      }
-      IOCT_CUDA_CHECK(cudaGetLastError());
-      s.la_mip_valid = true;
-    }
+    s.update_la_mip(p);
     la_mip_composite_kernel<<<grid, block, 0, s.stream>>>(p, s.la_mip.data(), s.image.data());
   } else {
     plane_kernel<<<grid, block, 0, s.stream>>>(p, sampler, s.image.data());

@@ -66,7 +66,7 @@ Stats frame_times(CudaRenderer& renderer, RenderConfig config, int frames,
   for (const double t : ms) s.mean_ms += t;
   s.mean_ms /= static_cast<double>(ms.size());
   std::sort(ms.begin(), ms.end());
-  s.p99_ms = ms[static_cast<std::size_t>(0.99 * (ms.size() - 1))];
+  s.p99_ms = ms[static_cast<std::size_t>(0.99 * static_cast<double>(ms.size() - 1))];
   s.max_ms = ms.back();
   return s;
 }
@@ -93,7 +93,7 @@ double device_copy_gb_per_s(std::size_t bytes) {
   cudaFree(a);
   cudaFree(b);
   // A copy reads and writes every byte.
-  return 2.0 * bytes * reps / (ms * 1e-3) / 1e9;
+  return 2.0 * static_cast<double>(bytes) * reps / (ms * 1e-3) / 1e9;
 }
 
 }  // namespace
