@@ -155,15 +155,38 @@ struct TransferOpacity {
 // Shadow factor s(p) (Weiss Eq. 3): transmittance over N_s steps towards the light, from the
 // first step beyond the sample; stops at the volume's edge or once it is below 1/1000. (Skipping
 // empty bricks here was measured slower: shadow rays start in tissue and rarely meet one.)
+//
+// The samples are fetched kShadowBatch at a time, then taken in order: the same products in the
+// same order, so the same result, but the fetches of a batch are in flight together instead of
+// each waiting for the test of the one before (on the GPU a shadow ray was a chain of texture
+// latencies). Samples past the end are fetched and not used. H100, 1024^2 frames: N_s = 200
+// 2.89 ms one by one, 2.02 in batches of 4, 1.99 of 8, 2.14 of 16; N_s = 20 0.59, 0.49, 0.52,
+// 0.65 ms.
+inline constexpr int kShadowBatch = 8;
 template <class Sampler, class Opacity>
 IOCT_HD float shadow_factor(const RenderParams& p, const EyeParams& e, const Sampler& s, Vec3 v,
                             const Opacity& opacity) {
   float transmittance = 1.0f;
-  for (int i = 1; i <= p.shadow_steps; ++i) {
-    const Vec3 q = v + (static_cast<float>(i) * e.step) * e.light_voxel;
-    if (!inside_box(p, q)) break;
-    transmittance *= 1.0f - opacity(s(q.x, q.y, q.z));
-    if (transmittance < 1e-3f) break;
+  for (int first = 1; first <= p.shadow_steps; first += kShadowBatch) {
+    float sample[kShadowBatch];
+    bool inside[kShadowBatch];
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+    for (int j = 0; j < kShadowBatch; ++j) {
+      const int i = first + j;
+      const Vec3 q = v + (static_cast<float>(i) * e.step) * e.light_voxel;
+      inside[j] = i <= p.shadow_steps && inside_box(p, q);
+      sample[j] = inside[j] ? s(q.x, q.y, q.z) : 0.0f;
+    }
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+    for (int j = 0; j < kShadowBatch; ++j) {
+      if (!inside[j]) return transmittance;
+      transmittance *= 1.0f - opacity(sample[j]);
+      if (transmittance < 1e-3f) return transmittance;
+    }
   }
   return transmittance;
 }
