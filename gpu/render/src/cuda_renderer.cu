@@ -1,5 +1,8 @@
 #include <cuda_runtime.h>
 
+#include <cub/warp/warp_reduce.cuh>
+#include <cuda/functional>
+
 #include <algorithm>
 #include <cstring>
 #include <stdexcept>
@@ -109,6 +112,7 @@ __global__ void plane_kernel(RenderParams p, TextureSampler sampler, uchar4* out
 // maximum is taken on the bytes), then a warp reduction that keeps the brightest and, among
 // equals, the shallowest: la_mip_en_face_texel()'s result.
 // Only B-scans [first, end), whose voxels changed.
+constexpr int kEnFaceThreads = 256;
 __global__ void la_mip_en_face_kernel(RenderParams p, const std::uint8_t* voxels, int first,
                                       int end, float* buffer) {
   const int column = first * p.dim_a + (blockIdx.x * blockDim.x + threadIdx.x) / 32;
@@ -126,19 +130,19 @@ __global__ void la_mip_en_face_kernel(RenderParams p, const std::uint8_t* voxels
       best_d = d;
     }
   }
-  for (int offset = 16; offset > 0; offset /= 2) {
-    const int other = __shfl_down_sync(0xffffffffu, best, offset);
-    const int other_d = __shfl_down_sync(0xffffffffu, best_d, offset);
-    if (other > best || (other == best && other_d < best_d)) {
-      best = other;
-      best_d = other_d;
-    }
-  }
+  // The brightest, and among equals the shallowest: the largest of (value, -depth) as one key.
+  using WarpMax = cub::WarpReduce<unsigned long long>;
+  __shared__ typename WarpMax::TempStorage storage[kEnFaceThreads / 32];
+  const unsigned long long key = WarpMax(storage[threadIdx.x / 32])
+                                     .Reduce((static_cast<unsigned long long>(best) << 32) |
+                                                 (0xffffffffu - static_cast<unsigned>(best_d)),
+                                             ::cuda::maximum<>{});
   if (lane == 0) {
     const LaMipBuffer l = la_mip_buffer(p);
     const std::size_t i = static_cast<std::size_t>(b) * l.a + static_cast<std::size_t>(a);
-    buffer[l.en_face_max() + i] = static_cast<float>(best) * (1.0f / 255.0f);
-    buffer[l.en_face_depth() + i] = static_cast<float>(best_d);
+    buffer[l.en_face_max() + i] = static_cast<float>(key >> 32) * (1.0f / 255.0f);
+    buffer[l.en_face_depth() + i] =
+        static_cast<float>(0xffffffffu - static_cast<unsigned>(key & 0xffffffffu));
   }
 }
 
@@ -303,7 +307,7 @@ __global__ void brick_kernel(const std::uint8_t* column_maxima, int ascans, int 
 
 // Integer centre-of-mass sums per B-scan (exactly those of centre_of_mass_sums()). One warp per
 // A-scan, its lanes reading the column's consecutive 4-byte words (coalesced; byte by byte where
-// the depth is not a multiple of 4), reduced by shuffles.
+// the depth is not a multiple of 4), reduced by a warp reduction.
 constexpr int kCentreOfMassWarps = 8;
 __device__ inline void add_to_centre_of_mass(unsigned v, int d, unsigned long long& weighted,
                                              unsigned long long& weight) {
@@ -329,10 +333,12 @@ __global__ void centre_of_mass_kernel(const std::uint8_t* volume, int ascans, in
   } else {
     for (int d = lane; d < depth; d += 32) add_to_centre_of_mass(column[d], d, weighted, weight);
   }
-  for (int offset = 16; offset > 0; offset /= 2) {
-    weighted += __shfl_down_sync(0xffffffffu, weighted, offset);
-    weight += __shfl_down_sync(0xffffffffu, weight, offset);
-  }
+  using WarpSum = cub::WarpReduce<unsigned long long>;
+  __shared__ typename WarpSum::TempStorage storage[kCentreOfMassWarps];
+  WarpSum sum(storage[threadIdx.x / 32]);
+  weighted = sum.Sum(weighted);
+  __syncwarp();  // the temporary storage is used again
+  weight = sum.Sum(weight);
   if (lane != 0) return;
   atomicAdd(&sums[2 * b], weighted);
   atomicAdd(&sums[2 * b + 1], weight);
@@ -529,7 +535,9 @@ struct CudaRenderer::State {
     IOCT_CUDA_CHECK(cudaGetLastError());
     if (la_mip_first < la_mip_end) {
       const std::size_t columns = std::size_t{la_mip_end - la_mip_first} * l.a;
-      la_mip_en_face_kernel<<<static_cast<unsigned>((columns * 32 + 255) / 256), 256, 0, stream>>>(
+      la_mip_en_face_kernel<<<static_cast<unsigned>((columns * 32 + kEnFaceThreads - 1) /
+                                                    kEnFaceThreads),
+                              kEnFaceThreads, 0, stream>>>(
           p, linear.data(), static_cast<int>(la_mip_first), static_cast<int>(la_mip_end),
           la_mip.data());
       IOCT_CUDA_CHECK(cudaGetLastError());

@@ -1,4 +1,6 @@
 #include <algorithm>
+#include <cub/warp/warp_reduce.cuh>
+#include <cuda/functional>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -342,10 +344,9 @@ __global__ void __launch_bounds__(1024) path_kernel(PathJob job) {
     key = (static_cast<unsigned long long>(static_cast<std::uint32_t>(total) ^ 0x80000000u) << 32) |
           static_cast<unsigned long long>(s);
   }
-  for (int offset = 16; offset > 0; offset /= 2) {
-    const unsigned long long other = __shfl_down_sync(0xffffffffu, key, offset);
-    key = other < key ? other : key;
-  }
+  using WarpMin = cub::WarpReduce<unsigned long long>;
+  __shared__ typename WarpMin::TempStorage warp_storage[1024 / 32];  // up to 1024 threads
+  key = WarpMin(warp_storage[threadIdx.x / 32]).Reduce(key, ::cuda::minimum<>{});
   const int warp = threadIdx.x / 32;
   const int warps = blockDim.x / 32;
   if (threadIdx.x % 32 == 0) keys[warp] = key;
