@@ -80,7 +80,11 @@ class LiveViewPage : public ::testing::Test {
     }
   }
 
-  virtual ApplianceOptions appliance_options() const { return ApplianceOptions{.tag = "page"}; }
+  virtual ApplianceOptions appliance_options() const {
+    ApplianceOptions options;
+    options.tag = "page";
+    return options;
+  }
 
   void open(const std::string& url) { page_ = browser_->open_page(url, 20s); }
 
@@ -328,7 +332,8 @@ TEST_F(LiveViewPage, AViewerWhoDragsThePictureOrbitsItsOwnViewAndCanFollowAgain)
 class LiveViewPageWithForceps : public LiveViewPage {
  protected:
   ApplianceOptions appliance_options() const override {
-    ApplianceOptions options{.tag = "tip"};
+    ApplianceOptions options;
+    options.tag = "tip";
     options.instruments = {"forceps:x=0.1,y=0,depth=0.3,yaw=180,pitch=20"};
     return options;
   }

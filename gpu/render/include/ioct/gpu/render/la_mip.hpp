@@ -66,8 +66,8 @@ IOCT_HD float la_mip_curve_max(const RenderParams& p, const Sampler& s, LaMipAxi
                                int z, int k0, int k1) {
   const bool across = axis == LaMipAxis::across_bscans;
   const float fat = static_cast<float>(at);
-  const float middle = across ? reference_at(p, fat, 0.5f * (p.dim_b - 1))
-                              : reference_at(p, 0.5f * (p.dim_a - 1), fat);
+  const float middle = across ? reference_at(p, fat, 0.5f * static_cast<float>(p.dim_b - 1))
+                              : reference_at(p, 0.5f * static_cast<float>(p.dim_a - 1), fat);
   const float offset = static_cast<float>(z) - middle;
   float best = 0.0f;
   for (int k = k0; k < k1; ++k) {
@@ -101,30 +101,30 @@ IOCT_HD Rgba la_mip_composite_pixel(const RenderParams& p, const float* buffer, 
   const LaMipBuffer layout = la_mip_buffer(p);
   const int px = x - l.x0;
   const int py = y - l.y0;
-  const float a_scale = static_cast<float>(p.dim_a) / l.en_face_w;
-  const float b_scale = static_cast<float>(p.dim_b) / l.en_face_h;
-  const float d_scale = static_cast<float>(p.dim_d) / l.depth_extent;
+  const float a_scale = static_cast<float>(p.dim_a) / static_cast<float>(l.en_face_w);
+  const float b_scale = static_cast<float>(p.dim_b) / static_cast<float>(l.en_face_h);
+  const float d_scale = static_cast<float>(p.dim_d) / static_cast<float>(l.depth_extent);
   float best = 0.0f;
   float ds = 0.0f;
   if (px >= 0 && py >= 0 && px < l.en_face_w && py < l.en_face_h) {
-    const float a = (px + 0.5f) * a_scale - 0.5f;
-    const float b = (py + 0.5f) * b_scale - 0.5f;
+    const float a = (static_cast<float>(px) + 0.5f) * a_scale - 0.5f;
+    const float b = (static_cast<float>(py) + 0.5f) * b_scale - 0.5f;
     best = bilinear(buffer + layout.en_face_max(), p.dim_a, p.dim_b, a, b);
     const float depth = bilinear(buffer + layout.en_face_depth(), p.dim_a, p.dim_b, a, b);
     ds = delta_star(depth, reference_at(p, a, b), d_rpe(p));
   } else if (px >= 0 && px < l.en_face_w && py >= l.en_face_h &&
              py < l.en_face_h + l.depth_extent) {
-    const float a = (px + 0.5f) * a_scale - 0.5f;
-    const float z = (py - l.en_face_h + 0.5f) * d_scale - 0.5f;
+    const float a = (static_cast<float>(px) + 0.5f) * a_scale - 0.5f;
+    const float z = (static_cast<float>(py - l.en_face_h) + 0.5f) * d_scale - 0.5f;
     best = bilinear(buffer + layout.across_bscans(), p.dim_a, p.dim_d, a, z);
-    const float offset = z - reference_at(p, a, 0.5f * (p.dim_b - 1));
+    const float offset = z - reference_at(p, a, 0.5f * static_cast<float>(p.dim_b - 1));
     ds = clamp01((offset / d_rpe(p) + 1.0f) / 3.0f);
   } else if (py >= 0 && py < l.en_face_h && px >= l.en_face_w &&
              px < l.en_face_w + l.depth_extent) {
-    const float b = (py + 0.5f) * b_scale - 0.5f;
-    const float z = (px - l.en_face_w + 0.5f) * d_scale - 0.5f;
+    const float b = (static_cast<float>(py) + 0.5f) * b_scale - 0.5f;
+    const float z = (static_cast<float>(px - l.en_face_w) + 0.5f) * d_scale - 0.5f;
     best = bilinear(buffer + layout.along_ascans(), p.dim_b, p.dim_d, b, z);
-    const float offset = z - reference_at(p, 0.5f * (p.dim_a - 1), b);
+    const float offset = z - reference_at(p, 0.5f * static_cast<float>(p.dim_a - 1), b);
     ds = clamp01((offset / d_rpe(p) + 1.0f) / 3.0f);
   } else {
     return {p.background[0], p.background[1], p.background[2], 0.0f};

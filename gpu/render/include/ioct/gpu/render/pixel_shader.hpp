@@ -197,9 +197,11 @@ IOCT_HD Rgba render_ray(const RenderParams& p, const Sampler& s, const Skipper& 
                         int eye_index) {
   const EyeParams& e = p.eye[eye_index];
   const float sx =
-      ((static_cast<float>(x) + 0.5f) / p.width * 2.0f - 1.0f) * p.half_width + p.pan_x;
-  const float sy =
-      (1.0f - (static_cast<float>(y) + 0.5f) / p.height * 2.0f) * p.half_height + p.pan_y;
+      ((static_cast<float>(x) + 0.5f) / static_cast<float>(p.width) * 2.0f - 1.0f) * p.half_width +
+      p.pan_x;
+  const float sy = (1.0f - (static_cast<float>(y) + 0.5f) / static_cast<float>(p.height) * 2.0f) *
+                       p.half_height +
+                   p.pan_y;
   const Vec3 o = e.origin + sx * e.right + sy * e.up;
   Rgba acc{0, 0, 0, 0};
   float t_near, t_far;
@@ -283,7 +285,7 @@ IOCT_HD Rgba render_ray(const RenderParams& p, const Sampler& s, const Skipper& 
 // Intensity at a depth, zero outside the volume's depth range (LA-MIP curves leave it).
 template <class Sampler>
 IOCT_HD float sample_or_zero(const RenderParams& p, const Sampler& s, float a, float b, float d) {
-  if (d < -0.5f || d > p.dim_d - 0.5f) return 0.0f;
+  if (d < -0.5f || d > static_cast<float>(p.dim_d) - 0.5f) return 0.0f;
   return s(a, b, d);
 }
 
@@ -295,10 +297,16 @@ IOCT_HD Rgba render_plane(const RenderParams& p, const Sampler& s, int x, int y)
   const float w = (static_cast<float>(y) + 0.5f - p.plane_y0) * p.plane_scale_y - 0.5f;
   float i = 0;
   if (p.kind == PixelKind::bscan_slice) {
-    if (u < -0.5f || u > p.dim_a - 0.5f || w < -0.5f || w > p.dim_d - 0.5f) return out;
+    if (u < -0.5f || u > static_cast<float>(p.dim_a) - 0.5f || w < -0.5f ||
+        w > static_cast<float>(p.dim_d) - 0.5f) {
+      return out;
+    }
     i = s(u, p.slice_bscan, w);
   } else {
-    if (u < -0.5f || u > p.dim_a - 0.5f || w < -0.5f || w > p.dim_b - 0.5f) return out;
+    if (u < -0.5f || u > static_cast<float>(p.dim_a) - 0.5f || w < -0.5f ||
+        w > static_cast<float>(p.dim_b) - 0.5f) {
+      return out;
+    }
     const float d = p.slice_relative_to_rpe ? reference_at(p, u, w) + p.slice_depth : p.slice_depth;
     i = sample_or_zero(p, s, u, w, d);
   }
