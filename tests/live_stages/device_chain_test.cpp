@@ -247,9 +247,10 @@ TEST_F(DeviceChainTest, DeviceVolumeGivesTheCpuReferenceResultsWithoutCopyingThe
             smallest_group)
       << "to host " << cuda.traffic.other_to_host << " B, to device "
       << cuda.traffic.other_to_device << " B in " << cuda.passes << " passes";
-  std::printf("bus per pass: %.1f kB to host, %.1f kB to device (no volume bytes)\n",
-              cuda.traffic.other_to_host / 1e3 / cuda.passes,
-              cuda.traffic.other_to_device / 1e3 / cuda.passes);
+  std::printf(
+      "bus per pass: %.1f kB to host, %.1f kB to device (no volume bytes)\n",
+      static_cast<double>(cuda.traffic.other_to_host) / 1e3 / static_cast<double>(cuda.passes),
+      static_cast<double>(cuda.traffic.other_to_device) / 1e3 / static_cast<double>(cuda.passes));
 #endif
 }
 

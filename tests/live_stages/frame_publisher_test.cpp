@@ -1,7 +1,7 @@
 // The frame publisher encodes on a thread of its own: every frame handed over is written or
-// replaced by a newer one, the newest is always written (also when it is handed over just before
-// close), with the B-scan current at that time; a frame the ring refuses is counted, never thrown
-// at the stages.
+// replaced by a newer one of its view, each view's newest is always written (also when it is
+// handed over just before close), with the B-scan current at that time; a frame the ring refuses
+// or that cannot be encoded is counted, never thrown at the stages.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
@@ -11,6 +11,7 @@
 #include <random>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "ioct/gpu/live_stages/frame_publisher.hpp"
 #include "ioct/shm/frame_ring.hpp"
@@ -105,6 +106,71 @@ TEST(FramePublisher, AFrameTheRingRefusesIsCountedAndTheNextIsWritten) {
   ASSERT_TRUE(reader.read_next(frame));
   EXPECT_EQ(frame.meta.group_index, 2u);
   EXPECT_FALSE(reader.read_next(frame)) << "the refused frame left nothing in the ring";
+}
+
+// Views do not replace each other's frames: while the encoding thread is busy with one view's
+// frame, the others' wait each in a place of its own, and only a newer frame of the same view
+// replaces one; every view's newest frame is written, in the order they came.
+TEST(FramePublisher, EachViewsNewestFrameIsWritten) {
+  const shm::FrameRingConfig config = ring_config(8ull << 20);
+  FramePublisher publisher(config);
+  shm::FrameRingReader reader = shm::FrameRingReader::attach(config.name);
+  const auto hand_over = [&](std::uint64_t view, std::uint64_t group, std::uint32_t size) {
+    shm::FrameMeta meta{};
+    meta.view_id = view;
+    meta.group_index = group;
+    render::RgbaImage image = flat_image(size, size, static_cast<std::uint8_t>(group));
+    publisher.publish(meta, image);
+  };
+  hand_over(0, 1, 1024);  // a large frame keeps the encoding thread busy
+  hand_over(1, 2, 64);
+  hand_over(2, 3, 64);
+  hand_over(3, 4, 64);
+  hand_over(2, 5, 64);
+  publisher.close();
+  const FramePublisher::FrameCounts counts = publisher.frame_counts();
+  EXPECT_EQ(counts.errors, 0u) << counts.problem;
+  EXPECT_EQ(counts.written + counts.replaced, 5u);
+  std::vector<std::uint64_t> groups_of_view(4, 0);
+  shm::Frame frame;
+  while (reader.read_next(frame)) {
+    ASSERT_LT(frame.meta.view_id, 4u);
+    groups_of_view[frame.meta.view_id] = frame.meta.group_index;
+  }
+  EXPECT_EQ(groups_of_view, (std::vector<std::uint64_t>{1, 2, 5, 4}))
+      << "every view's newest frame";
+}
+
+// A frame whose encoding fails (here its B-scan's pixels do not fill its size) is counted and the
+// encoding thread goes on with the next.
+TEST(FramePublisher, AFrameThatCannotBeEncodedIsCountedAndTheNextIsWritten) {
+  const shm::FrameRingConfig config = ring_config(8ull << 20);
+  FramePublisher publisher(config);
+  shm::FrameRingReader reader = shm::FrameRingReader::attach(config.name);
+  segmentation::RgbImage broken = flat_bscan(64, 48);
+  broken.pixels.resize(10);
+  publisher.set_bscan(std::move(broken), 1, 16);
+  shm::FrameMeta meta{};
+  meta.group_index = 1;
+  render::RgbaImage image = flat_image(64, 48, 10);
+  publisher.publish(meta, image);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (publisher.frame_counts().errors == 0 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  publisher.set_bscan(flat_bscan(64, 48), 2, 16);
+  meta.group_index = 2;
+  image = flat_image(64, 48, 20);
+  publisher.publish(meta, image);
+  publisher.close();
+  const FramePublisher::FrameCounts counts = publisher.frame_counts();
+  EXPECT_EQ(counts.errors, 1u);
+  EXPECT_FALSE(counts.problem.empty());
+  EXPECT_EQ(counts.written, 1u);
+  shm::Frame frame;
+  ASSERT_TRUE(reader.read_next(frame));
+  EXPECT_EQ(frame.meta.group_index, 2u);
+  EXPECT_EQ(frame.meta.bscan_index, 2u);
 }
 
 }  // namespace

@@ -45,7 +45,9 @@ namespace ioct::gpu::live {
 
 class DeviceStageChain {
  public:
-  // Device time of each stage of a pass, ms, and when the frame was done (CLOCK_MONOTONIC).
+  // Device time of each stage of a pass, ms, and when the frame was done (CLOCK_MONOTONIC). The
+  // render's is from the segmentation's end: the renderer's volume update overlaps the
+  // segmentation and is not in it.
   struct PassTimes {
     double filter_ms = 0.0, segment_ms = 0.0, render_ms = 0.0;
     std::uint64_t filtered_ns = 0, segmented_ns = 0, rendered_ns = 0;

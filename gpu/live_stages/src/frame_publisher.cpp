@@ -1,5 +1,9 @@
 #include "ioct/gpu/live_stages/frame_publisher.hpp"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <chrono>
 #include <utility>
@@ -12,7 +16,7 @@ namespace {
 // Well inside the view's bound for a silent writer (1 s) and the 100 ms the contract asks for.
 constexpr auto kHeartbeatPeriod = std::chrono::milliseconds(50);
 
-// Bands a frame is encoded in, and the threads (the publishing one included) that encode them:
+// Bands a frame is encoded in, and the threads (the encoding one included) that encode them:
 // four bands of a 768-row render are 192 rows each; more threads than cores would only queue.
 constexpr unsigned kEncodeBands = 4;
 unsigned encode_threads() {
@@ -21,20 +25,26 @@ unsigned encode_threads() {
 
 }  // namespace
 
-FramePublisher::FramePublisher(const shm::FrameRingConfig& ring)
+FramePublisher::FramePublisher(const shm::FrameRingConfig& ring, int nice)
     : name_(ring.name),
       writer_(ring),
       encode_pool_(encode_threads()),
       render_encoder_(85, kEncodeBands, encode_pool_),
       bscan_encoder_(90, kEncodeBands, encode_pool_),
-      tip_bscans_encoder_(90, kEncodeBands, encode_pool_) {
+      tip_bscans_encoder_(90, kEncodeBands, encode_pool_),
+      nice_(nice) {
   status_.source_state = static_cast<std::uint64_t>(shm::SourceState::waiting);
   {
     std::lock_guard lock(mutex_);
     push_status_locked();
   }
-  heartbeat_ = std::thread([this] { beat(); });
   encoder_ = std::thread([this] { encode_frames(); });
+  try {
+    heartbeat_ = std::thread([this] { beat(); });
+  } catch (...) {
+    close();  // the encoding thread is joined: a joinable thread must not be destroyed
+    throw;
+  }
 }
 
 FramePublisher::~FramePublisher() {
@@ -111,7 +121,6 @@ void FramePublisher::note_render_time(std::uint64_t render_ns) {
 
 void FramePublisher::note_frame(std::uint64_t publish_ns) {
   std::lock_guard lock(mutex_);
-  ++status_.renders;
   status_.publish.record(publish_ns);
   push_status_locked();
 }
@@ -164,31 +173,61 @@ void FramePublisher::encode_bscans(std::optional<NewBscan> bscan,
 void FramePublisher::publish(shm::FrameMeta meta, render::RgbaImage& render) {
   {
     std::lock_guard lock(frame_mutex_);
-    if (frame_waiting_) {
-      std::lock_guard counts(mutex_);
-      ++frame_counts_.replaced;
+    auto slot = std::ranges::find(slots_, meta.view_id, &ViewSlot::view_id);
+    if (slot == slots_.end()) {
+      slots_.emplace_back().view_id = meta.view_id;
+      slot = slots_.end() - 1;
     }
-    waiting_meta_ = meta;
-    std::swap(waiting_, render);
-    frame_waiting_ = true;
+    if (slot->waiting) {
+      ++replaced_;  // its place in line is kept
+    } else {
+      slot->waiting = true;
+      slot->order = frames_came_++;
+    }
+    slot->meta = meta;
+    std::swap(slot->image, render);
   }
   frame_wake_.notify_one();
+  std::lock_guard lock(mutex_);
+  ++status_.renders;
+  push_status_locked();
+}
+
+FramePublisher::ViewSlot* FramePublisher::next_waiting_locked() {
+  ViewSlot* next = nullptr;
+  for (ViewSlot& slot : slots_) {
+    if (slot.waiting && (next == nullptr || slot.order < next->order)) next = &slot;
+  }
+  return next;
 }
 
 void FramePublisher::encode_frames() {
+  // The stages' priority (on Linux a thread's nice value is its own).
+  (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), nice_);
   std::unique_lock lock(frame_mutex_);
   for (;;) {
-    frame_wake_.wait(lock, [this] { return frame_waiting_ || frames_stopping_; });
-    if (!frame_waiting_) return;  // stopping, with nothing left to write
-    std::swap(waiting_, encoding_);
-    const shm::FrameMeta meta = waiting_meta_;
-    frame_waiting_ = false;
+    ViewSlot* slot = nullptr;
+    frame_wake_.wait(lock, [&] {
+      slot = next_waiting_locked();
+      return slot != nullptr || frames_stopping_;
+    });
+    if (slot == nullptr) return;  // stopping, with nothing left to write
+    std::swap(slot->image, encoding_);
+    const shm::FrameMeta meta = slot->meta;
+    slot->waiting = false;
     std::optional<NewBscan> bscan = std::exchange(new_bscan_, std::nullopt);
     std::optional<instruments::TipBscans> tip_bscans = std::exchange(new_tip_bscans_, std::nullopt);
     lock.unlock();
     const std::uint64_t started_ns = ioct::monotonic_ns();
-    encode_bscans(std::move(bscan), std::move(tip_bscans));
-    write_frame(meta, encoding_);
+    try {
+      encode_bscans(std::move(bscan), std::move(tip_bscans));
+      write_frame(meta, encoding_);
+    } catch (const std::exception& e) {
+      // A frame that cannot be encoded costs the viewers that frame, never the pipeline.
+      std::lock_guard counts(mutex_);
+      ++frame_counts_.errors;
+      frame_counts_.problem = e.what();
+    }
     note_frame(ioct::monotonic_ns() - started_ns);
     lock.lock();
   }
@@ -219,8 +258,15 @@ void FramePublisher::write_frame(shm::FrameMeta meta, const render::RgbaImage& r
 }
 
 FramePublisher::FrameCounts FramePublisher::frame_counts() const {
+  std::uint64_t replaced = 0;
+  {
+    std::lock_guard lock(frame_mutex_);
+    replaced = replaced_;
+  }
   std::lock_guard lock(mutex_);
-  return frame_counts_;
+  FrameCounts counts = frame_counts_;
+  counts.replaced = replaced;
+  return counts;
 }
 
 }  // namespace ioct::gpu::live

@@ -124,7 +124,7 @@ VolumeStages::VolumeStages(VolumeStagesConfig config)
     shm::FrameRingConfig ring;
     ring.name = config_.frame_ring;
     ring.group = config_.frame_group;
-    publisher_ = std::make_unique<FramePublisher>(ring);
+    publisher_ = std::make_unique<FramePublisher>(ring, config_.nice);
   }
   thread_ = std::thread([this] { work(); });
 }

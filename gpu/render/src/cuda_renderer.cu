@@ -370,7 +370,6 @@ struct CudaRenderer::State {
   bool table_colorize = true;
   cuda::DeviceArray<uchar4> image;
   std::uint32_t width = 0, height = 0;
-  // The LA-MIP projections of the current volume and RPE; stale after every upload.
   // The LA-MIP composite's projections (la_mip.hpp's buffer), kept between renders: made again
   // only for the B-scans whose voxels changed since (the host knows which: [first, end)) or whose
   // RPE changed (found on the device against the reference they were made with).

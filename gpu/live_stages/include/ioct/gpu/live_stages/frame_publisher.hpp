@@ -10,7 +10,8 @@
 //
 // Frames are encoded on a thread of the publisher's own: publish() hands the pixels over and
 // returns, so the stages never wait for JPEG (a group that arrives while a turning view's frame
-// is being encoded is not held up by it). One frame waits at most; a newer one replaces it.
+// is being encoded is not held up by it). One frame per view waits at most, a newer frame of the
+// same view replaces it, and the views' frames are encoded in the order they came.
 #pragma once
 
 #include <condition_variable>
@@ -35,8 +36,9 @@ namespace ioct::gpu::live {
 class FramePublisher {
  public:
   // Creates the frame ring (shm::RingError when another live writer holds the name) and starts
-  // the heartbeat.
-  explicit FramePublisher(const shm::FrameRingConfig& ring);
+  // the heartbeat and the encoding thread, the latter at `nice` (the stages' own, 0-19: encoding
+  // is the stages' work, below the processing).
+  explicit FramePublisher(const shm::FrameRingConfig& ring, int nice = 0);
   ~FramePublisher();  // close()
   FramePublisher(const FramePublisher&) = delete;
   FramePublisher& operator=(const FramePublisher&) = delete;
@@ -52,14 +54,15 @@ class FramePublisher {
   // Hands `render` to the encoding thread, which encodes it and publishes it with the B-scan
   // current then, and returns at once (publishing thread). Takes the pixels: `render` is left
   // with another buffer, of no particular content. `meta` gives the view, generation, group
-  // stamp, times and mode; the sizes are filled in there.
+  // stamp, times and mode; the sizes are filled in there. Counts a render.
   void publish(shm::FrameMeta meta, render::RgbaImage& render);
 
-  // What became of the frames handed over: written into the ring, replaced by a newer one before
-  // their turn, or refused by the ring (too large: not fatal, the viewers miss that frame).
+  // What became of the frames handed over: written into the ring, replaced by a newer frame of
+  // the same view before their turn, or not written (refused by the ring as too large, or their
+  // encoding failed: not fatal, the viewers miss that frame).
   struct FrameCounts {
     std::uint64_t written = 0, replaced = 0, errors = 0;
-    std::string problem;  // the last refusal
+    std::string problem;  // the last failure
   };
   FrameCounts frame_counts() const;
 
@@ -72,7 +75,8 @@ class FramePublisher {
                  std::uint64_t render_ns, std::uint64_t published_to_rendered_ns);
   // A render between passes (interaction, rotation, private views).
   void note_render_time(std::uint64_t render_ns);
-  // A frame published: its encoding and copy into the ring took `publish_ns`.
+  // A frame written: its encoding (with the B-scans that changed) and copy into the ring took
+  // `publish_ns` on the encoding thread.
   void note_frame(std::uint64_t publish_ns);
   // Device memory in use and in all (the CUDA backend; never called on the CPU backend).
   void note_device_memory(std::uint64_t used_bytes, std::uint64_t total_bytes);
@@ -109,20 +113,32 @@ class FramePublisher {
   std::vector<std::byte> tip_bscans_jpeg_;
   std::uint32_t tip_bscan_width_ = 0, tip_bscan_height_ = 0;
 
-  // What waits for the encoding thread (under frame_mutex_): the newest frame, and a new B-scan or
-  // tip pair to encode before it.
+  // What waits for the encoding thread (under frame_mutex_): each view's newest frame, in a slot
+  // of its own that keeps its buffer (the pixels go round between the stages' image, the slot and
+  // the one being encoded, with no allocation), and a new B-scan or tip pair to encode before the
+  // next frame.
+  struct ViewSlot {
+    std::uint64_t view_id = 0;
+    bool waiting = false;
+    std::uint64_t order = 0;  // when its frame came, for first come, first encoded
+    shm::FrameMeta meta{};
+    render::RgbaImage image;
+  };
   struct NewBscan {
     segmentation::RgbImage image;
     std::uint32_t index = 0, bscans = 0;
   };
-  std::mutex frame_mutex_;
+  mutable std::mutex frame_mutex_;
   std::condition_variable frame_wake_;
-  bool frame_waiting_ = false;
+  std::vector<ViewSlot> slots_;  // one per view seen (views are few: ioct-view limits them)
+  std::uint64_t frames_came_ = 0;
+  std::uint64_t replaced_ = 0;
   bool frames_stopping_ = false;
-  shm::FrameMeta waiting_meta_{};
-  render::RgbaImage waiting_, encoding_;
+  render::RgbaImage encoding_;
   std::optional<NewBscan> new_bscan_;
   std::optional<instruments::TipBscans> new_tip_bscans_;  // an empty pair: none
+  int nice_ = 0;
+  ViewSlot* next_waiting_locked();
   void encode_bscans(std::optional<NewBscan> bscan,
                      std::optional<instruments::TipBscans> tip_bscans);
 

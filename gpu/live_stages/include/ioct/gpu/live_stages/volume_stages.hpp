@@ -10,13 +10,16 @@
 // filtered, segmented and rendered by some pass.
 //
 // Where the bytes live: with CUDA stages and a live volume on the device (the CUDA live pipeline),
-// the hand-over is a device-to-device copy and a pass enqueues filter -> segment -> render on one
-// stream, the volume never crossing to the host (DeviceStageChain); otherwise the stages work on
-// host volumes as above (a host live volume with CUDA stages is uploaded by the pass).
+// the hand-over is a device-to-device copy and a pass enqueues filter -> segment on one stream and
+// the renderer's update and frame on another, the volume never crossing to the host
+// (DeviceStageChain); otherwise the stages work on host volumes as above (a host live volume with
+// CUDA stages is uploaded by the pass).
 //
 // Frames for viewers: every render of a view (the shared one after every pass, on every change of
 // the parameters, and at the frame rate while it auto-rotates; private views after every pass and
-// on their changes) is published with the current B-scan into the frame ring (FramePublisher), and
+// on their changes) is handed to the FramePublisher, which encodes it on a thread of its own and
+// publishes it with the current B-scan into the frame ring (a newer frame of the same view replaces
+// one still waiting there), and
 // the parameters are changed through ViewControl (the view socket). The stages' thread waits for
 // new groups, a change, the next frame due or the stop, whichever comes first.
 //
