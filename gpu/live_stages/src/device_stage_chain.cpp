@@ -26,25 +26,6 @@ namespace ioct::gpu::live {
 
 namespace {
 
-// An event that measures time (cuda::Event only orders work).
-class TimingEvent {
- public:
-  TimingEvent() { IOCT_CUDA_CHECK(cudaEventCreate(&event_)); }
-  ~TimingEvent() { cudaEventDestroy(event_); }
-  TimingEvent(const TimingEvent&) = delete;
-  TimingEvent& operator=(const TimingEvent&) = delete;
-  void record(cudaStream_t stream) { IOCT_CUDA_CHECK(cudaEventRecord(event_, stream)); }
-  float ms_since(const TimingEvent& earlier) const {
-    float ms = 0.0f;
-    IOCT_CUDA_CHECK(cudaEventElapsedTime(&ms, earlier.event_, event_));
-    return ms;
-  }
-  cudaEvent_t get() const noexcept { return event_; }
-
- private:
-  cudaEvent_t event_ = nullptr;
-};
-
 std::uint64_t ns_before(std::uint64_t end_ns, float ms) {
   const auto ns = static_cast<std::uint64_t>(static_cast<double>(ms) * 1e6);
   return end_ns > ns ? end_ns - ns : 0;
@@ -65,7 +46,7 @@ struct DeviceStageChain::Impl {
   bool input_taken_recorded = false;
   cuda::Event filtered_read;  // the renderer has taken the pass's filtered B-scans
   bool filtered_read_recorded = false;
-  TimingEvent started, filtered_done, segmented_done, rendered_done;
+  cuda::TimingEvent started, filtered_done, segmented_done, rendered_done;
 
   VolumeDims pending_dims, input_dims;
   cuda::DeviceArray<std::uint8_t> pending, input, filtered;

@@ -24,6 +24,7 @@
 
 #include "bench_ring_fixture.hpp"
 #include "host_description.hpp"
+#include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/shm/ring_layout.hpp"
 #include "ioct/shm/ring_reader.hpp"
 #include "latency_summary.hpp"
@@ -47,17 +48,7 @@ class NoUsableDevice : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-std::string describe(cudaError_t status) {
-  return std::string(cudaGetErrorName(status)) + " (" + cudaGetErrorString(status) + ")";
-}
-
-void check(cudaError_t status, const char* call) {
-  if (status != cudaSuccess) {
-    throw std::runtime_error(std::string(call) + " failed: " + describe(status));
-  }
-}
-
-#define CUDA_CHECK(call) check((call), #call)
+using ioct::gpu::cuda::describe;
 
 // Counts the words of `words` that differ from slot `slot`'s pattern.
 __global__ void count_pattern_mismatches(const std::uint64_t* words, std::uint64_t count,
@@ -68,56 +59,6 @@ __global__ void count_pattern_mismatches(const std::uint64_t* words, std::uint64
     if (words[i] != ioct::bench::slot_pattern_word(slot, i)) atomicAdd(mismatches, 1ull);
   }
 }
-
-// --- Owners of CUDA resources, so every exit path gives them back. ---
-
-class DeviceBuffer {
- public:
-  explicit DeviceBuffer(std::size_t bytes) { CUDA_CHECK(cudaMalloc(&data_, bytes)); }
-  ~DeviceBuffer() { cudaFree(data_); }
-  DeviceBuffer(const DeviceBuffer&) = delete;
-  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
-  void* data() const { return data_; }
-
- private:
-  void* data_ = nullptr;
-};
-
-class PinnedBuffer {
- public:
-  explicit PinnedBuffer(std::size_t bytes) { CUDA_CHECK(cudaMallocHost(&data_, bytes)); }
-  ~PinnedBuffer() { cudaFreeHost(data_); }
-  PinnedBuffer(const PinnedBuffer&) = delete;
-  PinnedBuffer& operator=(const PinnedBuffer&) = delete;
-  std::byte* data() const { return static_cast<std::byte*>(data_); }
-
- private:
-  void* data_ = nullptr;
-};
-
-class Stream {
- public:
-  Stream() { CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking)); }
-  ~Stream() { cudaStreamDestroy(stream_); }
-  Stream(const Stream&) = delete;
-  Stream& operator=(const Stream&) = delete;
-  cudaStream_t get() const { return stream_; }
-
- private:
-  cudaStream_t stream_ = nullptr;
-};
-
-class Event {
- public:
-  Event() { CUDA_CHECK(cudaEventCreate(&event_)); }
-  ~Event() { cudaEventDestroy(event_); }
-  Event(const Event&) = delete;
-  Event& operator=(const Event&) = delete;
-  cudaEvent_t get() const { return event_; }
-
- private:
-  cudaEvent_t event_ = nullptr;
-};
 
 // How the read-only ring mapping ended up registered with CUDA.
 enum class Registration { read_only, default_flags, none };
@@ -140,15 +81,15 @@ class HostRegistration {
  public:
   HostRegistration(const void* address, std::size_t bytes, int device) : address_(address) {
     int supported = 0;
-    CUDA_CHECK(cudaDeviceGetAttribute(&supported, cudaDevAttrHostRegisterSupported, device));
+    IOCT_CUDA_CHECK(cudaDeviceGetAttribute(&supported, cudaDevAttrHostRegisterSupported, device));
     if (supported == 0) {
       note_ = "the device does not support cudaHostRegister (cudaDevAttrHostRegisterSupported = 0)";
       return;
     }
     void* target = const_cast<void*>(address);
     int read_only_supported = 0;
-    CUDA_CHECK(cudaDeviceGetAttribute(&read_only_supported,
-                                      cudaDevAttrHostRegisterReadOnlySupported, device));
+    IOCT_CUDA_CHECK(cudaDeviceGetAttribute(&read_only_supported,
+                                           cudaDevAttrHostRegisterReadOnlySupported, device));
     if (read_only_supported != 0) {
       const cudaError_t status = cudaHostRegister(target, bytes, cudaHostRegisterReadOnly);
       if (status == cudaSuccess) {
@@ -210,10 +151,10 @@ DeviceInfo select_device(int index) {
   }
   DeviceInfo info;
   info.index = index;
-  CUDA_CHECK(cudaSetDevice(index));
-  CUDA_CHECK(cudaGetDeviceProperties(&info.props, index));
-  CUDA_CHECK(cudaDriverGetVersion(&info.driver_version));
-  CUDA_CHECK(cudaRuntimeGetVersion(&info.runtime_version));
+  IOCT_CUDA_CHECK(cudaSetDevice(index));
+  IOCT_CUDA_CHECK(cudaGetDeviceProperties(&info.props, index));
+  IOCT_CUDA_CHECK(cudaDriverGetVersion(&info.driver_version));
+  IOCT_CUDA_CHECK(cudaRuntimeGetVersion(&info.runtime_version));
   // The kernel can only run if the binary carries code (SASS or PTX) this GPU can use.
   cudaFuncAttributes attributes{};
   const cudaError_t image = cudaFuncGetAttributes(&attributes, count_pattern_mismatches);
@@ -252,16 +193,17 @@ struct CopyPath {
 // Runs `batches` batches of `per_batch` copies, each batch between two events on `stream`;
 // returns the summed event time in ms.
 double time_batches(CopyPath& path, std::uint64_t batches, std::uint64_t per_batch,
-                    cudaStream_t stream, const Event& start, const Event& stop) {
+                    cudaStream_t stream, const ioct::gpu::cuda::TimingEvent& start,
+                    const ioct::gpu::cuda::TimingEvent& stop) {
   double total_ms = 0;
   for (std::uint64_t b = 0; b < batches; ++b) {
     if (path.prepare) path.prepare();
-    CUDA_CHECK(cudaEventRecord(start.get(), stream));
+    IOCT_CUDA_CHECK(cudaEventRecord(start.get(), stream));
     for (std::uint64_t k = 0; k < per_batch; ++k) path.copy();
-    CUDA_CHECK(cudaEventRecord(stop.get(), stream));
-    CUDA_CHECK(cudaEventSynchronize(stop.get()));
+    IOCT_CUDA_CHECK(cudaEventRecord(stop.get(), stream));
+    IOCT_CUDA_CHECK(cudaEventSynchronize(stop.get()));
     float ms = 0;
-    CUDA_CHECK(cudaEventElapsedTime(&ms, start.get(), stop.get()));
+    IOCT_CUDA_CHECK(cudaEventElapsedTime(&ms, start.get(), stop.get()));
     total_ms += ms;
   }
   return total_ms;
@@ -270,16 +212,16 @@ double time_batches(CopyPath& path, std::uint64_t batches, std::uint64_t per_bat
 // Words of `device_words` (a group on the device) that are not slot `slot`'s pattern.
 unsigned long long count_mismatches(const void* device_words, std::uint64_t bytes,
                                     std::uint64_t slot, cudaStream_t stream) {
-  DeviceBuffer counter(sizeof(unsigned long long));
-  CUDA_CHECK(cudaMemsetAsync(counter.data(), 0, sizeof(unsigned long long), stream));
-  count_pattern_mismatches<<<264, 256, 0, stream>>>(
-      static_cast<const std::uint64_t*>(device_words), bytes / sizeof(std::uint64_t), slot,
-      static_cast<unsigned long long*>(counter.data()));
-  CUDA_CHECK(cudaGetLastError());
+  ioct::gpu::cuda::DeviceArray<unsigned long long> counter(1);
+  IOCT_CUDA_CHECK(cudaMemsetAsync(counter.data(), 0, counter.bytes(), stream));
+  count_pattern_mismatches<<<264, 256, 0, stream>>>(static_cast<const std::uint64_t*>(device_words),
+                                                    bytes / sizeof(std::uint64_t), slot,
+                                                    counter.data());
+  IOCT_CUDA_CHECK(cudaGetLastError());
   unsigned long long mismatches = 0;
-  CUDA_CHECK(cudaMemcpyAsync(&mismatches, counter.data(), sizeof(mismatches),
-                             cudaMemcpyDeviceToHost, stream));
-  CUDA_CHECK(cudaStreamSynchronize(stream));
+  IOCT_CUDA_CHECK(cudaMemcpyAsync(&mismatches, counter.data(), sizeof(mismatches),
+                                  cudaMemcpyDeviceToHost, stream));
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
   return mismatches;
 }
 
@@ -342,15 +284,16 @@ int run(const Options& options) {
               static_cast<double>(reader.mapping_bytes()) / 1e6, to_string(registration.kind()));
   if (!registration.note().empty()) std::printf("  note: %s\n", registration.note().c_str());
 
-  Stream stream;
-  Event start;
-  Event stop;
-  DeviceBuffer device_destination(group_bytes);
-  DeviceBuffer device_source(group_bytes);
-  PinnedBuffer pinned(group_bytes);
+  ioct::gpu::cuda::Stream stream;
+  ioct::gpu::cuda::TimingEvent start;
+  ioct::gpu::cuda::TimingEvent stop;
+  ioct::gpu::cuda::DeviceArray<std::byte> device_destination(group_bytes);
+  ioct::gpu::cuda::DeviceArray<std::byte> device_source(group_bytes);
+  ioct::gpu::cuda::PinnedArray<std::byte> pinned(group_bytes);
   std::memcpy(pinned.data(), ioct::bench::slot_payload(reader, 0).data(), group_bytes);
   std::vector<std::byte> pageable(pinned.data(), pinned.data() + group_bytes);
-  CUDA_CHECK(cudaMemcpy(device_source.data(), pinned.data(), group_bytes, cudaMemcpyHostToDevice));
+  IOCT_CUDA_CHECK(
+      cudaMemcpy(device_source.data(), pinned.data(), group_bytes, cudaMemcpyHostToDevice));
 
   // Catch the reader up (it starts at the newest group).
   {
@@ -367,9 +310,9 @@ int run(const Options& options) {
   std::uint64_t unexpected_polls = 0;
 
   const auto synced_h2d = [&, s](const void* source) {
-    CUDA_CHECK(
+    IOCT_CUDA_CHECK(
         cudaMemcpyAsync(device_destination.data(), source, group_bytes, cudaMemcpyHostToDevice, s));
-    CUDA_CHECK(cudaStreamSynchronize(s));
+    IOCT_CUDA_CHECK(cudaStreamSynchronize(s));
   };
   std::vector<CopyPath> paths;
   paths.push_back({"ring slot -> device (seqlock checked)",
@@ -381,10 +324,11 @@ int run(const Options& options) {
                        ++unexpected_polls;
                        return;
                      }
-                     CUDA_CHECK(cudaMemcpyAsync(device_destination.data(), ticket.payload,
-                                                ticket.payload_bytes, cudaMemcpyHostToDevice, s));
+                     IOCT_CUDA_CHECK(cudaMemcpyAsync(device_destination.data(), ticket.payload,
+                                                     ticket.payload_bytes, cudaMemcpyHostToDevice,
+                                                     s));
                      // The copy must have landed before end_read can vouch for it.
-                     CUDA_CHECK(cudaStreamSynchronize(s));
+                     IOCT_CUDA_CHECK(cudaStreamSynchronize(s));
                      reader.end_read(ticket);  // a false return is counted in the drops
                    },
                    {}});
@@ -397,8 +341,8 @@ int run(const Options& options) {
                    "pinned_to_device_back_to_back",
                    {},
                    [&, s] {
-                     CUDA_CHECK(cudaMemcpyAsync(device_destination.data(), pinned.data(),
-                                                group_bytes, cudaMemcpyHostToDevice, s));
+                     IOCT_CUDA_CHECK(cudaMemcpyAsync(device_destination.data(), pinned.data(),
+                                                     group_bytes, cudaMemcpyHostToDevice, s));
                    },
                    {}});
   paths.push_back(
@@ -407,8 +351,9 @@ int run(const Options& options) {
                    "device_to_device",
                    {},
                    [&, s] {
-                     CUDA_CHECK(cudaMemcpyAsync(device_destination.data(), device_source.data(),
-                                                group_bytes, cudaMemcpyDeviceToDevice, s));
+                     IOCT_CUDA_CHECK(cudaMemcpyAsync(device_destination.data(),
+                                                     device_source.data(), group_bytes,
+                                                     cudaMemcpyDeviceToDevice, s));
                    },
                    {}});
 
@@ -428,9 +373,9 @@ int run(const Options& options) {
   bool ring_copy_intact = false;
   unsigned long long ring_mismatches = 0;
   if (reader.begin_read(ticket) == ioct::shm::PollStatus::ready) {
-    CUDA_CHECK(cudaMemcpyAsync(device_destination.data(), ticket.payload, ticket.payload_bytes,
-                               cudaMemcpyHostToDevice, s));
-    CUDA_CHECK(cudaStreamSynchronize(s));
+    IOCT_CUDA_CHECK(cudaMemcpyAsync(device_destination.data(), ticket.payload, ticket.payload_bytes,
+                                    cudaMemcpyHostToDevice, s));
+    IOCT_CUDA_CHECK(cudaStreamSynchronize(s));
     ring_copy_intact = reader.end_read(ticket);
     ring_mismatches =
         count_mismatches(device_destination.data(), group_bytes, ticket.slot_index, s);

@@ -176,6 +176,26 @@ class Event {
   cudaEvent_t event_ = nullptr;
 };
 
+// An event that measures time (Event only orders work): between two recorded on the device.
+class TimingEvent {
+ public:
+  TimingEvent() { IOCT_CUDA_CHECK(cudaEventCreate(&event_)); }
+  ~TimingEvent() { cudaEventDestroy(event_); }
+  TimingEvent(const TimingEvent&) = delete;
+  TimingEvent& operator=(const TimingEvent&) = delete;
+  void record(cudaStream_t stream) { IOCT_CUDA_CHECK(cudaEventRecord(event_, stream)); }
+  // Device time from `earlier` to this one, ms (both recorded and done).
+  float ms_since(const TimingEvent& earlier) const {
+    float ms = 0.0f;
+    IOCT_CUDA_CHECK(cudaEventElapsedTime(&ms, earlier.event_, event_));
+    return ms;
+  }
+  cudaEvent_t get() const noexcept { return event_; }
+
+ private:
+  cudaEvent_t event_ = nullptr;
+};
+
 // What a copy between host and device carries: volume pixels, or anything else (surfaces,
 // tables, sums, images).
 enum class Payload { volume, other };
