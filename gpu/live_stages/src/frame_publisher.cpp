@@ -19,6 +19,10 @@ constexpr auto kHeartbeatPeriod = std::chrono::milliseconds(50);
 // Bands a frame is encoded in, and the threads (the encoding one included) that encode them:
 // four bands of a 768-row render are 192 rows each; more threads than cores would only queue.
 constexpr unsigned kEncodeBands = 4;
+// Places for views beyond which the idle ones are dropped (see publish()): more than ioct-view's
+// default connection limit allows views.
+constexpr std::size_t kMaxViewSlots = 128;
+
 unsigned encode_threads() {
   return std::clamp(std::thread::hardware_concurrency(), 1u, kEncodeBands);
 }
@@ -175,6 +179,11 @@ void FramePublisher::publish(shm::FrameMeta meta, render::RgbaImage& render) {
     std::lock_guard lock(frame_mutex_);
     auto slot = std::ranges::find(slots_, meta.view_id, &ViewSlot::view_id);
     if (slot == slots_.end()) {
+      // A frame rendered as its view closed can make a place forget_view() never sees: the idle
+      // places go when there are more than ioct-view holds views by default.
+      if (slots_.size() >= kMaxViewSlots) {
+        std::erase_if(slots_, [](const ViewSlot& idle) { return !idle.waiting; });
+      }
       slots_.emplace_back().view_id = meta.view_id;
       slot = slots_.end() - 1;
     }
@@ -191,6 +200,11 @@ void FramePublisher::publish(shm::FrameMeta meta, render::RgbaImage& render) {
   std::lock_guard lock(mutex_);
   ++status_.renders;
   push_status_locked();
+}
+
+void FramePublisher::forget_view(std::uint64_t view_id) {
+  std::lock_guard lock(frame_mutex_);
+  std::erase_if(slots_, [&](const ViewSlot& slot) { return slot.view_id == view_id; });
 }
 
 FramePublisher::ViewSlot* FramePublisher::next_waiting_locked() {

@@ -602,8 +602,11 @@ std::uint64_t VolumeStages::set_view(std::uint64_t view, const nlohmann::json& c
 }
 
 void VolumeStages::close_view(std::uint64_t view) {
-  std::lock_guard lock(mutex_);
-  views_.close(view);
+  {
+    std::lock_guard lock(mutex_);
+    views_.close(view);
+  }
+  if (publisher_ && view != kSharedView) publisher_->forget_view(view);
 }
 
 ViewSnapshot VolumeStages::snapshot(std::chrono::milliseconds timeout) {

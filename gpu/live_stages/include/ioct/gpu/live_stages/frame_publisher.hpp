@@ -57,6 +57,9 @@ class FramePublisher {
   // stamp, times and mode; the sizes are filled in there. Counts a render.
   void publish(shm::FrameMeta meta, render::RgbaImage& render);
 
+  // A private view is closed (any thread): its waiting frame and its place go.
+  void forget_view(std::uint64_t view_id);
+
   // What became of the frames handed over: written into the ring, replaced by a newer frame of
   // the same view before their turn, or not written (refused by the ring as too large, or their
   // encoding failed: not fatal, the viewers miss that frame).
@@ -130,7 +133,7 @@ class FramePublisher {
   };
   mutable std::mutex frame_mutex_;
   std::condition_variable frame_wake_;
-  std::vector<ViewSlot> slots_;  // one per view seen (views are few: ioct-view limits them)
+  std::vector<ViewSlot> slots_;  // one per open view (views are few: ioct-view limits them)
   std::uint64_t frames_came_ = 0;
   std::uint64_t replaced_ = 0;
   bool frames_stopping_ = false;
