@@ -42,6 +42,14 @@ segmentation::RgbImage flat_bscan(std::uint32_t width, std::uint32_t height) {
   return image;
 }
 
+// Until the encoding thread has counted a frame error, or 20 s.
+void wait_for_an_error(const FramePublisher& publisher) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (publisher.frame_counts().errors == 0 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
 TEST(FramePublisher, EveryFrameIsWrittenOrReplacedAndTheNewestIsWritten) {
   const shm::FrameRingConfig config = ring_config(8ull << 20);
   FramePublisher publisher(config);
@@ -89,10 +97,7 @@ TEST(FramePublisher, AFrameTheRingRefusesIsCountedAndTheNextIsWritten) {
   meta.group_index = 1;
   publisher.publish(meta, noise);
   // Its turn comes on the encoding thread; then a frame that fits.
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (publisher.frame_counts().errors == 0 && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
+  wait_for_an_error(publisher);
   render::RgbaImage small = flat_image(64, 48, 128);
   meta.group_index = 2;
   publisher.publish(meta, small);
@@ -154,10 +159,7 @@ TEST(FramePublisher, AFrameThatCannotBeEncodedIsCountedAndTheNextIsWritten) {
   meta.group_index = 1;
   render::RgbaImage image = flat_image(64, 48, 10);
   publisher.publish(meta, image);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (publisher.frame_counts().errors == 0 && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
+  wait_for_an_error(publisher);
   publisher.set_bscan(flat_bscan(64, 48), 2, 16);
   meta.group_index = 2;
   image = flat_image(64, 48, 20);

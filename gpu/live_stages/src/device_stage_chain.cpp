@@ -44,8 +44,6 @@ struct DeviceStageChain::Impl {
   cuda::Event pending_ready;
   cuda::Event input_taken;
   bool input_taken_recorded = false;
-  cuda::Event filtered_read;  // the renderer has taken the pass's filtered B-scans
-  bool filtered_read_recorded = false;
   cuda::TimingEvent started, filtered_done, segmented_done, rendered_done;
 
   VolumeDims pending_dims, input_dims;
@@ -170,11 +168,8 @@ DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t first, std:
   const VolumeRef input = VolumeRef::on_device(m.input.data(), dims, stream);
   const VolumeRef filtered = VolumeRef::on_device(m.filtered.data(), dims, stream);
 
-  // The last pass's renderer update must have read the filtered volume before this pass's
-  // filter writes it.
-  if (m.filtered_read_recorded) {
-    IOCT_CUDA_CHECK(cudaStreamWaitEvent(stream, m.filtered_read.get(), 0));
-  }
+  // No event orders this pass's filter after the last pass's renderer update, which read the
+  // filtered volume on the render stream: the last pass ended waiting for its frame, after it.
   m.started.record(stream);
   const filters::BscanRange outputs = m.filter.filter_group(
       input, MutableVolumeRef::on_device(m.filtered.data(), dims, stream), {first, count});
@@ -182,8 +177,6 @@ DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t first, std:
   // The renderer takes the filtered B-scans (texture, bricks, sums) on its own stream while the
   // segmentation runs: the segmentation's searches keep few multiprocessors busy.
   m.renderer.update_volume(filtered, outputs.first, outputs.count);
-  IOCT_CUDA_CHECK(cudaEventRecord(m.filtered_read.get(), m.render_stream.get()));
-  m.filtered_read_recorded = true;
   const segmentation::BscanSpan affected =
       m.segmenter.segment_group(filtered, {outputs.first, outputs.count}, nullptr);
   m.segmented_done.record(stream);

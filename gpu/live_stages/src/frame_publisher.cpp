@@ -1,14 +1,12 @@
 #include "ioct/gpu/live_stages/frame_publisher.hpp"
 
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <chrono>
 #include <utility>
 
 #include "ioct/concurrency/monotonic_clock.hpp"
+
+#include "thread_nice.hpp"
 
 namespace ioct::gpu::live {
 namespace {
@@ -216,8 +214,7 @@ FramePublisher::ViewSlot* FramePublisher::next_waiting_locked() {
 }
 
 void FramePublisher::encode_frames() {
-  // The stages' priority (on Linux a thread's nice value is its own).
-  (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), nice_);
+  set_this_thread_nice(nice_);  // encoding is the stages' work
   std::unique_lock lock(frame_mutex_);
   for (;;) {
     ViewSlot* slot = nullptr;
@@ -237,7 +234,8 @@ void FramePublisher::encode_frames() {
       encode_bscans(std::move(bscan), std::move(tip_bscans));
       write_frame(meta, encoding_);
     } catch (const std::exception& e) {
-      // A frame that cannot be encoded costs the viewers that frame, never the pipeline.
+      // A frame that cannot be encoded, or is too large for the ring, costs the viewers that
+      // frame, never the pipeline.
       std::lock_guard counts(mutex_);
       ++frame_counts_.errors;
       frame_counts_.problem = e.what();
@@ -261,14 +259,8 @@ void FramePublisher::write_frame(shm::FrameMeta meta, const render::RgbaImage& r
   meta.bscans = bscans_;
   meta.tip_bscan_width = tip_bscan_width_;
   meta.tip_bscan_height = tip_bscan_height_;
-  try {
-    writer_.publish(meta, jpeg, bscan_jpeg_, tip_bscans_jpeg_);
-    ++frame_counts_.written;
-  } catch (const std::exception& e) {
-    // A frame too large for the ring costs the viewers that frame, never the pipeline.
-    ++frame_counts_.errors;
-    frame_counts_.problem = e.what();
-  }
+  writer_.publish(meta, jpeg, bscan_jpeg_, tip_bscans_jpeg_);  // throws for a frame too large
+  ++frame_counts_.written;
 }
 
 FramePublisher::FrameCounts FramePublisher::frame_counts() const {

@@ -1,9 +1,5 @@
 #include "ioct/gpu/live_stages/volume_stages.hpp"
 
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -29,6 +25,7 @@
 #include "device_stage_chain.hpp"
 #include "frame_instrument.hpp"
 #include "live_image_writer.hpp"
+#include "thread_nice.hpp"
 
 namespace ioct::gpu::live {
 namespace {
@@ -189,9 +186,8 @@ void VolumeStages::on_bscans(LiveVolumeSource& source, std::uint32_t first, std:
 }
 
 void VolumeStages::work() {
-  // Below the processing: on Linux a thread's nice value is its own, and the stages' worker
-  // threads made from here inherit it.
-  (void)::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), config_.nice);
+  // Below the processing; the stages' worker threads made from here inherit it.
+  set_this_thread_nice(config_.nice);
   if (!make_backends()) return;
   // Views due get their turn between passes, so a CPU that folds pass after pass still answers
   // the viewers.

@@ -639,14 +639,12 @@ void CudaRenderer::update_bscans(VolumeRef volume, std::uint32_t first, std::uin
 void CudaRenderer::update_device(VolumeRef volume, std::uint32_t first, std::uint32_t count,
                                  const segmentation::Surfaces* surfaces,
                                  const segmentation::DeviceSurfaceView* device_surfaces) {
-  if (prepare_update(volume, first, count)) {
-    first = 0;
-    count = volume.dims().bscans;
-  }
-  state_->upload(volume.device(), true, first, count, surfaces, device_surfaces);
+  const BscanRun run = prepare_update(volume, first, count);
+  state_->upload(volume.device(), true, run.first, run.count, surfaces, device_surfaces);
 }
 
-bool CudaRenderer::prepare_update(VolumeRef volume, std::uint32_t first, std::uint32_t count) {
+CudaRenderer::BscanRun CudaRenderer::prepare_update(VolumeRef volume, std::uint32_t first,
+                                                    std::uint32_t count) {
   State& s = *state_;
   const VolumeDims& d = volume.dims();
   if (volume.stream() != s.stream) {
@@ -656,20 +654,16 @@ bool CudaRenderer::prepare_update(VolumeRef volume, std::uint32_t first, std::ui
   if (!s.has_volume || !(s.dims == d)) {
     IOCT_CUDA_CHECK(cudaStreamSynchronize(s.stream));  // nothing may still read the old texture
     s.allocate(d);
-    return true;
+    return {0, d.bscans};
   }
   check_bscan_range(d.bscans, first, count);
-  return false;
+  return {first, count};
 }
 
 void CudaRenderer::update_volume(VolumeRef volume, std::uint32_t first, std::uint32_t count) {
   if (!volume.is_device()) throw std::logic_error("update_volume() takes a device volume");
-  State& s = *state_;
-  if (prepare_update(volume, first, count)) {
-    first = 0;
-    count = volume.dims().bscans;
-  }
-  s.upload_volume(volume.device(), true, first, count);
+  const BscanRun run = prepare_update(volume, first, count);
+  state_->upload_volume(volume.device(), true, run.first, run.count);
 }
 
 void CudaRenderer::update_layers(const segmentation::DeviceSurfaceView& surfaces) {

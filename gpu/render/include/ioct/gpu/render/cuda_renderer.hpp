@@ -60,9 +60,12 @@ class CudaRenderer final : public Renderer {
   void update_device(VolumeRef volume, std::uint32_t first, std::uint32_t count,
                      const segmentation::Surfaces* surfaces,
                      const segmentation::DeviceSurfaceView* device_surfaces);
-  // Orders the renderer's stream after the volume's, and allocates anew for other dimensions:
-  // true when it did (the whole volume must then be uploaded).
-  bool prepare_update(VolumeRef volume, std::uint32_t first, std::uint32_t count);
+  // Orders the renderer's stream after the volume's, and allocates anew for other dimensions.
+  // Returns the B-scans to upload: [first, first + count), or all of them after an allocation.
+  struct BscanRun {
+    std::uint32_t first = 0, count = 0;
+  };
+  BscanRun prepare_update(VolumeRef volume, std::uint32_t first, std::uint32_t count);
 
   struct State;
   std::unique_ptr<State> state_;
