@@ -37,6 +37,7 @@
 #include <thread>
 #include <vector>
 
+#include "device_timing.hpp"
 #include "host_description.hpp"
 #include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/cuda/cuda_support.hpp"
@@ -203,52 +204,10 @@ double ms(double ns) {
   return ns * 1e-6;
 }
 
-// Median of `repetitions` batches of 40 pinned host -> device copies of one group, ms per copy.
-double pinned_h2d_group_ms(std::size_t bytes, int repetitions = 7) {
-  cuda::PinnedArray<std::uint8_t> host(bytes);
-  cuda::DeviceArray<std::uint8_t> device(bytes);
-  cuda::Stream stream;
-  cudaEvent_t start, stop;
-  IOCT_CUDA_CHECK(cudaEventCreate(&start));
-  IOCT_CUDA_CHECK(cudaEventCreate(&stop));
-  constexpr int kCopies = 40;
-  std::vector<double> per_copy;
-  for (int r = 0; r < repetitions + 1; ++r) {
-    IOCT_CUDA_CHECK(cudaEventRecord(start, stream.get()));
-    for (int i = 0; i < kCopies; ++i) {
-      IOCT_CUDA_CHECK(
-          cudaMemcpyAsync(device.data(), host.data(), bytes, cudaMemcpyHostToDevice, stream.get()));
-    }
-    IOCT_CUDA_CHECK(cudaEventRecord(stop, stream.get()));
-    IOCT_CUDA_CHECK(cudaEventSynchronize(stop));
-    float elapsed = 0;
-    IOCT_CUDA_CHECK(cudaEventElapsedTime(&elapsed, start, stop));
-    if (r > 0) per_copy.push_back(elapsed / kCopies);  // the first batch warms up
-  }
-  cudaEventDestroy(start);
-  cudaEventDestroy(stop);
-  return bench::median(per_copy);
-}
-
 // Median device time of `work` enqueued on `stream`, over `repetitions` (after one warm-up).
 template <class Work>
 double kernel_ms(cudaStream_t stream, int repetitions, Work&& work) {
-  cudaEvent_t start, stop;
-  IOCT_CUDA_CHECK(cudaEventCreate(&start));
-  IOCT_CUDA_CHECK(cudaEventCreate(&stop));
-  std::vector<double> times;
-  for (int r = 0; r < repetitions + 1; ++r) {
-    IOCT_CUDA_CHECK(cudaEventRecord(start, stream));
-    work(r);
-    IOCT_CUDA_CHECK(cudaEventRecord(stop, stream));
-    IOCT_CUDA_CHECK(cudaEventSynchronize(stop));
-    float elapsed = 0;
-    IOCT_CUDA_CHECK(cudaEventElapsedTime(&elapsed, start, stop));
-    if (r > 0) times.push_back(elapsed);
-  }
-  cudaEventDestroy(start);
-  cudaEventDestroy(stop);
-  return bench::median(times);
+  return bench::median(bench::device_ms_each(stream, 1, repetitions, work));
 }
 
 struct KernelAnchors {
@@ -475,7 +434,7 @@ int run(const Options& o) {
     return 1;
   }
 
-  const double pinned = pinned_h2d_group_ms(g.group_payload_bytes());
+  const double pinned = bench::pinned_h2d_copy_ms(g.group_payload_bytes());
   const KernelAnchors k = measure_kernels(g, live_volume, config);
 
   const Quantiles qp = quantiles(processed), qf = quantiles(filtered), qs = quantiles(segmented),

@@ -32,6 +32,7 @@
 #include <thread>
 #include <vector>
 
+#include "device_timing.hpp"
 #include "host_description.hpp"
 #include "ioct/concurrency/latency_histogram.hpp"
 #include "ioct/concurrency/monotonic_clock.hpp"
@@ -45,13 +46,6 @@ namespace {
 
 using namespace ioct;
 using namespace ioct::gpu;
-
-void check(cudaError_t status, const char* what) {
-  if (status != cudaSuccess) {
-    throw std::runtime_error(std::string(what) + " failed: " + cudaGetErrorString(status));
-  }
-}
-#define CHECK(call) check((call), #call)
 
 struct Options {
   std::vector<std::uint32_t> samples{1376, 2048};
@@ -268,43 +262,10 @@ LatencyHistogram measure_latency(FilledRing& ring, const Options& o, std::uint64
   return counter.latency;
 }
 
-// Pinned host -> device copies of one group, back to back: the median of `repetitions` timed
-// batches of 40 copies, in A-scans/s.
-double pinned_h2d_ascans_per_s(const shm::RingGeometry& g, int repetitions = 7) {
-  const std::size_t bytes = g.group_payload_bytes();
-  void* host = nullptr;
-  void* device = nullptr;
-  CHECK(cudaMallocHost(&host, bytes));
-  CHECK(cudaMalloc(&device, bytes));
-  cudaStream_t stream;
-  CHECK(cudaStreamCreateWithFlags(&stream, cudaStreamNonBlocking));
-  cudaEvent_t start, stop;
-  CHECK(cudaEventCreate(&start));
-  CHECK(cudaEventCreate(&stop));
-  constexpr int kCopies = 40;
-  for (int i = 0; i < 10; ++i) {
-    CHECK(cudaMemcpyAsync(device, host, bytes, cudaMemcpyHostToDevice, stream));
-  }
-  std::vector<double> rates;
-  for (int r = 0; r < repetitions; ++r) {
-    CHECK(cudaEventRecord(start, stream));
-    for (int i = 0; i < kCopies; ++i) {
-      CHECK(cudaMemcpyAsync(device, host, bytes, cudaMemcpyHostToDevice, stream));
-    }
-    CHECK(cudaEventRecord(stop, stream));
-    CHECK(cudaEventSynchronize(stop));
-    float ms = 0;
-    CHECK(cudaEventElapsedTime(&ms, start, stop));
-    rates.push_back(static_cast<double>(kCopies) * static_cast<double>(g.ascans_per_group()) /
-                    (ms * 1e-3));
-  }
-  cudaEventDestroy(start);
-  cudaEventDestroy(stop);
-  cudaStreamDestroy(stream);
-  cudaFree(device);
-  cudaFreeHost(host);
-  std::sort(rates.begin(), rates.end());
-  return rates[rates.size() / 2];
+// Pinned host -> device copies of one group, back to back, in A-scans/s.
+double pinned_h2d_ascans_per_s(const shm::RingGeometry& g) {
+  return static_cast<double>(g.ascans_per_group()) /
+         (bench::pinned_h2d_copy_ms(g.group_payload_bytes()) * 1e-3);
 }
 
 double compute_only_ascans_per_s(const shm::RingGeometry& g) {
@@ -312,16 +273,14 @@ double compute_only_ascans_per_s(const shm::RingGeometry& g) {
   processor.prepare(g);
   void* raw = nullptr;
   void* volume = nullptr;
-  CHECK(cudaMalloc(&raw, g.group_payload_bytes()));
-  CHECK(cudaMemset(raw, 0x11, g.group_payload_bytes()));
+  IOCT_CUDA_CHECK(cudaMalloc(&raw, g.group_payload_bytes()));
+  IOCT_CUDA_CHECK(cudaMemset(raw, 0x11, g.group_payload_bytes()));
   const std::size_t depth = g.samples_per_ascan / 2;
-  CHECK(cudaMalloc(&volume, std::size_t{g.bscans_per_volume} * g.ascans_per_bscan * depth));
+  IOCT_CUDA_CHECK(
+      cudaMalloc(&volume, std::size_t{g.bscans_per_volume} * g.ascans_per_bscan * depth));
   shm::SlotHeader header{};
   DevicePixelTarget target;
   target.pixels = static_cast<std::uint8_t*>(volume);
-  cudaEvent_t start, stop;
-  CHECK(cudaEventCreate(&start));
-  CHECK(cudaEventCreate(&stop));
   const auto run = [&](int groups) {
     for (int i = 0; i < groups; ++i) {
       fill_header(header, g, static_cast<std::uint64_t>(i));
@@ -334,14 +293,7 @@ double compute_only_ascans_per_s(const shm::RingGeometry& g) {
   };
   run(20);
   constexpr int kGroups = 200;
-  CHECK(cudaEventRecord(start, processor.stream()));
-  run(kGroups);
-  CHECK(cudaEventRecord(stop, processor.stream()));
-  CHECK(cudaEventSynchronize(stop));
-  float ms = 0;
-  CHECK(cudaEventElapsedTime(&ms, start, stop));
-  cudaEventDestroy(start);
-  cudaEventDestroy(stop);
+  const double ms = bench::device_ms(processor.stream(), [&] { run(kGroups); });
   cudaFree(raw);
   cudaFree(volume);
   return static_cast<double>(kGroups) * static_cast<double>(g.ascans_per_group()) / (ms * 1e-3);
@@ -353,7 +305,7 @@ int run(const Options& o) {
     return 2;
   }
   cudaDeviceProp props{};
-  CHECK(cudaGetDeviceProperties(&props, 0));
+  IOCT_CUDA_CHECK(cudaGetDeviceProperties(&props, 0));
   const bench::HostDescription host = bench::describe_host();
   std::printf("ioct-bench-cuda-chain\n%sGPU: %s, compute capability %d.%d, %d SMs\n",
               bench::to_text(host).c_str(), props.name, props.major, props.minor,

@@ -18,18 +18,13 @@
 #include <vector>
 
 #include "analytic_volumes.hpp"
+#include "device_timing.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
 
 namespace {
 
 using namespace ioct::gpu;
 using namespace ioct::gpu::render;
-
-void check(cudaError_t status, const char* what) {
-  if (status != cudaSuccess) {
-    throw std::runtime_error(std::string(what) + ": " + cudaGetErrorString(status));
-  }
-}
 
 struct Stats {
   double mean_ms = 0, p99_ms = 0, max_ms = 0;
@@ -39,9 +34,6 @@ struct Stats {
 Stats frame_times(CudaRenderer& renderer, RenderConfig config, int frames,
                   const std::function<void(int)>& before = {}) {
   auto stream = static_cast<cudaStream_t>(renderer.stream());
-  cudaEvent_t start, stop;
-  check(cudaEventCreate(&start), "cudaEventCreate");
-  check(cudaEventCreate(&stop), "cudaEventCreate");
   const double azimuth0 = config.view.azimuth_deg;
   renderer.render_on_device(config);  // warm-up: tables, caches
   renderer.synchronize();
@@ -52,16 +44,8 @@ Stats frame_times(CudaRenderer& renderer, RenderConfig config, int frames,
       before(f);
       renderer.synchronize();
     }
-    check(cudaEventRecord(start, stream), "cudaEventRecord");
-    renderer.render_on_device(config);
-    check(cudaEventRecord(stop, stream), "cudaEventRecord");
-    check(cudaEventSynchronize(stop), "cudaEventSynchronize");
-    float t = 0;
-    check(cudaEventElapsedTime(&t, start, stop), "cudaEventElapsedTime");
-    ms.push_back(t);
+    ms.push_back(ioct::bench::device_ms(stream, [&] { renderer.render_on_device(config); }));
   }
-  cudaEventDestroy(start);
-  cudaEventDestroy(stop);
   Stats s;
   for (const double t : ms) s.mean_ms += t;
   s.mean_ms /= static_cast<double>(ms.size());
@@ -72,26 +56,15 @@ Stats frame_times(CudaRenderer& renderer, RenderConfig config, int frames,
 }
 
 double device_copy_gb_per_s(std::size_t bytes) {
-  void *a = nullptr, *b = nullptr;
-  check(cudaMalloc(&a, bytes), "cudaMalloc");
-  check(cudaMalloc(&b, bytes), "cudaMalloc");
-  check(cudaMemset(a, 1, bytes), "cudaMemset");
-  cudaEvent_t start, stop;
-  check(cudaEventCreate(&start), "cudaEventCreate");
-  check(cudaEventCreate(&stop), "cudaEventCreate");
-  check(cudaMemcpy(b, a, bytes, cudaMemcpyDeviceToDevice), "cudaMemcpy");
+  ioct::gpu::cuda::DeviceArray<std::byte> a(bytes), b(bytes);
+  IOCT_CUDA_CHECK(cudaMemset(a.data(), 1, bytes));
+  IOCT_CUDA_CHECK(cudaMemcpy(b.data(), a.data(), bytes, cudaMemcpyDeviceToDevice));
   const int reps = 20;
-  check(cudaEventRecord(start), "cudaEventRecord");
-  for (int i = 0; i < reps; ++i)
-    check(cudaMemcpy(b, a, bytes, cudaMemcpyDeviceToDevice), "cudaMemcpy");
-  check(cudaEventRecord(stop), "cudaEventRecord");
-  check(cudaEventSynchronize(stop), "cudaEventSynchronize");
-  float ms = 0;
-  check(cudaEventElapsedTime(&ms, start, stop), "cudaEventElapsedTime");
-  cudaEventDestroy(start);
-  cudaEventDestroy(stop);
-  cudaFree(a);
-  cudaFree(b);
+  const double ms = ioct::bench::device_ms(nullptr, [&] {
+    for (int i = 0; i < reps; ++i) {
+      IOCT_CUDA_CHECK(cudaMemcpy(b.data(), a.data(), bytes, cudaMemcpyDeviceToDevice));
+    }
+  });
   // A copy reads and writes every byte.
   return 2.0 * static_cast<double>(bytes) * reps / (ms * 1e-3) / 1e9;
 }
@@ -108,7 +81,7 @@ int main(int argc, char** argv) {
 
   try {
     cudaDeviceProp prop{};
-    check(cudaGetDeviceProperties(&prop, 0), "cudaGetDeviceProperties");
+    IOCT_CUDA_CHECK(cudaGetDeviceProperties(&prop, 0));
     std::printf("device: %s\n", prop.name);
     const double copy = device_copy_gb_per_s(std::size_t{512} << 20);
     std::printf("anchor: device-to-device copy %.0f GB/s (read + write, 512 MiB)\n", copy);

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "device_timing.hpp"
 #include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/filters/cuda_volume_filter.hpp"
 #include "ioct/gpu/filters/gaussian_taps.hpp"
@@ -46,30 +47,6 @@ Timing summarize(std::vector<double> us) {
 nlohmann::json to_json(const Timing& t) {
   return {{"median_us", t.median_us}, {"p99_us", t.p99_us}, {"min_us", t.min_us}};
 }
-
-class EventPair {
- public:
-  EventPair() {
-    IOCT_CUDA_CHECK(cudaEventCreate(&start_));
-    IOCT_CUDA_CHECK(cudaEventCreate(&stop_));
-  }
-  ~EventPair() {
-    cudaEventDestroy(start_);
-    cudaEventDestroy(stop_);
-  }
-  cudaEvent_t start() const { return start_; }
-  cudaEvent_t stop() const { return stop_; }
-  double elapsed_us() const {
-    float ms = 0.0f;
-    IOCT_CUDA_CHECK(cudaEventSynchronize(stop_));
-    IOCT_CUDA_CHECK(cudaEventElapsedTime(&ms, start_, stop_));
-    return 1000.0 * ms;
-  }
-
- private:
-  cudaEvent_t start_ = nullptr;
-  cudaEvent_t stop_ = nullptr;
-};
 
 }  // namespace
 
@@ -132,7 +109,7 @@ int main(int argc, char** argv) {
 
     std::vector<cudaEvent_t> stage_events(CudaSegmenter::kStages);
     for (cudaEvent_t& e : stage_events) IOCT_CUDA_CHECK(cudaEventCreate(&e));
-    EventPair events;
+    gpu::cuda::TimingEvent segment_start, segment_stop;
     std::vector<double> segment_us, copy_us, filter_us;
     std::vector<std::vector<double>> stage_us(CudaSegmenter::kStages);
     const std::size_t group_bytes = static_cast<std::size_t>(group) * volume.bscan_pixels();
@@ -142,28 +119,29 @@ int main(int argc, char** argv) {
       for (std::uint32_t g = 0; g < groups; ++g) {
         const std::uint32_t first = g * group;
         // Anchor 1: a device copy of the group.
-        IOCT_CUDA_CHECK(cudaEventRecord(events.start(), stream));
-        IOCT_CUDA_CHECK(cudaMemcpyAsync(scratch.data() + first * volume.bscan_pixels(),
-                                        device_volume.data() + first * volume.bscan_pixels(),
-                                        group_bytes, cudaMemcpyDeviceToDevice, stream));
-        IOCT_CUDA_CHECK(cudaEventRecord(events.stop(), stream));
-        copy_us.push_back(events.elapsed_us());
+        copy_us.push_back(
+            1000.0 * bench::device_ms(stream, [&] {
+              IOCT_CUDA_CHECK(cudaMemcpyAsync(scratch.data() + first * volume.bscan_pixels(),
+                                              device_volume.data() + first * volume.bscan_pixels(),
+                                              group_bytes, cudaMemcpyDeviceToDevice, stream));
+            }));
         // Anchor 2: the volume filters of the group's outputs.
         const gpu::filters::BscanRange outputs =
             gpu::filters::outputs_affected_by({first, group}, volume.bscans());
-        IOCT_CUDA_CHECK(cudaEventRecord(events.start(), stream));
-        gpu::filters::enqueue_volume_filter(device_volume.data(), scratch.data(), filtered.data(),
-                                            dims, outputs, {}, taps, {}, stream);
-        IOCT_CUDA_CHECK(cudaEventRecord(events.stop(), stream));
-        filter_us.push_back(events.elapsed_us());
+        filter_us.push_back(1000.0 * bench::device_ms(stream, [&] {
+                              gpu::filters::enqueue_volume_filter(
+                                  device_volume.data(), scratch.data(), filtered.data(), dims,
+                                  outputs, {}, taps, {}, stream);
+                            }));
         // The segmentation of the group, with its stages.
         segmenter.set_stage_events(stage_events.data());
-        IOCT_CUDA_CHECK(cudaEventRecord(events.start(), stream));
+        segment_start.record(stream);
         segmenter.enqueue_group(device_volume.data(), {first, group}, stream);
-        IOCT_CUDA_CHECK(cudaEventRecord(events.stop(), stream));
-        segment_us.push_back(events.elapsed_us());
+        segment_stop.record(stream);
+        segment_stop.synchronize();
+        segment_us.push_back(1000.0 * segment_stop.ms_since(segment_start));
         segmenter.set_stage_events(nullptr);
-        cudaEvent_t previous = events.start();
+        cudaEvent_t previous = segment_start.get();
         for (int s = 0; s < CudaSegmenter::kStages; ++s) {
           float ms = 0.0f;
           IOCT_CUDA_CHECK(cudaEventElapsedTime(&ms, previous, stage_events[s]));
@@ -182,10 +160,10 @@ int main(int argc, char** argv) {
     std::vector<double> graph_us;
     for (int round = 0; round < rounds; ++round) {
       for (std::uint32_t g = 0; g < groups; ++g) {
-        IOCT_CUDA_CHECK(cudaEventRecord(events.start(), stream));
-        segmenter.enqueue_group(device_volume.data(), {g * group, group}, stream);
-        IOCT_CUDA_CHECK(cudaEventRecord(events.stop(), stream));
-        graph_us.push_back(events.elapsed_us());
+        graph_us.push_back(
+            1000.0 * bench::device_ms(stream, [&] {
+              segmenter.enqueue_group(device_volume.data(), {g * group, group}, stream);
+            }));
       }
     }
     for (cudaEvent_t e : stage_events) cudaEventDestroy(e);

@@ -184,6 +184,7 @@ class TimingEvent {
   TimingEvent(const TimingEvent&) = delete;
   TimingEvent& operator=(const TimingEvent&) = delete;
   void record(cudaStream_t stream) { IOCT_CUDA_CHECK(cudaEventRecord(event_, stream)); }
+  void synchronize() const { IOCT_CUDA_CHECK(cudaEventSynchronize(event_)); }
   // Device time from `earlier` to this one, ms (both recorded and done).
   float ms_since(const TimingEvent& earlier) const {
     float ms = 0.0f;
