@@ -22,7 +22,12 @@ void add_ring_keys(config::KeyTable<GpuConfig>& k) {
   k.text("ring.name", IOCT_MEMBER(live.ring_name),
          "the ring ioct-rt fills: a POSIX shm name without '/', or an absolute path", "--ring")
       .real_in("ring.wait_s", IOCT_MEMBER(live.wait_s), 0.0, 1e6,
-               "seconds to wait for the ring to appear", "--wait");
+               "seconds to wait for the ring to appear", "--wait")
+      .real_in("ring.spin_window_s", IOCT_MEMBER(live.spin_window_s), 0.0, 0.1,
+               "seconds the live loop and the stages' thread stay awake, polling, on each side of "
+               "when the next group is due, so waking a sleeping thread is not in a group's "
+               "latency; 0: sleep between polls only",
+               "--spin-window");
 }
 
 void add_output_keys(config::KeyTable<GpuConfig>& k) {
@@ -190,6 +195,7 @@ GpuSetup resolve(const GpuConfig& c, const RunLimits& limits) {
     const std::string frames = c.frames == "<ring>.frames" ? live.ring_name + ".frames" : c.frames;
     stages.frame_ring = frames == "none" ? "" : frames;
     stages.frame_group = c.view_group;
+    stages.spin_window_s = live.spin_window_s;
     stages.validate();
   }
   if (!c.view_socket.empty()) {

@@ -9,6 +9,7 @@
 
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
+#include "ioct/concurrency/arrival_forecast.hpp"
 #include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/ingest/live_pipeline.hpp"
 #include "ioct/gpu/ingest/run_summary_json.hpp"
@@ -68,6 +69,7 @@ void LiveConfig::validate() const {
   require_real_in_range("seconds", run_s, 0.0, 1e9);
   require_real_in_range("status_interval", status_interval_s, 0.0, 1e6);
   require_real_in_range("poll_interval", poll_interval_s, 1e-6, 1.0);
+  require_real_in_range("spin_window", spin_window_s, 0.0, 0.1);
   if (label.empty() || label.size() >= shm::kReaderLabelBytes) {
     throw ConfigError("label", "'" + label + "'",
                       "must be 1 to " + std::to_string(shm::kReaderLabelBytes - 1) + " characters");
@@ -91,6 +93,7 @@ class LiveProcessor::Session final : public LiveEvents {
     const std::uint64_t limit_ns = seconds_to_ns(config_.run_s);
     const std::uint64_t status_ns = seconds_to_ns(config_.status_interval_s);
     const std::uint64_t poll_ns = seconds_to_ns(config_.poll_interval_s);
+    const std::uint64_t spin_ns = seconds_to_ns(config_.spin_window_s);
     for (;;) {
       if (owner_.stop_.load(std::memory_order_relaxed)) return StopReason::stop_requested;
       const std::uint64_t now = ioct::monotonic_ns();
@@ -107,9 +110,17 @@ class LiveProcessor::Session final : public LiveEvents {
         case shm::PollStatus::ready:
         case shm::PollStatus::lapped:  // counted by the reader
           break;
-        case shm::PollStatus::empty:
-          sleep_ns(poll_ns);
+        case shm::PollStatus::empty: {
+          // Awake around when the next group is due, so it is taken the moment it is published.
+          const std::uint64_t sleep =
+              idle_sleep_ns(arrivals_, ioct::monotonic_ns(), spin_ns, poll_ns);
+          if (sleep > 0) {
+            sleep_ns(sleep);
+          } else {
+            spin_pause();
+          }
           break;
+        }
         case shm::PollStatus::producer_gone:
           return StopReason::producer_gone;
       }
@@ -167,6 +178,7 @@ class LiveProcessor::Session final : public LiveEvents {
 
   void on_group(const shm::SlotHeader& header, const PlacementResult& placed) override {
     status_flags_seen_ |= header.status_flags;
+    arrivals_.observe(header.t_publish_ns, header.group_index);
     // Publish -> in the volume; the time spent on completed volumes' images is not processing.
     // (Clamped: the timestamp comes from another process and is not trusted to be sane.)
     const std::uint64_t now = ioct::monotonic_ns();
@@ -319,6 +331,7 @@ class LiveProcessor::Session final : public LiveEvents {
   LatencyHistogram latency_interval_;
   std::uint64_t completion_ns_ = 0;
   std::uint64_t poll_started_ns_ = 0;  // the live loop last asked the ring for a group
+  ArrivalForecast arrivals_;           // when the producer publishes its next group
   std::uint64_t ingest_ns_ = 0;        // the last group's: read, process, place
   bool stage_needs_whole_volume_ = false;
   std::optional<PendingImages> pending_;

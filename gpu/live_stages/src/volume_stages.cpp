@@ -103,6 +103,7 @@ void VolumeStagesConfig::validate() const {
   require_real_in_range("stages.image_interval", image_interval_s, 0.0, 3600.0);
   require_real_in_range("stages.frame_rate", frame_rate_hz, 0.1, 1000.0);
   require_real_in_range("stages.cpu_moving_scale", cpu_moving_scale, 0.05, 1.0);
+  require_real_in_range("ring.spin_window", spin_window_s, 0.0, 0.1);
   if (!frame_ring.empty()) {
     if (const std::string problem = shm::object_name_problem(frame_ring); !problem.empty()) {
       throw ConfigError("stages.frames", "'" + frame_ring + "'", problem);
@@ -181,6 +182,8 @@ void VolumeStages::on_bscans(LiveVolumeSource& source, std::uint32_t first, std:
     dirty_end_ = std::max(dirty_end_, first + count);
   }
   ++dirty_groups_;
+  handovers_.observe(ioct::monotonic_ns(), stamp.group_index);
+  handed_over_.fetch_add(1, std::memory_order_release);
   lock.unlock();
   wake_.notify_all();
 }
@@ -204,15 +207,29 @@ void VolumeStages::work() {
       // New groups, a change, the next frame due (auto-rotation, a view that stopped moving) or
       // the stop, whichever comes first.
       bool views_due = false;
+      const auto spin_ns = static_cast<std::uint64_t>(config_.spin_window_s * 1e9);
       for (;;) {
         const std::uint64_t now = ioct::monotonic_ns();
         const std::uint64_t due = have_volume_ ? views_.next_due_ns(now) : UINT64_MAX;
         views_due = due <= now;
         if (stop_ || dirty_groups_ > 0 || views_due) break;
-        if (due == UINT64_MAX) {
+        const std::uint64_t sleep =
+            idle_sleep_ns(handovers_, now, spin_ns, due == UINT64_MAX ? UINT64_MAX : due - now);
+        if (sleep == 0) {
+          // Inside the window: watch the hand-over count without the lock for a slice, then
+          // look at everything again (the stop, views due) under it.
+          constexpr std::uint64_t kSlice = 50'000;
+          const std::uint64_t seen = handed_over_.load(std::memory_order_relaxed);
+          lock.unlock();
+          while (handed_over_.load(std::memory_order_acquire) == seen &&
+                 ioct::monotonic_ns() < now + kSlice) {
+            spin_pause();
+          }
+          lock.lock();
+        } else if (sleep == UINT64_MAX) {
           wake_.wait(lock);
         } else {
-          wake_.wait_for(lock, std::chrono::nanoseconds(due - now));
+          wake_.wait_for(lock, std::chrono::nanoseconds(sleep));
         }
       }
       if (dirty_groups_ == 0 && stop_) return;  // stopped with nothing pending

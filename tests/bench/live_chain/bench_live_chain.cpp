@@ -64,6 +64,7 @@ struct Options {
   std::uint32_t period_us = 5000;
   std::uint32_t ahead = 2;
   std::string json_path;
+  double spin_window_s = live::VolumeStagesConfig{}.spin_window_s;
 };
 
 void fill_header(shm::SlotHeader& h, const shm::RingGeometry& g, std::uint64_t group) {
@@ -289,6 +290,8 @@ int run(const Options& o) {
   std::printf("ioct-bench-live-chain\n%sGPU: %s, %d SMs\n", bench::to_text(host).c_str(),
               props.name, props.multiProcessorCount);
   const shm::RingGeometry g;  // the default geometry
+  std::printf("the stages' thread awake %.3f ms on each side of a group's expected hand-over\n",
+              o.spin_window_s * 1e3);
   std::printf("geometry: %u samples x %u A-scans x %u B-scans per group, %u per volume\n",
               g.samples_per_ascan, g.ascans_per_bscan, g.bscans_per_group, g.bscans_per_volume);
   FilledRing ring(g, o.slots);
@@ -298,6 +301,7 @@ int run(const Options& o) {
   config.backend = Backend::cuda;
   config.final_modes = {};
   config.nice = 0;
+  config.spin_window_s = o.spin_window_s;
   config.on_pass = [&recorder](const live::StagesPass& pass) { recorder.on_pass(pass); };
   live::VolumeStages stages(config);
   LivePipelineOptions options;
@@ -482,6 +486,7 @@ int run(const Options& o) {
     nlohmann::json report = {{"benchmark", "ioct-bench-live-chain"},
                              {"host", bench::to_json(host)},
                              {"gpu", props.name},
+                             {"spin_window_s", o.spin_window_s},
                              {"latency",
                               {{"period_us", o.period_us},
                                {"groups", rendered.size()},
@@ -527,6 +532,10 @@ int main(int argc, char** argv) {
   app.add_option("--ahead", o.ahead, "throughput: groups the writer may be ahead of the stages")
       ->check(CLI::Range(1u, 6u));
   app.add_option("--slots", o.slots, "ring slots")->check(CLI::Range(4u, 64u));
+  app.add_option("--spin-window-s", o.spin_window_s,
+                 "the stages' thread awake this long around a group's expected hand-over (0: "
+                 "asleep until it comes, as before ring.spin_window_s)")
+      ->check(CLI::Range(0.0, 0.1));
   app.add_option("--json", o.json_path, "also write the figures as JSON");
   CLI11_PARSE(app, argc, argv);
   try {

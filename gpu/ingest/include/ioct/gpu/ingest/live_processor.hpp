@@ -42,7 +42,10 @@ struct LiveConfig {
   double run_s = 0.0;               // stop after this long attached; 0: no limit
   double status_interval_s = 1.0;   // between status lines; 0: none
   double poll_interval_s = 250e-6;  // sleep when no group is ready
-  std::string label = "ioct-gpu";   // shown to the producer in the reader status
+  // Awake and polling this long on each side of when the next group is due
+  // (concurrency/arrival_forecast.hpp); 0: only sleep between polls.
+  double spin_window_s = 1e-3;
+  std::string label = "ioct-gpu";        // shown to the producer in the reader status
   bool exit_when_producer_gone = false;  // finish instead of waiting for the producer's return
 
   // Throws ConfigError naming the first bad key.

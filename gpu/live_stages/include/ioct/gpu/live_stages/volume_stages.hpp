@@ -27,6 +27,7 @@
 // render.png (the live view) and one PNG per further mode, and the figures for summary.json.
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <filesystem>
@@ -38,6 +39,7 @@
 #include <thread>
 #include <vector>
 
+#include "ioct/concurrency/arrival_forecast.hpp"
 #include "ioct/concurrency/latency_histogram.hpp"
 #include "ioct/gpu/filters/filter_config.hpp"
 #include "ioct/gpu/ingest/live_stage.hpp"
@@ -119,6 +121,10 @@ struct VolumeStagesConfig {
   // Lower scheduling priority (nice) of the stages' threads, so the processing of the ring always
   // wins the CPU over them.
   int nice = 10;
+  // Awake and polling this long on each side of when the next group's hand-over is due
+  // (concurrency/arrival_forecast.hpp), so the pass starts without a sleeping thread's wake-up;
+  // 0: wait asleep only. ioct-gpu sets it from ring.spin_window_s, as the live loop's.
+  double spin_window_s = 1e-3;
   // Called on the stages' thread after every pass (benchmarks, tests); keep it short.
   std::function<void(const StagesPass&)> on_pass;
 
@@ -232,8 +238,12 @@ class VolumeStages final : public LiveStage, public ViewControl {
   GroupStamp pending_stamp_;             // the newest group handed over
   std::uint64_t last_published_ns_ = 0;  // of the previous group (for the period)
   std::uint64_t last_group_index_ = 0;
-  std::uint64_t group_period_ns_ = 0;  // smoothed
-  bool have_volume_ = false;           // a pass has run: there is something to render
+  std::uint64_t group_period_ns_ = 0;  // smoothed: the rate the view shows
+  // When the next group is handed over (the stages' thread is awake around it); the count of
+  // hand-overs, which the thread watches while it spins outside the lock.
+  ArrivalForecast handovers_;
+  std::atomic<std::uint64_t> handed_over_{0};
+  bool have_volume_ = false;  // a pass has run: there is something to render
   SnapshotWaiters snapshot_waiters_;
 
   // The stages' own, touched only by their thread (and by finish() after it ended); device_
