@@ -29,6 +29,25 @@ TEST(WorkerPool, RunsEveryIndexOnceOnEveryPoolSize) {
   }
 }
 
+// Jobs back to back, each with its own task: a worker that wakes late for one job must never
+// run an index of it after run() returned, nor take an index of the next job with the old task.
+TEST(WorkerPool, NoIterationRunsOutsideItsOwnRun) {
+  WorkerPool pool(3);
+  std::atomic<int> outside{0};
+  for (int job = 0; job < 3000; ++job) {
+    const std::uint32_t count = 2 + static_cast<std::uint32_t>(job % 5);
+    std::vector<std::atomic<int>> calls(count);
+    std::atomic<bool> open{true};
+    pool.run(count, [&](std::uint32_t i, unsigned) {
+      if (!open.load()) ++outside;
+      calls[i].fetch_add(1);
+    });
+    open = false;
+    for (std::uint32_t i = 0; i < count; ++i) ASSERT_EQ(calls[i].load(), 1) << job << " " << i;
+  }
+  EXPECT_EQ(outside.load(), 0);
+}
+
 TEST(WorkerPool, RethrowsATaskErrorAfterTheOthersFinish) {
   WorkerPool pool(2);
   std::atomic<int> done{0};

@@ -11,6 +11,7 @@
 #include "ioct/common/config_error.hpp"
 #include "ioct/concurrency/arrival_forecast.hpp"
 #include "ioct/concurrency/monotonic_clock.hpp"
+#include "ioct/concurrency/spin_pause.hpp"
 #include "ioct/gpu/ingest/live_pipeline.hpp"
 #include "ioct/gpu/ingest/run_summary_json.hpp"
 #include "ioct/gpu/processing/group_check.hpp"

@@ -72,14 +72,4 @@ inline std::uint64_t idle_sleep_ns(const ArrivalForecast& forecast, std::uint64_
   return std::min(poll_ns, window_start - now_ns);
 }
 
-// A pause between two looks inside the window: tells the core it is a spin (less power, the
-// other hyperthread runs).
-inline void spin_pause() noexcept {
-#if defined(__x86_64__) || defined(__i386__)
-  __builtin_ia32_pause();
-#elif defined(__aarch64__)
-  asm volatile("yield");
-#endif
-}
-
 }  // namespace ioct

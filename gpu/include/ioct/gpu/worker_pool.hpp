@@ -1,5 +1,8 @@
 // A fixed pool of threads, made once at start-up, that runs the iterations of one loop at a time
 // (e.g. the B-scans of a group). The calling thread works too, so a pool of 2 threads starts 1.
+// The loop ends when its iterations are done, not when every worker has woken: a worker that
+// wakes late (a sleeping thread can take a millisecond to run on some hosts) finds nothing left
+// and costs the caller nothing.
 #pragma once
 
 #include <atomic>
@@ -44,18 +47,20 @@ class WorkerPool {
   };
 
   void run_erased(std::uint32_t count, void* context, Call call);
-  void work_on(const Job& job, unsigned worker) noexcept;
+  void work_on(const Job& job, std::uint32_t generation, unsigned worker) noexcept;
   void worker_loop(unsigned worker) noexcept;
 
   std::mutex mutex_;
   std::condition_variable job_posted_;
   std::condition_variable job_done_;
-  std::uint64_t generation_ = 0;  // bumped for every job
+  std::uint32_t generation_ = 0;  // bumped for every job
   Job job_;
-  unsigned busy_workers_ = 0;  // workers not yet finished with the current job
   bool stopping_ = false;
   std::exception_ptr first_error_;
-  std::atomic<std::uint32_t> next_index_{0};
+  // The job's generation (high 32 bits) and its next index (low 32 bits), taken together, so a
+  // worker holding an older job can never take an index of a newer one.
+  std::atomic<std::uint64_t> next_{0};
+  std::atomic<std::uint32_t> completed_{0};  // iterations of the current job that returned
   std::vector<std::thread> workers_;
 };
 
