@@ -6,6 +6,7 @@
 
 #include "ioct/concurrency/monotonic_clock.hpp"
 
+#include "forecast_wait.hpp"
 #include "thread_nice.hpp"
 
 namespace ioct::gpu::live {
@@ -27,7 +28,7 @@ unsigned encode_threads() {
 
 }  // namespace
 
-FramePublisher::FramePublisher(const shm::FrameRingConfig& ring, int nice)
+FramePublisher::FramePublisher(const shm::FrameRingConfig& ring, int nice, double spin_window_s)
     : name_(ring.name),
       writer_(ring),
       encode_pool_(encode_threads()),
@@ -35,6 +36,7 @@ FramePublisher::FramePublisher(const shm::FrameRingConfig& ring, int nice)
       bscan_encoder_(90, kEncodeBands, encode_pool_),
       tip_bscans_encoder_(90, kEncodeBands, encode_pool_),
       nice_(nice) {
+  spin_ns_ = static_cast<std::uint64_t>(spin_window_s * 1e9);
   status_.source_state = static_cast<std::uint64_t>(shm::SourceState::waiting);
   {
     std::lock_guard lock(mutex_);
@@ -193,6 +195,8 @@ void FramePublisher::publish(shm::FrameMeta meta, render::RgbaImage& render) {
     }
     slot->meta = meta;
     std::swap(slot->image, render);
+    frame_arrivals_.observe(ioct::monotonic_ns(), frames_handed_.load(std::memory_order_relaxed));
+    frames_handed_.fetch_add(1, std::memory_order_release);
   }
   frame_wake_.notify_one();
   std::lock_guard lock(mutex_);
@@ -217,11 +221,11 @@ void FramePublisher::encode_frames() {
   set_this_thread_nice(nice_);  // encoding is the stages' work
   std::unique_lock lock(frame_mutex_);
   for (;;) {
-    ViewSlot* slot = nullptr;
-    frame_wake_.wait(lock, [&] {
+    ViewSlot* slot = next_waiting_locked();
+    while (slot == nullptr && !frames_stopping_) {
+      wait_for_next(lock, frame_wake_, frame_arrivals_, frames_handed_, spin_ns_, UINT64_MAX);
       slot = next_waiting_locked();
-      return slot != nullptr || frames_stopping_;
-    });
+    }
     if (slot == nullptr) return;  // stopping, with nothing left to write
     std::swap(slot->image, encoding_);
     const shm::FrameMeta meta = slot->meta;

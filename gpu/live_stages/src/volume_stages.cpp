@@ -23,6 +23,7 @@
 #include "ioct/shm/shm_object.hpp"
 
 #include "device_stage_chain.hpp"
+#include "forecast_wait.hpp"
 #include "frame_instrument.hpp"
 #include "live_image_writer.hpp"
 #include "thread_nice.hpp"
@@ -122,7 +123,7 @@ VolumeStages::VolumeStages(VolumeStagesConfig config)
     shm::FrameRingConfig ring;
     ring.name = config_.frame_ring;
     ring.group = config_.frame_group;
-    publisher_ = std::make_unique<FramePublisher>(ring, config_.nice);
+    publisher_ = std::make_unique<FramePublisher>(ring, config_.nice, config_.spin_window_s);
   }
   thread_ = std::thread([this] { work(); });
 }
@@ -213,24 +214,8 @@ void VolumeStages::work() {
         const std::uint64_t due = have_volume_ ? views_.next_due_ns(now) : UINT64_MAX;
         views_due = due <= now;
         if (stop_ || dirty_groups_ > 0 || views_due) break;
-        const std::uint64_t sleep =
-            idle_sleep_ns(handovers_, now, spin_ns, due == UINT64_MAX ? UINT64_MAX : due - now);
-        if (sleep == 0) {
-          // Inside the window: watch the hand-over count without the lock for a slice, then
-          // look at everything again (the stop, views due) under it.
-          constexpr std::uint64_t kSlice = 50'000;
-          const std::uint64_t seen = handed_over_.load(std::memory_order_relaxed);
-          lock.unlock();
-          while (handed_over_.load(std::memory_order_acquire) == seen &&
-                 ioct::monotonic_ns() < now + kSlice) {
-            spin_pause();
-          }
-          lock.lock();
-        } else if (sleep == UINT64_MAX) {
-          wake_.wait(lock);
-        } else {
-          wake_.wait_for(lock, std::chrono::nanoseconds(sleep));
-        }
+        wait_for_next(lock, wake_, handovers_, handed_over_, spin_ns,
+                      due == UINT64_MAX ? UINT64_MAX : due - now);
       }
       if (dirty_groups_ == 0 && stop_) return;  // stopped with nothing pending
       if (dirty_groups_ == 0 || (pass_last && views_due && !stop_)) {

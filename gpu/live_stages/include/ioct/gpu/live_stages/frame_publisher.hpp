@@ -14,6 +14,7 @@
 // same view replaces it, and the views' frames are encoded in the order they came.
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <cstddef>
 #include <cstdint>
@@ -24,6 +25,7 @@
 #include <thread>
 #include <vector>
 
+#include "ioct/concurrency/arrival_forecast.hpp"
 #include "ioct/gpu/ingest/live_stage.hpp"
 #include "ioct/gpu/instruments/tip_bscans.hpp"
 #include "ioct/gpu/live_stages/banded_jpeg_encoder.hpp"
@@ -37,8 +39,10 @@ class FramePublisher {
  public:
   // Creates the frame ring (shm::RingError when another live writer holds the name) and starts
   // the heartbeat and the encoding thread, the latter at `nice` (the stages' own, 0-19: encoding
-  // is the stages' work, below the processing).
-  explicit FramePublisher(const shm::FrameRingConfig& ring, int nice = 0);
+  // is the stages' work, below the processing). The encoding thread waits awake within
+  // `spin_window_s` of when the next frame is due (forecast from the last ones; 0: asleep only).
+  explicit FramePublisher(const shm::FrameRingConfig& ring, int nice = 0,
+                          double spin_window_s = 0.0);
   ~FramePublisher();  // close()
   FramePublisher(const FramePublisher&) = delete;
   FramePublisher& operator=(const FramePublisher&) = delete;
@@ -135,6 +139,9 @@ class FramePublisher {
   std::condition_variable frame_wake_;
   std::vector<ViewSlot> slots_;  // one per open view (views are few: ioct-view limits them)
   std::uint64_t frames_came_ = 0;
+  std::atomic<std::uint64_t> frames_handed_{0};  // every frame handed over, replaced or not
+  ArrivalForecast frame_arrivals_;
+  std::uint64_t spin_ns_ = 0;
   std::uint64_t replaced_ = 0;
   bool frames_stopping_ = false;
   render::RgbaImage encoding_;

@@ -7,8 +7,8 @@
 #include <functional>
 #include <mutex>
 
-#include "ioct/gpu/processing/db_scale.hpp"
 #include "ioct/gpu/live_stages/view_control.hpp"
+#include "ioct/gpu/processing/db_scale.hpp"
 
 namespace ioct::gpu::live {
 

@@ -41,7 +41,6 @@
 
 #include "ioct/concurrency/arrival_forecast.hpp"
 #include "ioct/concurrency/latency_histogram.hpp"
-#include "ioct/concurrency/spin_pause.hpp"
 #include "ioct/gpu/filters/filter_config.hpp"
 #include "ioct/gpu/ingest/live_stage.hpp"
 #include "ioct/gpu/instruments/instrument_config.hpp"
