@@ -38,6 +38,10 @@ TEST(GpuConfig, TheAppliancesFileResolvesToItsRingFramesAndViewSocket) {
   EXPECT_EQ(setup.stages->frame_ring, "/dev/shm/ioct-frames/frames");
   EXPECT_EQ(setup.stages->frame_group, "ioct-frames");
   EXPECT_TRUE(setup.stages->instruments.enabled);
+  // filter = "auto": the segmentation's volume median + Gaussian, the renderer's by render mode.
+  EXPECT_TRUE(setup.stages->render_filter_by_mode);
+  EXPECT_TRUE(setup.stages->filter.gaussian);
+  EXPECT_EQ(setup.stages->filter.median_window, filters::MedianWindow::volume_3x3x3);
   EXPECT_EQ(setup.stages->live_image, "/var/lib/ioct/frames/render.png");
   ASSERT_TRUE(setup.socket);
   EXPECT_EQ(setup.socket->path, "/run/ioct-gpu/view.sock");
@@ -55,6 +59,7 @@ TEST(GpuConfig, FlagsOverrideTheFileAndTheDefaultsFillTheRest) {
   EXPECT_EQ(setup.stages->backend, Backend::cpu) << "the stages run where processing does";
   EXPECT_EQ(setup.stages->render.mode, render::RenderMode::la_mip_composite);
   EXPECT_FALSE(setup.stages->filter.gaussian) << "median-bscan";
+  EXPECT_FALSE(setup.stages->render_filter_by_mode) << "an explicit filter serves every mode";
   EXPECT_EQ(setup.stages->frame_ring, "ioct-ring.frames") << "the ring's name + .frames";
   EXPECT_FALSE(setup.socket);
   EXPECT_FALSE(make_gpu_setup("", {{"stages.enabled", {"false"}}}, {}).stages);

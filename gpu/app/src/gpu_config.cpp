@@ -88,10 +88,13 @@ void add_stages_keys(config::KeyTable<GpuConfig>& k) {
             "filter, segment and render the live volume (false: only process)", "--no-stages")
       .integer("stages.threads", IOCT_MEMBER(stages.cpu_threads), 1, 64,
                "threads of each CPU stage (filters, segmentation, rendering)", "--stage-threads")
-      .choice("stages.filter", IOCT_MEMBER(filter), {"median-gauss", "median-bscan", "none"},
-              "the live volume's filter: median-gauss (3x3x3 median + 5x5 Gaussian, Viehland "
-              "2016), median-bscan (3x3 median per B-scan, Weiss 2019: for the layer-aware "
-              "modes) or none",
+      .choice("stages.filter", IOCT_MEMBER(filter),
+              {"auto", "median-gauss", "median-bscan", "none"},
+              "the live volume's filter: auto (median-gauss for the segmentation and Viehland's "
+              "modes; the layer-aware, la-mip and axial-colorization modes render a second "
+              "volume, median-bscan), or one filter for everything: median-gauss (3x3x3 median + "
+              "5x5 Gaussian, Viehland 2016), median-bscan (3x3 median per B-scan, Weiss 2019) or "
+              "none",
               "--filter")
       .real_in("stages.cpu_render_interval_s", IOCT_MEMBER(stages.cpu_render_interval_s), 0.0,
                3600.0, "seconds between live renders on the CPU (the GPU renders every group)",
@@ -187,7 +190,9 @@ GpuSetup resolve(const GpuConfig& c, const RunLimits& limits) {
     live::VolumeStagesConfig& stages = setup.stages.emplace(c.stages);
     stages.backend = live.backend;
     const double sigma = stages.filter.gaussian_sigma;
-    stages.filter = filters::filter_by_name("stages.filter", c.filter);
+    stages.render_filter_by_mode = c.filter == "auto";
+    stages.filter =
+        filters::filter_by_name("stages.filter", c.filter == "auto" ? "median-gauss" : c.filter);
     stages.filter.gaussian_sigma = sigma;
     stages.render.spacing = {stages.sampling.ascan_spacing_um, stages.sampling.bscan_spacing_um,
                              stages.sampling.axial_um_per_px};

@@ -22,7 +22,7 @@ struct GpuConfig {
   std::string resample_poly;      // "c0,c1,...": the calibration; empty: none
   // [stages], [render], [sampling], [instruments]
   bool stages_enabled = true;
-  std::string filter = "median-gauss";
+  std::string filter = "auto";  // auto: median-gauss, the renderer's by render mode
   live::VolumeStagesConfig stages;
   // [view]
   std::string frames = "<ring>.frames";

@@ -5,6 +5,7 @@
 
 #include "ioct/gpu/filters/volume_filter.hpp"
 #include "ioct/gpu/instruments/instrument_detector.hpp"
+#include "ioct/gpu/live_stages/render_filter.hpp"
 #include "ioct/gpu/render/renderer.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"
 
@@ -35,6 +36,7 @@ std::uint64_t ns_before(std::uint64_t end_ns, float ms) {
 
 struct DeviceStageChain::Impl {
   filters::CudaVolumeFilter& filter;
+  filters::CudaVolumeFilter* bscan_filter;  // null: the renderer reads `filtered` in every mode
   segmentation::CudaSegmenter& segmenter;
   render::CudaRenderer& renderer;
 
@@ -48,10 +50,21 @@ struct DeviceStageChain::Impl {
 
   VolumeDims pending_dims, input_dims;
   cuda::DeviceArray<std::uint8_t> pending, input, filtered;
+  // bscan_filter's output, the renderer's volume in the modes that render from it; allocated at
+  // the first such mode and kept (a change of mode then costs no allocation).
+  cuda::DeviceArray<std::uint8_t> render_filtered;
+  bool renderer_bscan_median = false;  // the renderer holds render_filtered's B-scans
+  cuda::Event render_input_read;       // the render stream's last read of the input
+  bool render_input_read_recorded = false;
 
-  Impl(filters::CudaVolumeFilter& f, segmentation::CudaSegmenter& s, render::CudaRenderer& r)
-      : filter(f), segmenter(s), renderer(r) {
+  Impl(filters::CudaVolumeFilter& f, filters::CudaVolumeFilter* bscan,
+       segmentation::CudaSegmenter& s, render::CudaRenderer& r)
+      : filter(f), bscan_filter(bscan), segmenter(s), renderer(r) {
     renderer.use_stream(render_stream.get());
+  }
+
+  bool wants_bscan_median(render::RenderMode mode) const {
+    return bscan_filter != nullptr && renders_from_bscan_median(mode);
   }
 
   // The input (and the filtered volume) take the pending volume's dimensions: true when they
@@ -59,6 +72,7 @@ struct DeviceStageChain::Impl {
   bool reshape_input() {
     if (input_dims == pending_dims && input.size() == pending_dims.bytes()) return false;
     IOCT_CUDA_CHECK(cudaStreamSynchronize(stream.get()));
+    IOCT_CUDA_CHECK(cudaStreamSynchronize(render_stream.get()));  // its median reads the input
     input = {};
     filtered = {};
     input = cuda::DeviceArray<std::uint8_t>(pending_dims.bytes());
@@ -67,22 +81,67 @@ struct DeviceStageChain::Impl {
     return true;
   }
 
+  // Before a take overwrites the input: the render stream's median must have read it.
+  void wait_for_render_reads() {
+    if (render_input_read_recorded) {
+      IOCT_CUDA_CHECK(cudaStreamWaitEvent(stream.get(), render_input_read.get(), 0));
+    }
+  }
+
   void record_taken() {
     IOCT_CUDA_CHECK(cudaEventRecord(input_taken.get(), stream.get()));
     input_taken_recorded = true;
   }
+
+  // The renderer's volume update, enqueued on the render stream: from the filtered volume (its
+  // B-scans `outputs` new), or with `bscan_median` from the per-B-scan median of the input (its
+  // B-scans `changed` new), filtered here on the render stream once the pass stream took the input.
+  // A change between the two takes all B-scans. The caller makes the layer reference after it.
+  void update_render_volume(bool bscan_median, filters::BscanRange changed,
+                            filters::BscanRange outputs) {
+    const VolumeDims dims = input_dims;
+    cudaStream_t rs = render_stream.get();
+    const filters::BscanRange all{0, dims.bscans};
+    if (!bscan_median) {
+      const filters::BscanRange update = renderer_bscan_median ? all : outputs;
+      renderer.update_volume(VolumeRef::on_device(filtered.data(), dims, stream.get()),
+                             update.first, update.count);
+      renderer_bscan_median = false;
+      return;
+    }
+    bool whole = !renderer_bscan_median;
+    if (render_filtered.size() != dims.bytes()) {
+      IOCT_CUDA_CHECK(cudaStreamSynchronize(rs));  // a new geometry: nothing may still read it
+      render_filtered = {};
+      render_filtered = cuda::DeviceArray<std::uint8_t>(dims.bytes());
+      whole = true;
+    }
+    IOCT_CUDA_CHECK(cudaStreamWaitEvent(rs, input_taken.get(), 0));
+    const filters::BscanRange median_outputs = bscan_filter->filter_group(
+        VolumeRef::on_device(input.data(), dims, rs),
+        MutableVolumeRef::on_device(render_filtered.data(), dims, rs), whole ? all : changed);
+    IOCT_CUDA_CHECK(cudaEventRecord(render_input_read.get(), rs));
+    render_input_read_recorded = true;
+    const filters::BscanRange update = whole ? all : median_outputs;
+    renderer.update_volume(VolumeRef::on_device(render_filtered.data(), dims, rs), update.first,
+                           update.count);
+    renderer_bscan_median = true;
+  }
 };
 
 std::unique_ptr<DeviceStageChain> DeviceStageChain::make(
-    filters::VolumeFilter& filter, segmentation::Segmenter& segmenter, render::Renderer& renderer,
+    filters::VolumeFilter& filter, filters::VolumeFilter* render_filter,
+    segmentation::Segmenter& segmenter, render::Renderer& renderer,
     const instruments::InstrumentDetector* detector) {
   auto* f = dynamic_cast<filters::CudaVolumeFilter*>(&filter);
+  auto* b = dynamic_cast<filters::CudaVolumeFilter*>(render_filter);
   auto* s = dynamic_cast<segmentation::CudaSegmenter*>(&segmenter);
   auto* r = dynamic_cast<render::CudaRenderer*>(&renderer);
   if (f == nullptr || s == nullptr || r == nullptr) return nullptr;
+  if (render_filter != nullptr && b == nullptr) return nullptr;
   if (detector != nullptr && detector->backend_name() != "cuda") return nullptr;
   return std::unique_ptr<DeviceStageChain>(
-      new DeviceStageChain(std::make_unique<Impl>(*f, *s, *r)));
+      new DeviceStageChain(std::make_unique<Impl>(*f, b, *s, *r)));
 }
 
 bool DeviceStageChain::hand_over(LiveVolumeSource& source, const LiveVolumeShape& shape,
@@ -128,6 +187,7 @@ DeviceStageChain::Taken DeviceStageChain::take(std::uint32_t first, std::uint32_
   Impl& m = *impl_;
   cudaStream_t stream = m.stream.get();
   IOCT_CUDA_CHECK(cudaStreamWaitEvent(stream, m.pending_ready.get(), 0));
+  m.wait_for_render_reads();
   const bool whole = m.reshape_input();
   const std::size_t stride = m.input_dims.bscan_bytes();
   if (whole) {
@@ -145,6 +205,7 @@ DeviceStageChain::Taken DeviceStageChain::take_host(const Volume& pending, std::
                                                     std::uint32_t count) {
   Impl& m = *impl_;
   m.pending_dims = VolumeDims::of(pending);
+  m.wait_for_render_reads();
   const bool whole = m.reshape_input();
   const std::size_t stride = m.input_dims.bscan_bytes();
   if (whole) {
@@ -174,9 +235,9 @@ DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t first, std:
   const filters::BscanRange outputs = m.filter.filter_group(
       input, MutableVolumeRef::on_device(m.filtered.data(), dims, stream), {first, count});
   m.filtered_done.record(stream);
-  // The renderer takes the filtered B-scans (texture, bricks, sums) on its own stream while the
-  // segmentation runs: the segmentation's searches keep few multiprocessors busy.
-  m.renderer.update_volume(filtered, outputs.first, outputs.count);
+  // The renderer takes the filtered B-scans (texture, bricks, sums), or in Weiss's modes filters
+  // its own, on its stream while the segmentation runs: its searches keep few multiprocessors busy.
+  m.update_render_volume(m.wants_bscan_median(view.mode), {first, count}, outputs);
   const segmentation::BscanSpan affected =
       m.segmenter.segment_group(filtered, {outputs.first, outputs.count}, nullptr);
   m.segmented_done.record(stream);
@@ -201,6 +262,18 @@ DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t first, std:
   t.changed_first = affected.first;  // the segmentation's reach covers the filter's outputs
   t.changed_count = affected.count;
   return t;
+}
+
+void DeviceStageChain::use_render_volume(render::RenderMode mode) {
+  Impl& m = *impl_;
+  const bool bscan_median = m.wants_bscan_median(mode);
+  if (!m.input_taken_recorded || bscan_median == m.renderer_bscan_median) return;
+  const filters::BscanRange all{0, m.input_dims.bscans};
+  m.update_render_volume(bscan_median, all, all);
+  // The layer reference again: its axial plane comes from the volume's centre-of-mass sums. The
+  // surfaces are the last pass's (the render stream waited for them in that pass; again here).
+  IOCT_CUDA_CHECK(cudaStreamWaitEvent(m.render_stream.get(), m.segmented_done.get(), 0));
+  m.renderer.update_layers(m.segmenter.device_surfaces());
 }
 
 void DeviceStageChain::download(Volume& filtered, segmentation::Surfaces& surfaces) {
@@ -251,6 +324,7 @@ std::uint32_t DeviceStageChain::bscans() const noexcept {
 struct DeviceStageChain::Impl {};
 
 std::unique_ptr<DeviceStageChain> DeviceStageChain::make(filters::VolumeFilter&,
+                                                         filters::VolumeFilter*,
                                                          segmentation::Segmenter&,
                                                          render::Renderer&,
                                                          const instruments::InstrumentDetector*) {
@@ -269,6 +343,9 @@ DeviceStageChain::Taken DeviceStageChain::take_host(const Volume&, std::uint32_t
 DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t, std::uint32_t,
                                                        const render::RenderConfig&,
                                                        render::RgbaImage*) {
+  throw std::logic_error("live stages: built without CUDA");
+}
+void DeviceStageChain::use_render_volume(render::RenderMode) {
   throw std::logic_error("live stages: built without CUDA");
 }
 void DeviceStageChain::download(Volume&, segmentation::Surfaces&) {

@@ -16,6 +16,12 @@
 // on the device too); the pass ends by waiting for its frame. Only what is asked for (a frame to
 // write, the files at the end; with instrument detection the surfaces, the A-scans' classes and the
 // tip's B-scan pair) comes back.
+//
+// In a mode rendered from Weiss's per-B-scan median (render_filter.hpp) the renderer's update reads
+// a second device volume instead of the filtered one: the render stream waits for the pass's
+// input, runs the per-B-scan median of the new B-scans into it (one kernel, while the pass stream
+// runs the segmentation) and the update reads it there. A change of mode re-filters the whole
+// input on the render stream (use_render_volume), with no pass and no host wait.
 #pragma once
 
 #include <cstdint>
@@ -57,9 +63,11 @@ class DeviceStageChain {
   };
 
   // Null when the stages are not all CUDA ones (or the build has no CUDA): they then work on
-  // host volumes. Moves the renderer onto the chain's render stream. `detector` (none: null) must
-  // be a CUDA one too: it reads the chain's input in place (input()).
+  // host volumes. Moves the renderer onto the chain's render stream. `render_filter` (the
+  // renderer's own per-B-scan median; null: the renderer always reads `filter`'s volume) and
+  // `detector` (none: null) must be CUDA ones too: they read the chain's input in place.
   static std::unique_ptr<DeviceStageChain> make(filters::VolumeFilter& filter,
+                                                filters::VolumeFilter* render_filter,
                                                 segmentation::Segmenter& segmenter,
                                                 render::Renderer& renderer,
                                                 const instruments::InstrumentDetector* detector);
@@ -86,9 +94,16 @@ class DeviceStageChain {
   Taken take_host(const Volume& pending, std::uint32_t first, std::uint32_t count);
 
   // Stages' thread: filter -> segment -> render the input's B-scans [first, first + count) (as
-  // take() returned them); the frame comes back into `frame` only when one is given.
+  // take() returned them), the renderer's volume the one view.mode renders from; the frame comes
+  // back into `frame` only when one is given.
   PassTimes run_pass(std::uint32_t first, std::uint32_t count, const render::RenderConfig& view,
                      render::RgbaImage* frame);
+
+  // Stages' thread, before a render in `mode` between passes: when `mode` renders from another
+  // volume than the renderer holds, the whole input is filtered for it (or the filtered volume
+  // taken) and the renderer updated, enqueued on the render stream (the render waits for it).
+  // Nothing before the first pass.
+  void use_render_volume(render::RenderMode mode);
 
   // The filtered volume and the surfaces, to the host (the files at the end).
   void download(Volume& filtered, segmentation::Surfaces& surfaces);

@@ -13,6 +13,7 @@
 #include "ioct/gpu/instruments/findings_json.hpp"
 #include "ioct/gpu/instruments/instrument_detector.hpp"
 #include "ioct/gpu/live_stages/frame_publisher.hpp"
+#include "ioct/gpu/live_stages/render_filter.hpp"
 #include "ioct/gpu/render/frame_setup.hpp"
 #include "ioct/gpu/render/png_rgba.hpp"
 #include "ioct/gpu/render/render_params_json.hpp"
@@ -275,6 +276,11 @@ bool VolumeStages::make_backends() {
     segmenter_ = segmentation::make_segmenter(backend, config_.segmentation, config_.sampling,
                                               config_.cpu_threads);
     renderer_ = render::make_renderer(backend, config_.cpu_threads);
+    if (config_.render_filter_by_mode) {
+      render_filter_ = filters::make_volume_filter(
+          backend, render_filter_for(render::RenderMode::layer_aware, config_.filter),
+          config_.cpu_threads);
+    }
     if (config_.instruments.enabled) {
       detector_ = instruments::make_instrument_detector(backend, config_.instruments,
                                                         config_.sampling, config_.cpu_threads);
@@ -284,14 +290,19 @@ bool VolumeStages::make_backends() {
                    renderer_->backend_name() == "cuda";
     // CUDA stages (and CUDA detection, which reads the chain's unfiltered input in place) keep
     // the volume on the device; any CPU stage takes host volumes.
-    auto device = DeviceStageChain::make(*filter_, *segmenter_, *renderer_, detector_.get());
+    auto device = DeviceStageChain::make(*filter_, render_filter_.get(), *segmenter_, *renderer_,
+                                         detector_.get());
     std::lock_guard lock(mutex_);
     device_ = std::move(device);
     surfaces_on_host_ = false;  // none of this chain's yet
     views_.set_timing(view_timing(config_, cpu_renderer));
     backends_ = "filter " + std::string(filters::filter_name(config_.filter)) + " " +
-                std::string(filter_->backend_name()) + ", segmentation " +
-                std::string(segmenter_->backend_name()) + ", render " +
+                std::string(filter_->backend_name()) +
+                (render_filter_ != nullptr
+                     ? " (layer-aware, la-mip, axial-colorization render " +
+                           std::string(filters::filter_name(render_filter_->config())) + ")"
+                     : std::string()) +
+                ", segmentation " + std::string(segmenter_->backend_name()) + ", render " +
                 std::string(renderer_->backend_name()) +
                 (detector_ != nullptr ? ", instruments " + std::string(detector_->backend_name())
                                       : std::string());
@@ -333,6 +344,7 @@ DueRender VolumeStages::take_shared_render(SnapshotWaiters& waiters) {
 void VolumeStages::render_views(const std::vector<DueRender>& renders, SnapshotWaiters& waiters) {
   for (const DueRender& render : renders) {
     const std::uint64_t t0 = ioct::monotonic_ns();
+    use_render_volume(render.config.mode);  // a change of mode re-filters here, not a pass later
     renderer_->render(render.config, image_);
     const std::uint64_t t1 = ioct::monotonic_ns();
     {
@@ -444,7 +456,7 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
   const std::uint64_t t2 = ioct::monotonic_ns();
   const std::uint64_t t2_detected =
       detector_ != nullptr ? detect_instruments(VolumeRef::on_host(input_), first, count) : t2;
-  renderer_->update_bscans(filtered_, affected.first, affected.count, &surfaces_);
+  update_renderer(live_view().mode, first, count, affected.first, affected.count);
   note_bscans_changed(affected.first, affected.count);  // contains the filter's outputs
   const bool render_now =
       renderer_->backend_name() != "cpu" || last_render_ns_ == 0 ||
@@ -454,6 +466,7 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
   SnapshotWaiters waiters;
   if (render_now) {
     shared = take_shared_render(waiters);
+    use_render_volume(shared.config.mode);  // the mode changed since the update above
     renderer_->render(shared.config, image_);
     t3 = ioct::monotonic_ns();
     last_render_ns_ = t3;
@@ -462,6 +475,43 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
   record_pass(StagesPass{groups, first, count, false, render_now, t0, t1, t2, t3}, t1 - t0, t2 - t1,
               t3 - t2_detected);
   if (render_now) deliver(shared, t3, waiters);
+}
+
+void VolumeStages::update_renderer(render::RenderMode mode, std::uint32_t first,
+                                   std::uint32_t count, std::uint32_t affected_first,
+                                   std::uint32_t affected_count) {
+  const bool bscan_median = render_filter_ != nullptr && renders_from_bscan_median(mode);
+  if (bscan_median != renderer_bscan_median_ ||
+      (bscan_median && !render_filtered_.same_shape(input_))) {
+    use_render_volume(mode);  // the first pass in this mode, or a new geometry: all B-scans
+  } else if (bscan_median) {
+    // The new B-scans' medians (and a halo of one, as the filters report their reach); the
+    // surfaces changed over `affected`, which contains them.
+    render_filter_->filter_group(input_, render_filtered_, first, count);
+    renderer_->update_bscans(render_filtered_, affected_first, affected_count, &surfaces_);
+  } else {
+    renderer_->update_bscans(filtered_, affected_first, affected_count, &surfaces_);
+  }
+}
+
+void VolumeStages::use_render_volume(render::RenderMode mode) {
+  if (device_ != nullptr) {
+    device_->use_render_volume(mode);
+    return;
+  }
+  const bool bscan_median = render_filter_ != nullptr && renders_from_bscan_median(mode);
+  if (bscan_median == renderer_bscan_median_ &&
+      (!bscan_median || render_filtered_.same_shape(input_))) {
+    return;
+  }
+  if (bscan_median) {
+    render_filter_->filter_volume(input_, render_filtered_);
+    renderer_->set_volume(render_filtered_, &surfaces_);
+  } else {
+    render_filtered_ = Volume();  // kept only while shown
+    renderer_->set_volume(filtered_, &surfaces_);
+  }
+  renderer_bscan_median_ = bscan_median;
 }
 
 std::uint64_t VolumeStages::detect_instruments(VolumeRef input, std::uint32_t first,
@@ -759,6 +809,7 @@ nlohmann::json VolumeStages::write_outputs(const std::filesystem::path& out_dir)
   files["bscan_overlay_index"] = centre;
 
   const render::RenderConfig view = live_view();
+  use_render_volume(view.mode);
   renderer_->render(view, image_);
   const std::filesystem::path live = path("render.png");
   render::write_png(live, image_);
@@ -774,6 +825,7 @@ nlohmann::json VolumeStages::write_outputs(const std::filesystem::path& out_dir)
     }
     render::RenderConfig c = view;
     c.mode = mode;
+    use_render_volume(mode);
     renderer_->render(c, image_);
     const std::filesystem::path file = path(mode_file(mode));
     render::write_png(file, image_);

@@ -16,8 +16,9 @@
 //                the passes that folded groups (should be none) and the drops.
 // Anchors measured in the same run: the pinned host -> device copy of one group, and each stage's
 // own kernels on a group already on the device (processing, filters, segmentation, the renderer's
-// update and one render of the live view), whose sum is what the chain would take with nothing
-// between the kernels and no two kernels at once.
+// update and one render of the live view; in a mode rendered from Weiss's per-B-scan median,
+// --render-mode, that median too), whose sum is what the chain would take with nothing between the
+// kernels and no two kernels at once.
 #include <cuda_runtime.h>
 #include <unistd.h>
 
@@ -43,6 +44,7 @@
 #include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/filters/cuda_volume_filter.hpp"
 #include "ioct/gpu/ingest/live_pipeline.hpp"
+#include "ioct/gpu/live_stages/render_filter.hpp"
 #include "ioct/gpu/live_stages/volume_stages.hpp"
 #include "ioct/gpu/processing/cuda_oct_processor.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
@@ -63,6 +65,7 @@ struct Options {
   std::uint32_t groups = 1000;
   std::uint32_t period_us = 5000;
   std::uint32_t ahead = 2;
+  std::string render_mode = "enhanced";
   std::string json_path;
   double spin_window_s = live::VolumeStagesConfig{}.spin_window_s;
 };
@@ -213,7 +216,10 @@ double kernel_ms(cudaStream_t stream, int repetitions, Work&& work) {
 
 struct KernelAnchors {
   double processing = 0, filter = 0, segment = 0, render_update = 0, render = 0;
-  double sum() const { return processing + filter + segment + render_update + render; }
+  double render_filter = 0;  // the renderer's per-B-scan median (Weiss's modes; else 0)
+  double sum() const {
+    return processing + filter + segment + render_filter + render_update + render;
+  }
 };
 
 // Each stage's own kernels for one group of `volume` (the live volume after the run, so the
@@ -261,11 +267,27 @@ KernelAnchors measure_kernels(const shm::RingGeometry& g, const Volume& volume,
   k.segment = kernel_ms(stream.get(), 40, [&](int r) {
     segmenter.segment_group(out_ref, {(r % groups) * group, group}, nullptr);
   });
+  // Weiss's modes render a second volume, the input's median per B-scan (render_filter.hpp).
+  cuda::DeviceArray<std::uint8_t> median(dims.bytes());
+  const VolumeRef median_ref = VolumeRef::on_device(median.data(), dims, stream.get());
+  const bool bscan_median =
+      config.render_filter_by_mode && live::renders_from_bscan_median(config.render.mode);
+  if (bscan_median) {
+    const MutableVolumeRef median_mut =
+        MutableVolumeRef::on_device(median.data(), dims, stream.get());
+    filters::CudaVolumeFilter median_filter(
+        live::render_filter_for(config.render.mode, config.filter));
+    median_filter.filter_group(in_ref, median_mut, {0, dims.bscans});
+    k.render_filter = kernel_ms(stream.get(), 40, [&](int r) {
+      median_filter.filter_group(in_ref, median_mut, {(r % groups) * group, group});
+    });
+  }
+  const VolumeRef rendered_ref = bscan_median ? median_ref : out_ref;
   render::CudaRenderer renderer;
   renderer.use_stream(stream.get());
-  renderer.update_bscans(out_ref, 0, dims.bscans, segmenter.device_surfaces());
+  renderer.update_bscans(rendered_ref, 0, dims.bscans, segmenter.device_surfaces());
   k.render_update = kernel_ms(stream.get(), 40, [&](int r) {
-    renderer.update_bscans(out_ref, (r % groups) * group, group, segmenter.device_surfaces());
+    renderer.update_bscans(rendered_ref, (r % groups) * group, group, segmenter.device_surfaces());
   });
   k.render = kernel_ms(stream.get(), 40, [&](int) { renderer.render_on_device(config.render); });
   return k;
@@ -299,6 +321,7 @@ int run(const Options& o) {
   ChainRecorder recorder;
   live::VolumeStagesConfig config;
   config.backend = Backend::cuda;
+  config.render.mode = render::parse_render_mode(o.render_mode);
   config.final_modes = {};
   config.nice = 0;
   config.spin_window_s = o.spin_window_s;
@@ -459,11 +482,11 @@ int run(const Options& o) {
               qr.p99 <= 2.0 ? "met" : "NOT met");
   std::printf(
       "  anchor: pinned H2D copy of a group %.3f ms (%.1f GB/s); stages' own kernels "
-      "per group: processing %.3f + filters %.3f + segmentation %.3f + the renderer's update "
-      "(texture, bricks, sums, layer reference) %.3f + render %.3f = %.3f ms (ratio p50 / sum "
-      "%.2f)\n",
+      "per group: processing %.3f + filters %.3f + segmentation %.3f + the renderer's "
+      "per-B-scan median %.3f + the renderer's update (texture, bricks, sums, layer reference) "
+      "%.3f + render %.3f = %.3f ms (ratio p50 / sum %.2f)\n",
       pinned, static_cast<double>(g.group_payload_bytes()) / (pinned * 1e6), k.processing, k.filter,
-      k.segment, k.render_update, k.render, k.sum(), qr.p50 / k.sum());
+      k.segment, k.render_filter, k.render_update, k.render, k.sum(), qr.p50 / k.sum());
   const double anchor_rate = static_cast<double>(g.ascans_per_group()) / (k.sum() * 1e-3);
   const double pinned_rate = static_cast<double>(g.ascans_per_group()) / (pinned * 1e-3);
   std::printf(
@@ -477,7 +500,8 @@ int run(const Options& o) {
       "  anchor: the kernels' sum as a rate %.2f M A-scans/s (%.1f %%); pinned H2D alone "
       "%.2f M A-scans/s\n",
       anchor_rate / 1e6, 100.0 * ascans_per_s / anchor_rate, pinned_rate / 1e6);
-  std::printf("stages: %s\n", stages_summary.at("backends").get<std::string>().c_str());
+  std::printf("stages: %s; render mode %s\n",
+              stages_summary.at("backends").get<std::string>().c_str(), o.render_mode.c_str());
 
   if (!o.json_path.empty()) {
     const auto q = [](const Quantiles& x) {
@@ -487,6 +511,7 @@ int run(const Options& o) {
                              {"host", bench::to_json(host)},
                              {"gpu", props.name},
                              {"spin_window_s", o.spin_window_s},
+                             {"render_mode", o.render_mode},
                              {"latency",
                               {{"period_us", o.period_us},
                                {"groups", rendered.size()},
@@ -510,6 +535,7 @@ int run(const Options& o) {
                                {"segment_ms", k.segment},
                                {"render_ms", k.render},
                                {"render_update_ms", k.render_update},
+                               {"render_filter_ms", k.render_filter},
                                {"kernel_sum_ms", k.sum()}}},
                              {"stages", stages_summary}};
     std::ofstream(o.json_path) << report.dump(2) << "\n";
@@ -536,6 +562,9 @@ int main(int argc, char** argv) {
                  "the stages' thread awake this long around a group's expected hand-over (0: "
                  "asleep until it comes, as before ring.spin_window_s)")
       ->check(CLI::Range(0.0, 0.1));
+  app.add_option("--render-mode", o.render_mode,
+                 "the live view's mode (ioct-gpu's render.mode); layer-aware, la-mip and "
+                 "axial-colorization add the renderer's per-B-scan median");
   app.add_option("--json", o.json_path, "also write the figures as JSON");
   CLI11_PARSE(app, argc, argv);
   try {

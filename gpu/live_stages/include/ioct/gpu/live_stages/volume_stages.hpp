@@ -1,6 +1,8 @@
 // The live volume's stages after processing, on a thread of their own: each new group's B-scans
 // are filtered (median 3x3x3, then Gaussian, with the halo from their neighbours), the ILM and the
-// RPE segmented on the filtered B-scans, the renderer given both, and the live view rendered.
+// RPE segmented on the filtered B-scans, the renderer given both, and the live view rendered. In
+// Weiss's layer-aware modes the renderer is given a second volume instead, the same B-scans
+// filtered by a 3x3 median per B-scan (render_filter.hpp), while the segmentation keeps the first.
 //
 // The live loop hands over the B-scans of each group (on_bscans copies them and returns). When the
 // stages are still busy with an earlier pass, the new B-scans wait in a pending copy of the live
@@ -89,7 +91,13 @@ class FramePublisher;
 struct VolumeStagesConfig {
   Backend backend = Backend::automatic;  // of all three stages
   unsigned cpu_threads = 2;              // of each CPU stage
+  // The segmentation's filter, and the renderer's in every mode unless render_filter_by_mode.
   filters::VolumeFilterConfig filter;
+  // The renderer's volume filtered as its render mode wants it (render_filter.hpp; stages.filter
+  // = auto): in Weiss's modes a second volume, the 3x3 median of each B-scan of the same input,
+  // kept only while such a mode is shown; a change of mode re-filters the current volume at once.
+  // False: every mode renders the segmentation's volume (an explicit stages.filter).
+  bool render_filter_by_mode = true;
   segmentation::SegmentationConfig segmentation;
   segmentation::VolumeSampling sampling;  // also the renderer's voxel spacing
   // Instrument detection after the segmentation of every pass (instruments.enabled), on the
@@ -198,6 +206,14 @@ class VolumeStages final : public LiveStage, public ViewControl {
   // The instrument detection of the pass's new B-scans [first, first + count) of `input` (the
   // unfiltered volume, host or device) with surfaces_; its figures. Returns when it ended.
   std::uint64_t detect_instruments(VolumeRef input, std::uint32_t first, std::uint32_t count);
+  // Host path: the pass's new input B-scans [first, first + count) to the renderer, from the
+  // volume `mode` renders from; [affected_first, + affected_count) are the B-scans whose filtered
+  // pixels or surfaces the pass changed (the segmentation's reach, which contains the filter's).
+  void update_renderer(render::RenderMode mode, std::uint32_t first, std::uint32_t count,
+                       std::uint32_t affected_first, std::uint32_t affected_count);
+  // Before a render in `mode`: the renderer holds the volume `mode` renders from, re-filtered
+  // from the current input when the mode wants another filter than the last render's.
+  void use_render_volume(render::RenderMode mode);
   // A pass changed B-scans [first, first + count) of the filtered volume or their surfaces.
   void note_bscans_changed(std::uint32_t first, std::uint32_t count);
   // A pass's figures (the render's only when it rendered), then on_pass and the frame ring's count.
@@ -256,6 +272,11 @@ class VolumeStages final : public LiveStage, public ViewControl {
   instruments::TipBscans tip_bscans_;  // through the nearest tip, cut when frames need them
   bool tip_bscans_stale_ = false;      // new findings since the publisher encoded the pair
   std::unique_ptr<render::Renderer> renderer_;
+  // The renderer's own filter (Weiss's per-B-scan median), null unless render_filter_by_mode; on
+  // the host path its volume render_filtered_, kept only while the renderer holds it.
+  std::unique_ptr<filters::VolumeFilter> render_filter_;
+  Volume render_filtered_;
+  bool renderer_bscan_median_ = false;             // host path: the renderer holds render_filtered_
   std::unique_ptr<LiveImageWriter> image_writer_;  // render.png, off the stages' thread
   Volume input_;
   Volume filtered_;
