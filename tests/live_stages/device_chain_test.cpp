@@ -2,12 +2,15 @@
 // against the CPU reference fed the same groups in the same passes: the filtered volume and the
 // surfaces equal, the live frame within the renderers' tolerance (docs/rendering.md), through
 // single groups, folded groups, a second lap and a geometry change; and no pass copies volume
-// bytes between host and device. GPU only: skipped, saying why, without one.
+// bytes between host and device. In a layer-aware mode (the renderer's own per-B-scan median,
+// render_filter.hpp) the same, and after live changes of mode the frames too, with no volume
+// bytes crossing for the change either. GPU only: skipped, saying why, without one.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <condition_variable>
 #include <cstdio>
@@ -79,16 +82,33 @@ struct StagesRun {
   Volume filtered;
   segmentation::Surfaces surfaces;
   render::RgbaImage frame;
+  std::vector<render::RgbaImage> switched;  // the shared view after each change of mode
   nlohmann::json summary;
   std::uint64_t passes = 0, folded_passes = 0;
 #if IOCT_GPU_WITH_CUDA
-  cuda::BusTraffic traffic;  // during the passes
+  cuda::BusTraffic traffic;         // during the passes
+  cuda::BusTraffic switch_traffic;  // during the changes of mode and their frames
 #endif
 };
 
+#if IOCT_GPU_WITH_CUDA
+cuda::BusTraffic traffic_since(const cuda::BusTraffic& before) {
+  const cuda::BusTraffic after = cuda::bus_traffic();
+  cuda::BusTraffic t;
+  t.volume_to_device = after.volume_to_device - before.volume_to_device;
+  t.volume_to_host = after.volume_to_host - before.volume_to_host;
+  t.other_to_device = after.other_to_device - before.other_to_device;
+  t.other_to_host = after.other_to_host - before.other_to_host;
+  return t;
+}
+#endif
+
 // The same hand-overs for every backend: single groups, folded groups, a second lap over the
-// first half, then a volume of other dimensions group by group.
-StagesRun run_stages(Backend backend, bool device_source, const std::filesystem::path& dir) {
+// first half, then a volume of other dimensions group by group, the live view in `mode`; then the
+// live view's mode changed to each of `switches` in turn, with no new group, and its frame taken.
+StagesRun run_stages(Backend backend, bool device_source, const std::filesystem::path& dir,
+                     render::RenderMode mode = render::RenderMode::enhanced,
+                     const std::vector<std::string>& switches = {}) {
   PassGate gate;
   VolumeStagesConfig config;
   config.backend = backend;
@@ -97,6 +117,7 @@ StagesRun run_stages(Backend backend, bool device_source, const std::filesystem:
   config.render.view.output_height = 120;
   config.render.view.rotation_deg_per_s = 0.0;  // the same view whenever it is rendered
   config.cpu_render_interval_s = 0.0;
+  config.render.mode = mode;
   config.final_modes = {};
   config.on_pass = [&gate](const StagesPass& pass) { gate.on_pass(pass); };
   VolumeStages stages(config);
@@ -142,14 +163,22 @@ StagesRun run_stages(Backend backend, bool device_source, const std::filesystem:
 
   StagesRun run;
 #if IOCT_GPU_WITH_CUDA
-  const cuda::BusTraffic after = cuda::bus_traffic();
-  run.traffic.volume_to_device = after.volume_to_device - before.volume_to_device;
-  run.traffic.volume_to_host = after.volume_to_host - before.volume_to_host;
-  run.traffic.other_to_device = after.other_to_device - before.other_to_device;
-  run.traffic.other_to_host = after.other_to_host - before.other_to_host;
+  run.traffic = traffic_since(before);
+  const cuda::BusTraffic before_switches = cuda::bus_traffic();
 #endif
   run.passes = gate.passes();
   run.folded_passes = gate.folded_passes();
+  for (const std::string& name : switches) {
+    const std::uint64_t generation = stages.set_params({{"mode", name}});
+    ViewSnapshot shot = stages.snapshot(std::chrono::seconds(30));
+    EXPECT_GE(shot.generation, generation) << name;
+    EXPECT_EQ(shot.params.at("mode"), name);
+    run.switched.push_back(std::move(shot.image));
+  }
+  EXPECT_EQ(gate.passes(), run.passes) << "the changes of mode needed no pass";
+#if IOCT_GPU_WITH_CUDA
+  run.switch_traffic = traffic_since(before_switches);
+#endif
   run.summary = stages.finish(dir);
   run.filtered = stages.filtered();
   run.surfaces = stages.surfaces();
@@ -181,6 +210,26 @@ class DeviceChainTest : public ::testing::Test {
        std::to_string(::getpid()));
 };
 
+// Within the renderers' tolerance (tests/render/cuda_vs_cpu_test.cpp).
+void expect_close_frames(const render::RgbaImage& cpu, const render::RgbaImage& cuda,
+                         const std::string& what) {
+  ASSERT_EQ(cpu.width, cuda.width) << what;
+  ASSERT_EQ(cpu.height, cuda.height) << what;
+  ASSERT_GT(cpu.rgba.size(), 0u) << what;
+  std::vector<int> d(cpu.rgba.size());
+  double sum = 0.0;
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    d[i] = std::abs(int{cpu.rgba[i]} - int{cuda.rgba[i]});
+    sum += d[i];
+  }
+  std::ranges::sort(d);
+  const double mean = sum / static_cast<double>(d.size());
+  const int p99 = d[static_cast<std::size_t>(0.99 * static_cast<double>(d.size() - 1))];
+  EXPECT_LT(mean, 1.0) << what;
+  EXPECT_LE(p99, 8) << what;
+  std::printf("%s: mean %.3f p99 %d max %d\n", what.c_str(), mean, p99, d.back());
+}
+
 void expect_same_results(const StagesRun& cpu, const StagesRun& cuda, const std::string& what) {
   ASSERT_EQ(cpu.summary.at("problem"), "") << cpu.summary.dump(2);
   ASSERT_EQ(cuda.summary.at("problem"), "") << cuda.summary.dump(2);
@@ -196,23 +245,13 @@ void expect_same_results(const StagesRun& cpu, const StagesRun& cuda, const std:
   EXPECT_EQ(cpu.surfaces.state, cuda.surfaces.state) << what << ": states";
   EXPECT_EQ(cpu.surfaces.verdict, cuda.surfaces.verdict) << what << ": verdicts";
 
-  ASSERT_EQ(cpu.frame.width, cuda.frame.width) << what;
-  ASSERT_EQ(cpu.frame.height, cuda.frame.height) << what;
-  ASSERT_GT(cpu.frame.rgba.size(), 0u) << what;
-  std::vector<int> d(cpu.frame.rgba.size());
-  double sum = 0.0;
-  for (std::size_t i = 0; i < d.size(); ++i) {
-    d[i] = std::abs(int{cpu.frame.rgba[i]} - int{cuda.frame.rgba[i]});
-    sum += d[i];
+  expect_close_frames(cpu.frame, cuda.frame, what + ": frame");
+  ASSERT_EQ(cpu.switched.size(), cuda.switched.size()) << what;
+  for (std::size_t i = 0; i < cpu.switched.size(); ++i) {
+    expect_close_frames(cpu.switched[i], cuda.switched[i],
+                        what + ": frame after change of mode " + std::to_string(i + 1));
   }
-  std::ranges::sort(d);
-  const double mean = sum / static_cast<double>(d.size());
-  const int p99 = d[static_cast<std::size_t>(0.99 * static_cast<double>(d.size() - 1))];
-  // The renderers' tolerance (tests/render/cuda_vs_cpu_test.cpp).
-  EXPECT_LT(mean, 1.0) << what << ": frame";
-  EXPECT_LE(p99, 8) << what << ": frame";
-  std::printf("%s: %llu passes, frame mean %.3f p99 %d max %d\n", what.c_str(),
-              static_cast<unsigned long long>(cuda.passes), mean, p99, d.back());
+  std::printf("%s: %llu passes\n", what.c_str(), static_cast<unsigned long long>(cuda.passes));
 }
 
 // The plan of hand-overs itself, on the CPU reference: the held pass folds three groups and every
@@ -251,6 +290,28 @@ TEST_F(DeviceChainTest, DeviceVolumeGivesTheCpuReferenceResultsWithoutCopyingThe
       "bus per pass: %.1f kB to host, %.1f kB to device (no volume bytes)\n",
       static_cast<double>(cuda.traffic.other_to_host) / 1e3 / static_cast<double>(cuda.passes),
       static_cast<double>(cuda.traffic.other_to_device) / 1e3 / static_cast<double>(cuda.passes));
+#endif
+}
+
+// Weiss's modes: the renderer's per-B-scan median on the render stream, through the same passes
+// (folded, second lap, new geometry), then changes of mode between Viehland's and Weiss's modes
+// with no new group: every frame as the CPU reference's, and no volume byte crossing.
+TEST_F(DeviceChainTest, LayerAwareModesRenderTheirOwnMedianAndSwitchLive) {
+  const std::vector<std::string> switches = {"enhanced", "la-mip", "axial-colorization", "basic",
+                                             "layer-aware"};
+  const StagesRun cpu =
+      run_stages(Backend::cpu, false, dir("cpu"), render::RenderMode::layer_aware, switches);
+  const StagesRun cuda =
+      run_stages(Backend::cuda, true, dir("cuda"), render::RenderMode::layer_aware, switches);
+  EXPECT_NE(cuda.summary.at("backends").get<std::string>().find("render median-bscan"),
+            std::string::npos)
+      << cuda.summary.at("backends");
+  expect_same_results(cpu, cuda, "layer-aware, device live volume");
+#if IOCT_GPU_WITH_CUDA
+  EXPECT_EQ(cuda.traffic.volume_to_host, 0u);
+  EXPECT_EQ(cuda.traffic.volume_to_device, 0u);
+  EXPECT_EQ(cuda.switch_traffic.volume_to_host, 0u) << "a change of mode re-filters on the device";
+  EXPECT_EQ(cuda.switch_traffic.volume_to_device, 0u);
 #endif
 }
 
