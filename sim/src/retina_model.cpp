@@ -190,6 +190,17 @@ void RetinaConfig::validate() const {
     ioct::require_real_in_range("retina.membrane.wrinkle_mm", membrane.wrinkle_mm, 0.02, 10.0);
     ioct::require_real_in_range("retina.membrane.reflectivity", membrane.reflectivity, 0.0, 10.0);
   }
+  if (disc.enabled) {
+    ioct::require_real_in_range("retina.disc.center_x", disc.center_x, -2.0, 2.0);
+    ioct::require_real_in_range("retina.disc.center_y", disc.center_y, -2.0, 2.0);
+    ioct::require_real_in_range("retina.disc.radius_mm", disc.radius_mm, 0.05, 5.0);
+    ioct::require_real_in_range("retina.disc.margin_mm", disc.margin_mm, 0.0, 5.0);
+    // The cup lies inside the disc: the rim keeps the retina's surface continuous.
+    ioct::require_real_in_range("retina.disc.cup_radius_mm", disc.cup_radius_mm, 0.0,
+                                disc.radius_mm);
+    ioct::require_real_in_range("retina.disc.cup_depth_um", disc.cup_depth_um, 0.0, 1000.0);
+    ioct::require_real_in_range("retina.disc.nerve_scatter", disc.nerve_scatter, 0.0, 10.0);
+  }
 }
 
 RetinaModel::RetinaModel(const RetinaConfig& config, double axial_pixel_um,
@@ -228,6 +239,27 @@ RetinaColumn RetinaModel::column(hal::BeamPosition beam) const noexcept {
   }
   const double cuff_scale = 1.0 + cuff * config_.macular_hole.cuff_height_um / neural_um;
 
+  // The optic disc: the layers below the NFL thin out over its margin (`kept` of them left), and
+  // inside it the surface dips into the cup.
+  bool in_disc = false;
+  double kept = 1.0;
+  double cup_um = 0.0;
+  if (config_.disc.enabled) {
+    const OpticDiscConfig& disc = config_.disc;
+    const double ox = (x - disc.center_x) * config_.field_half_width_mm;
+    const double oy = (y - disc.center_y) * config_.field_half_width_mm;
+    const double r = std::sqrt(ox * ox + oy * oy);
+    in_disc = r < disc.radius_mm;
+    kept = in_disc ? 0.0
+                   : (disc.margin_mm > 0.0
+                          ? smooth(std::min(1.0, (r - disc.radius_mm) / disc.margin_mm))
+                          : 1.0);
+    if (r < disc.cup_radius_mm) {
+      cup_um =
+          disc.cup_depth_um * 0.5 * (1.0 + std::cos(std::numbers::pi * r / disc.cup_radius_mm));
+    }
+  }
+
   RetinaColumn column{};
   const auto rpe = static_cast<std::size_t>(RetinalLayer::rpe);
   const double rpe_top = rpe_line - 0.5 * kLayers[rpe].thickness_um * um_to_px_;
@@ -235,6 +267,7 @@ RetinaColumn RetinaModel::column(hal::BeamPosition beam) const noexcept {
   double depth = rpe_top;
   column.top[rpe] = static_cast<float>(rpe_top);
   column.presence[rpe] = 1.0f;
+  double thinned_um = 0.0;  // what the disc's margin took from the layers below the NFL
   for (std::size_t i = rpe; i-- > 0;) {
     const LayerShape& shape = kLayers[i];
     double thickness_um = shape.thickness_um;
@@ -251,6 +284,13 @@ RetinaColumn RetinaModel::column(hal::BeamPosition beam) const noexcept {
       thickness_um *= 1.0 + shape.fovea_growth * pit_profile;
     }
     thickness_um *= cuff_scale;
+    if (i == static_cast<std::size_t>(RetinalLayer::nfl)) {
+      thickness_um += thinned_um;  // the nerve fibres fill the disc's margin
+    } else {
+      thinned_um += (1.0 - kept) * thickness_um;
+      thickness_um *= kept;
+      presence *= kept;
+    }
     if (in_hole) {
       thickness_um = 0.0;
       presence = 0.0;
@@ -265,9 +305,19 @@ RetinaColumn RetinaModel::column(hal::BeamPosition beam) const noexcept {
     column.top[i + 1] = static_cast<float>(depth);
     column.presence[i] = 1.0f;
   }
-  column.ilm_px = in_hole ? kNaN : column.top[0];
   column.rpe_px = static_cast<float>(rpe_line);
+  if (in_disc) {
+    // Nerve fibres from the cup's surface down to the sclera: no RPE, no choroid.
+    const auto choroid = static_cast<std::size_t>(RetinalLayer::choroid);
+    column.top[0] = static_cast<float>(column.top[0] + cup_um * um_to_px_);
+    for (std::size_t i = 1; i <= choroid + 1; ++i) column.top[i] = column.top[choroid + 1];
+    column.presence[rpe] = 0.0f;
+    column.presence[choroid] = 0.0f;
+    column.rpe_px = kNaN;
+  }
+  column.ilm_px = in_hole ? kNaN : column.top[0];
   column.cuff = static_cast<float>(cuff);
+  column.in_disc = in_disc;
 
   column.membrane_top_px = kNaN;
   column.membrane_bottom_px = kNaN;
@@ -344,7 +394,11 @@ ColumnTruth RetinaModel::draw(hal::BeamPosition beam, std::uint64_t lateral_key,
         line(top, kEllipsoidLine * presence * transmitted, ellipsoid_line);
       }
       if (layer == RetinalLayer::rpe) line(top, kInterdigitationLine * transmitted, iz_line);
-      const float scatter = static_cast<float>(kLayers[i].scatter) * gain * presence * transmitted;
+      const float nerve_head = c.in_disc && layer == RetinalLayer::nfl
+                                   ? static_cast<float>(config_.disc.nerve_scatter)
+                                   : 1.0f;
+      const float scatter =
+          static_cast<float>(kLayers[i].scatter) * gain * presence * transmitted * nerve_head;
       const bool cystic =
           c.cuff > 0.0f && (layer == RetinalLayer::inl || layer == RetinalLayer::onl);
       if (layer == RetinalLayer::choroid || cystic) {
@@ -381,7 +435,8 @@ ColumnTruth RetinaModel::draw(hal::BeamPosition beam, std::uint64_t lateral_key,
   if (std::isfinite(c.ilm_px) && profile.drawable(c.ilm_px)) {
     truth.ilm_px = profile.drawn_depth(c.ilm_px);
   }
-  if (profile.drawable(c.rpe_px)) truth.rpe_px = profile.drawn_depth(c.rpe_px);
+  if (std::isfinite(c.rpe_px) && profile.drawable(c.rpe_px))
+    truth.rpe_px = profile.drawn_depth(c.rpe_px);
   return truth;
 }
 

@@ -56,6 +56,7 @@ struct Options {
   double rolloff_mm = 3.9;
   bool macular_hole = false;
   bool membrane = false;
+  bool disc = false;
   std::vector<std::string> tools;
   bool galvo = false;
   bool bidirectional = false;
@@ -144,6 +145,7 @@ sim::SimulationConfig simulation_config(const Options& o) {
   s.source.rolloff_6db_depth_mm = o.rolloff_mm;
   s.retina.macular_hole.enabled = o.macular_hole;
   s.retina.membrane.enabled = o.membrane;
+  s.retina.disc.enabled = o.disc;
   for (std::size_t i = 0; i < o.tools.size(); ++i)
     s.instruments.push_back(
         sim::parse_instrument_spec(o.tools[i], "--tool[" + std::to_string(i) + "]"));
@@ -289,6 +291,7 @@ void add_options(CLI::App& app, Options& o) {
       ->capture_default_str();
   app.add_flag("--macular-hole", o.macular_hole, "a full-thickness macular hole at the fovea");
   app.add_flag("--membrane", o.membrane, "an epiretinal membrane");
+  app.add_flag("--disc", o.disc, "the optic disc with its cup, at the nasal edge");
   app.add_option("--tool", o.tools,
                  "instrument KIND[:name=value,...], KIND forceps|needle|scraper; names x, y "
                  "(scan units), depth (share of the axis), yaw, pitch, open (deg), vx, vy "

@@ -125,6 +125,14 @@ TEST(ConfigValidation, SimulationRefusesValuesOutOfRange) {
          c.retina.membrane.enabled = true;
          c.retina.membrane.thickness_um = 0.0;
        })},
+      {"retina.disc.cup_radius_mm", "1", simulation_with([](auto& c) {
+         c.retina.disc.enabled = true;
+         c.retina.disc.cup_radius_mm = 1.0;  // wider than the disc
+       })},
+      {"retina.disc.cup_depth_um", "-5", simulation_with([](auto& c) {
+         c.retina.disc.enabled = true;
+         c.retina.disc.cup_depth_um = -5.0;
+       })},
       {"anterior.chamber_depth_mm", "0.2", simulation_with([](auto& c) {
          c.preset = sim::SamplePreset::anterior_segment;
          c.anterior.chamber_depth_mm = 0.2;

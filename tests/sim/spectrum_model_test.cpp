@@ -281,6 +281,51 @@ TEST_F(RetinaModelTest, MacularHoleRemovesTheNeuralRetinaAndThickensItsRim) {
   EXPECT_GT(model.column(rim).cuff, 0.5f);
 }
 
+TEST_F(RetinaModelTest, OpticDiscThinsTheRetinaToACupWithoutRpe) {
+  RetinaConfig with_disc = config_;
+  with_disc.disc.enabled = true;
+  const OpticDiscConfig& disc = with_disc.disc;
+  const RetinaModel model(with_disc, source_.axial_pixel_um(), kDepthBins);
+  const auto at_mm = [&](double r_mm) {  // nasally from the disc's centre
+    return hal::BeamPosition{
+        static_cast<float>(disc.center_x + r_mm / with_disc.field_half_width_mm),
+        static_cast<float>(disc.center_y)};
+  };
+  const auto onl = static_cast<std::size_t>(RetinalLayer::onl);
+  const float cup_px = static_cast<float>(disc.cup_depth_um / model.tissue_um_per_px());
+
+  // Inside: nerve head, no RPE (nor its truth), the surface the cup's depth below where the
+  // retina's would be, the layers still in order.
+  const RetinaColumn centre = model.column(at_mm(0.0));
+  EXPECT_TRUE(centre.in_disc);
+  EXPECT_TRUE(std::isnan(centre.rpe_px));
+  EXPECT_TRUE(std::isnan(model.layers(at_mm(0.0)).rpe_px));
+  EXPECT_NEAR(centre.ilm_px - model_.column(at_mm(0.0)).ilm_px, cup_px, 0.01f);
+  EXPECT_EQ(centre.presence[onl], 0.0f);
+  for (std::size_t i = 1; i < centre.top.size(); ++i) EXPECT_LE(centre.top[i - 1], centre.top[i]);
+  // The cup's wall: shallower half-way out, level with the retina from the cup's edge on.
+  const float half_way = model.column(at_mm(0.5 * disc.cup_radius_mm)).ilm_px -
+                         model_.column(at_mm(0.5 * disc.cup_radius_mm)).ilm_px;
+  EXPECT_NEAR(half_way, 0.5f * cup_px, 0.01f * cup_px);
+  const RetinaColumn rim = model.column(at_mm(0.5 * (disc.cup_radius_mm + disc.radius_mm)));
+  EXPECT_TRUE(rim.in_disc);
+  EXPECT_NEAR(rim.ilm_px, model_.column(at_mm(0.5 * (disc.cup_radius_mm + disc.radius_mm))).ilm_px,
+              0.01f);
+
+  // Over the margin the layers beneath the NFL thin out while the surface stays where it was;
+  // beyond it the retina is the one without a disc.
+  const hal::BeamPosition margin = at_mm(disc.radius_mm + 0.5 * disc.margin_mm);
+  const RetinaColumn thinning = model.column(margin);
+  EXPECT_FALSE(thinning.in_disc);
+  EXPECT_NEAR(thinning.ilm_px, model_.column(margin).ilm_px, 0.01f);
+  EXPECT_EQ(thinning.rpe_px, model_.column(margin).rpe_px);
+  const auto thickness = [&](const RetinaColumn& c) { return c.top[onl + 1] - c.top[onl]; };
+  EXPECT_LT(thickness(thinning), 0.75f * thickness(model_.column(margin)));
+  const hal::BeamPosition beyond = at_mm(disc.radius_mm + disc.margin_mm + 0.05);
+  EXPECT_EQ(model.column(beyond).ilm_px, model_.column(beyond).ilm_px);
+  EXPECT_EQ(model.column(beyond).top, model_.column(beyond).top);
+}
+
 TEST_F(RetinaModelTest, MembraneLiesAboveTheIlmWhereItIs) {
   RetinaConfig erm = config_;
   erm.membrane.enabled = true;

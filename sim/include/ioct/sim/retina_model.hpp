@@ -7,7 +7,8 @@
 // bowl (the eye's curvature) with a tilt; the layers above it have physical thicknesses (times the
 // tissue's group index); the inner layers thin out into the foveal pit while the outer nuclear
 // layer and the outer segments thicken there. Optional: a full-thickness macular hole with a
-// thickened, cystic cuff, and an epiretinal membrane, partly adherent, partly lifted.
+// thickened, cystic cuff, an epiretinal membrane, partly adherent, partly lifted, and an optic
+// disc, where the retina thins to the nerve head and its surface dips into a cup.
 #pragma once
 
 #include <array>
@@ -55,6 +56,22 @@ struct EpiretinalMembraneConfig {
   double reflectivity = 0.55;
 };
 
+// The optic nerve head: inside `radius_mm` (the opening in Bruch's membrane) there is no RPE, no
+// choroid and no outer retina; nerve fibres fill it from the surface down. Over the `margin_mm`
+// outside it the layers below the NFL thin to nothing while the NFL takes their place (the ILM
+// stays continuous); inside, the surface dips into a cup of `cup_depth_um` at the centre, with
+// cosine-shaped walls out to `cup_radius_mm`.
+struct OpticDiscConfig {
+  bool enabled = false;
+  double center_x = 0.7;  // scan units
+  double center_y = 0.0;
+  double radius_mm = 0.8;
+  double margin_mm = 0.3;
+  double cup_radius_mm = 0.55;
+  double cup_depth_um = 200.0;
+  double nerve_scatter = 0.6;  // the nerve head's scatter, relative to the NFL's
+};
+
 struct RetinaConfig {
   double field_half_width_mm = 3.0;  // retina under scan units +-1
   // Depths relative to the depth axis, so the retina sits alike at any samples_per_ascan.
@@ -76,6 +93,7 @@ struct RetinaConfig {
   double nfl_growth_temporal_um_per_mm = 2.0;
   MacularHoleConfig macular_hole;
   EpiretinalMembraneConfig membrane;
+  OpticDiscConfig disc;
 
   // Throws ioct::ConfigError ("retina.<key>").
   void validate() const;
@@ -86,10 +104,11 @@ struct RetinaColumn {
   std::array<float, kRetinalLayers + 1> top{};   // top[i]: top of layer i; top[11]: sclera bottom
   std::array<float, kRetinalLayers> presence{};  // 0 where a layer is absent (pit, hole)
   float ilm_px = 0.0f;                           // NaN inside a macular hole
-  float rpe_px = 0.0f;                           // the RPE's bright line, mid-band
+  float rpe_px = 0.0f;                           // the RPE's bright line, mid-band; NaN in a disc
   float membrane_top_px = 0.0f;                  // NaN without a membrane here
   float membrane_bottom_px = 0.0f;
-  float cuff = 0.0f;  // 0..1: how deep into a macular hole's cuff (cysts)
+  float cuff = 0.0f;     // 0..1: how deep into a macular hole's cuff (cysts)
+  bool in_disc = false;  // inside the optic disc: nerve head, no RPE
 };
 
 class RetinaModel final : public SampleModel {
