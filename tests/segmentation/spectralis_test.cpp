@@ -31,11 +31,20 @@ namespace seg = gpu::segmentation;
 
 // Thresholds of this test (regression guards at what the method reaches, with a margin; the
 // figures and where the differences come from are in docs/segmentation.md): the ILM's median
-// difference within the aim of 2 px (the mean is not: a detached membrane and the disc
-// margin), most columns within 5 px; the BM's median within 12 px.
-constexpr double kMaxIlmMedianPx = 2.5;
-constexpr double kMinIlmWithin5Px = 0.60;
+// difference within the aim of 2 px, its mean not (9.9 px against the aim of 2: at the disc, a
+// band lifted off the retina over a gap that is not dark, and a thick dim band whose retina
+// beneath is less than twice as bright, where the tissue leaves the top of the image), three
+// quarters of the columns within 5 px; the BM's median within 12 px. Away from the disc (the
+// columns from kFirstColumnAwayFromDisc on) the BM's and the RPE centre's means against the
+// device's BM line (6.4 and 8.6 px against the aim of 3: the RPE is lifted off Bruch's membrane
+// there, which the device's line follows).
+constexpr double kMaxIlmMedianPx = 1.6;
+constexpr double kMaxIlmMeanPx = 10.5;
+constexpr double kMinIlmWithin5Px = 0.74;
 constexpr double kMaxBmMedianPx = 12.0;
+constexpr std::uint32_t kFirstColumnAwayFromDisc = 342;
+constexpr double kMaxBmMeanAwayFromDiscPx = 7.0;
+constexpr double kMaxRpeMeanAwayFromDiscPx = 9.0;
 
 TEST(Spectralis, SurfacesAgreeWithTheDevicesLinesWhereTheTissueIsInTheImage) {
   const std::filesystem::path path = spectralis_file();
@@ -91,8 +100,21 @@ TEST(Spectralis, SurfacesAgreeWithTheDevicesLinesWhereTheTissueIsInTheImage) {
   std::printf("[ figures  ] BM vs device BM: %s; within 2 px: %.0f%%\n", bm.describe().c_str(),
               100.0 * bm_within);
   std::printf("[ figures  ] RPE centre vs device BM: %s\n", rpe.describe().c_str());
+  std::vector<bool> away_from_disc = compared;
+  for (std::uint32_t a = 0; a < kFirstColumnAwayFromDisc && a < ascans; ++a) {
+    away_from_disc[a] = false;
+  }
+  const SurfaceErrors bm_away = surface_errors(s.bm, device_bm, &away_from_disc);
+  const SurfaceErrors rpe_away = surface_errors(s.rpe, device_bm, &away_from_disc);
+  std::printf("[ figures  ] away from the disc (columns %u..%u): BM vs device BM: %s\n",
+              kFirstColumnAwayFromDisc, last - 32, bm_away.describe().c_str());
+  std::printf("[ figures  ] away from the disc: RPE centre vs device BM: %s\n",
+              rpe_away.describe().c_str());
   EXPECT_EQ(ilm.missing, 0u);
   EXPECT_LE(ilm.median, kMaxIlmMedianPx);
+  EXPECT_LE(ilm.mean_absolute, kMaxIlmMeanPx);
+  EXPECT_LE(bm_away.mean_absolute, kMaxBmMeanAwayFromDiscPx);
+  EXPECT_LE(rpe_away.mean_absolute, kMaxRpeMeanAwayFromDiscPx);
   EXPECT_GE(ilm_within5, kMinIlmWithin5Px);
   EXPECT_LE(bm.median, kMaxBmMedianPx);
 }

@@ -248,6 +248,162 @@ IOCT_HD float parabola_offset(int left, int centre, int right) {
   return offset > 0.5f ? 0.5f : offset;
 }
 
+// The px in (after, to] where the intensity rises most steeply (the deepest of equals).
+IOCT_HD int steepest_rise(const std::uint8_t* column, int depth, int after, int to) {
+  int steepest = to;
+  int slope = -256;
+  for (int y = to; y > after; --y) {
+    const int rise = px(column, depth, y + 1) - px(column, depth, y - 1);
+    if (rise > slope) {
+      slope = rise;
+      steepest = y;
+    }
+  }
+  return steepest;
+}
+
+// A membrane lifted off the retina (an epiretinal membrane's wrinkle, the posterior hyaloid):
+// the search may follow its reflex, the first rise into tissue. A membrane is thin: within
+// kGapStartReach px below the reflex's peak lies a gap as dark as the vitreous (within kGapShare
+// of the way from the vitreous level up to the reflex's peak), and within kGapReach px below the
+// gap's start the retina, at least kTissueShare as bright as the reflex. Returns the px of the
+// steepest rise out of the gap into the retina, or `ilm_px` where there is no such gap. The
+// retina's dark layers are thicker than a membrane's gap: the fovea's ONL (as dark as a gap) has
+// the ILM's reflex above it and the ELM and IS/OS lines more than kGapReach px below it.
+inline constexpr int kGapStartReach = 8;
+inline constexpr int kGapReach = 16;
+inline constexpr float kGapShare = 0.15f;
+inline constexpr int kTissueRun = 6;
+inline constexpr float kTissueShare = 0.7f;
+IOCT_HD int rise_beneath_membrane(const std::uint8_t* column, int depth, int ilm_px) {
+  int p = ilm_px;
+  int top = px(column, depth, ilm_px);
+  for (int k = 1; k <= kIlmPeakReach; ++k) {  // the reflex's peak, as fit_column finds it
+    const int v = px(column, depth, ilm_px + k);
+    if (v < top) break;
+    if (v > top) {
+      top = v;
+      p = ilm_px + k;
+    }
+  }
+  int base = top;
+  for (int k = 1; k <= kIlmBaseReach; ++k) base = min_int(base, px(column, depth, ilm_px - k));
+  const float span = static_cast<float>(top - base);
+  const float gap_level = static_cast<float>(base) + kGapShare * span;
+  const float tissue_level = static_cast<float>(base) + kTissueShare * span;
+  int gap = -1;
+  for (int x = p + 1; x <= p + kGapStartReach && x < depth; ++x) {
+    if (static_cast<float>(column[x]) <= gap_level) {
+      gap = x;
+      break;
+    }
+  }
+  if (gap < 0) return ilm_px;
+  // The retina: the first px past the gap at the tissue level; the steepest rise before it.
+  for (int x = gap + 1; x <= gap + kGapReach && x < depth; ++x) {
+    if (static_cast<float>(column[x]) < tissue_level) continue;
+    int run = 0;
+    for (int k = 0; k < kTissueRun; ++k) run += px(column, depth, x + k);
+    if (static_cast<float>(run) < static_cast<float>(kTissueRun) * tissue_level) return ilm_px;
+    return steepest_rise(column, depth, gap, x);
+  }
+  return ilm_px;
+}
+
+// A dim band on the retina (tissue on the optic disc's surface): the search may take its outer
+// edge, the first rise into tissue. Its level is the brightest px within
+// kBandLook px below the rise; the retina beneath it is at least kBandContrast times as far above
+// the vitreous level, and the band stays at least kBandFloorShare of its level all the way down
+// to it (the retina's own inner layers dip between the NFL and the deeper bright layers).
+// Returns the px of the steepest rise into the retina within kBandReach px below the band's
+// rise, or `ilm_px` where there is no such band. In the simulated retina the ILM's reflex is never
+// half as bright as a layer beneath it.
+inline constexpr int kBandLook = 8;
+inline constexpr int kBandReach = 48;
+inline constexpr float kBandContrast = 2.0f;
+inline constexpr float kBandFloorShare = 0.85f;
+IOCT_HD int rise_beneath_band(const std::uint8_t* column, int depth, int ilm_px) {
+  int base = px(column, depth, ilm_px);
+  for (int k = 1; k <= kIlmBaseReach; ++k) base = min_int(base, px(column, depth, ilm_px - k));
+  int band = 0;
+  int band_end = ilm_px;
+  for (int k = 0; k <= kBandLook; ++k) {
+    const int v = px(column, depth, ilm_px + k);
+    if (v > band) {
+      band = v;
+      band_end = ilm_px + k;
+    }
+  }
+  const int band_level = band - base;
+  if (band_level <= 0) return ilm_px;
+  const float lowest = static_cast<float>(base) + kBandFloorShare * static_cast<float>(band_level);
+  const float bright = static_cast<float>(base) + kBandContrast * static_cast<float>(band_level);
+  for (int x = band_end + 1; x <= ilm_px + kBandReach && x < depth; ++x) {
+    const int v = column[x];
+    if (static_cast<float>(v) < lowest) return ilm_px;
+    if (static_cast<float>(v) < bright) continue;
+    return steepest_rise(column, depth, band_end, x);
+  }
+  return ilm_px;
+}
+
+// A thick band lifted off the retina (a vitreous band, a thickened posterior hyaloid at the
+// disc): kThickBandPx to kThickBandReach px at half its peak's level or more above the vitreous,
+// then, within kThickGapReach px, a gap down to kThickGapShare of its peak, and within
+// kThickTissueReach px below the gap the retina: kThickTissueContrast times as far above the
+// vitreous as the band's peak, and on average at least kThickTissueShare of the band's peak over
+// the kThickTissueRun px from there. Returns the px of the steepest rise out of the gap, or
+// `ilm_px`. The retina's own bands fail one of these: a thick NFL at the disc's margin is
+// thicker, and has the RPE beneath its gap (a line, the darker choroid below it); the inner
+// retina over a dark ONL has the outer retina beneath it, no brighter than itself.
+inline constexpr int kThickBandPx = 12;
+inline constexpr int kThickBandReach = 48;
+inline constexpr int kThickGapReach = 16;
+inline constexpr int kThickTissueReach = 24;
+inline constexpr int kThickTissueRun = 12;
+inline constexpr float kThickGapShare = 0.3f;
+inline constexpr float kThickTissueContrast = 1.2f;
+inline constexpr float kThickTissueShare = 0.85f;
+IOCT_HD int rise_beneath_thick_band(const std::uint8_t* column, int depth, int ilm_px) {
+  int base = px(column, depth, ilm_px);
+  for (int k = 1; k <= kIlmBaseReach; ++k) base = min_int(base, px(column, depth, ilm_px - k));
+  int top = 0;
+  for (int k = 0; k <= kBandLook; ++k) top = max_int(top, px(column, depth, ilm_px + k));
+  if (top <= base) return ilm_px;
+  const float half = static_cast<float>(base) + 0.5f * static_cast<float>(top - base);
+  // The band: from the rise down while at half its first peak's level or more.
+  int end = ilm_px;
+  while (end < ilm_px + kThickBandReach && end + 1 < depth &&
+         static_cast<float>(column[end + 1]) >= half) {
+    ++end;
+    top = max_int(top, static_cast<int>(column[end]));
+  }
+  // Thinner than kThickBandPx: the ILM's reflex; as thick as kThickBandReach: the retina.
+  if (end - ilm_px < kThickBandPx || end - ilm_px >= kThickBandReach) return ilm_px;
+  const float span = static_cast<float>(top - base);
+  const float gap_level = static_cast<float>(base) + kThickGapShare * span;
+  int gap = -1;
+  for (int x = end + 1; x <= end + kThickGapReach && x < depth; ++x) {
+    if (static_cast<float>(column[x]) <= gap_level) {
+      gap = x;
+      break;
+    }
+  }
+  if (gap < 0) return ilm_px;
+  for (int x = gap + 1; x <= gap + kThickTissueReach && x < depth; ++x) {
+    if (static_cast<float>(column[x]) < static_cast<float>(base) + kThickTissueContrast * span) {
+      continue;
+    }
+    int run = 0;
+    for (int k = 0; k < kThickTissueRun; ++k) run += px(column, depth, x + k) - base;
+    if (static_cast<float>(run) < static_cast<float>(kThickTissueRun) * kThickTissueShare * span) {
+      return ilm_px;
+    }
+    return steepest_rise(column, depth, gap, x);
+  }
+  return ilm_px;
+}
+
 // Refines the search's px (ILM at the steepest rise, RPE near its centre) of one A-scan.
 IOCT_HD ColumnFit fit_column(const std::uint8_t* column, int depth, int ilm_px, int rpe_px,
                              int floor, float ilm_level) {
@@ -282,8 +438,12 @@ IOCT_HD ColumnFit fit_column(const std::uint8_t* column, int depth, int ilm_px, 
   }
   fit.choroid = sum / (kChoroidLast - kChoroidFirst + 1);
 
-  // ILM: the inner reflex's peak below the steepest rise, the vitreous level above it, and where
-  // the rise crosses ilm_level of the way between them.
+  // ILM: the retina's surface, beneath a lifted membrane or a dim band on it; the inner reflex's
+  // peak below the steepest rise, the vitreous level above it, and where the rise crosses
+  // ilm_level of the way between them.
+  ilm_px = rise_beneath_membrane(column, depth, ilm_px);
+  ilm_px = rise_beneath_thick_band(column, depth, ilm_px);
+  ilm_px = rise_beneath_band(column, depth, ilm_px);
   int p = ilm_px;
   int top = px(column, depth, ilm_px);
   for (int k = 1; k <= kIlmPeakReach; ++k) {  // the first local maximum (a plateau counts)
