@@ -293,7 +293,7 @@ IOCT_HD int rise_beneath_membrane(const std::uint8_t* column, int depth, int ilm
   const float tissue_level = static_cast<float>(base) + kTissueShare * span;
   int gap = -1;
   for (int x = p + 1; x <= p + kGapStartReach && x < depth; ++x) {
-    if (static_cast<float>(column[x]) <= gap_level) {
+    if (static_cast<float>(px(column, depth, x)) <= gap_level) {
       gap = x;
       break;
     }
@@ -301,7 +301,7 @@ IOCT_HD int rise_beneath_membrane(const std::uint8_t* column, int depth, int ilm
   if (gap < 0) return ilm_px;
   // The retina: the first px past the gap at the tissue level; the steepest rise before it.
   for (int x = gap + 1; x <= gap + kGapReach && x < depth; ++x) {
-    if (static_cast<float>(column[x]) < tissue_level) continue;
+    if (static_cast<float>(px(column, depth, x)) < tissue_level) continue;
     int run = 0;
     for (int k = 0; k < kTissueRun; ++k) run += px(column, depth, x + k);
     if (static_cast<float>(run) < static_cast<float>(kTissueRun) * tissue_level) return ilm_px;
@@ -339,7 +339,7 @@ IOCT_HD int rise_beneath_band(const std::uint8_t* column, int depth, int ilm_px)
   const float lowest = static_cast<float>(base) + kBandFloorShare * static_cast<float>(band_level);
   const float bright = static_cast<float>(base) + kBandContrast * static_cast<float>(band_level);
   for (int x = band_end + 1; x <= ilm_px + kBandReach && x < depth; ++x) {
-    const int v = column[x];
+    const int v = px(column, depth, x);
     if (static_cast<float>(v) < lowest) return ilm_px;
     if (static_cast<float>(v) < bright) continue;
     return steepest_rise(column, depth, band_end, x);
@@ -374,9 +374,9 @@ IOCT_HD int rise_beneath_thick_band(const std::uint8_t* column, int depth, int i
   // The band: from the rise down while at half its first peak's level or more.
   int end = ilm_px;
   while (end < ilm_px + kThickBandReach && end + 1 < depth &&
-         static_cast<float>(column[end + 1]) >= half) {
+         static_cast<float>(px(column, depth, end + 1)) >= half) {
     ++end;
-    top = max_int(top, static_cast<int>(column[end]));
+    top = max_int(top, px(column, depth, end));
   }
   // Thinner than kThickBandPx: the ILM's reflex; as thick as kThickBandReach: the retina.
   if (end - ilm_px < kThickBandPx || end - ilm_px >= kThickBandReach) return ilm_px;
@@ -384,14 +384,15 @@ IOCT_HD int rise_beneath_thick_band(const std::uint8_t* column, int depth, int i
   const float gap_level = static_cast<float>(base) + kThickGapShare * span;
   int gap = -1;
   for (int x = end + 1; x <= end + kThickGapReach && x < depth; ++x) {
-    if (static_cast<float>(column[x]) <= gap_level) {
+    if (static_cast<float>(px(column, depth, x)) <= gap_level) {
       gap = x;
       break;
     }
   }
   if (gap < 0) return ilm_px;
   for (int x = gap + 1; x <= gap + kThickTissueReach && x < depth; ++x) {
-    if (static_cast<float>(column[x]) < static_cast<float>(base) + kThickTissueContrast * span) {
+    if (static_cast<float>(px(column, depth, x)) <
+        static_cast<float>(base) + kThickTissueContrast * span) {
       continue;
     }
     int run = 0;
