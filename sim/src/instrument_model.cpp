@@ -96,6 +96,19 @@ ToolState InstrumentModel::state(const ToolPose& pose) const noexcept {
           pose.yaw_deg, pose.pitch_deg, pose.jaw_opening_deg};
 }
 
+ToolState InstrumentModel::tip_state(const ToolPose& pose) const noexcept {
+  ToolState tip = state(pose);
+  if (config_.kind != InstrumentKind::forceps || pose.jaw_opening_deg == 0.0f) return tip;
+  // The jaws' ends lie jaw x (1 - cos(opening / 2)) back along the shaft's direction u.
+  const double back = kJawLengthMm * (1.0 - std::cos(0.5 * deg(pose.jaw_opening_deg)));
+  const double yaw = deg(pose.yaw_deg);
+  const double pitch = deg(pose.pitch_deg);
+  tip.tip_x += static_cast<float>(back * std::cos(pitch) * std::cos(yaw) / field_mm_);
+  tip.tip_y += static_cast<float>(back * std::cos(pitch) * std::sin(yaw) / field_mm_);
+  tip.tip_depth_px -= static_cast<float>(back * std::sin(pitch) * px_per_mm_);
+  return tip;
+}
+
 void InstrumentModel::place(const ToolPose& pose) noexcept {
   const auto add = [](Vec3 p, Vec3 q, double s) {
     return Vec3{p.x + s * q.x, p.y + s * q.y, p.z + s * q.z};

@@ -43,15 +43,13 @@ struct Errors {
   }
 };
 
-// The targets are p95 <= 2 voxels and <= 15 um over every scene. What the detection
-// reaches is asserted here (README.md gives the figures): the metal tools with closed ends meet
-// the targets in the median, and stay within the p95 bounds below; the open forceps (the pose's
-// tip lies between the jaws, where there is no metal) and the translucent scraper are found but
-// miss the targets.
-constexpr double kMetalTipMedianVox = 2.5;
-constexpr double kMetalTipP95Vox = 12.0;
-constexpr double kMetalDistanceMedianUm = 15.0;
-constexpr double kMetalDistanceP95Um = 50.0;
+// What the detection reaches over every scene (README.md gives the figures), asserted a little
+// above it so that a regression fails: p95 over ten scenes is the worst scene.
+constexpr double kTipP95Vox = 4.5;
+constexpr double kDistanceP95Um = 35.0;
+// The metal tools with closed ends, tighter: the targets.
+constexpr double kMetalTipP95Vox = 2.0;
+constexpr double kMetalDistanceP95Um = 15.0;
 
 TEST(InstrumentAccuracy, TipAndDistancesAgainstTheSimulatorsPose) {
   Errors all, metal;
@@ -86,17 +84,20 @@ TEST(InstrumentAccuracy, TipAndDistancesAgainstTheSimulatorsPose) {
         scene.name.c_str(), tip.bscan, tip.ascan, tip.depth_px, s.tip.bscan, s.tip.ascan,
         s.tip.depth_px, error, tip.to_ilm_um, s.to_ilm_um, tip.to_rpe_um, s.to_rpe_um,
         std::string(to_string(tip.source)).c_str());
-    // The tip's own A-scan is under the tool: its surfaces are always inferred.
-    EXPECT_EQ(tip.source, DistanceSource::inferred) << scene.name;
+    // A closed tool's tip is under the tool: its surfaces are inferred. Between open jaws the
+    // retina is in view.
+    EXPECT_EQ(tip.source,
+              scene.jaw_opening_deg > 0 ? DistanceSource::measured : DistanceSource::inferred)
+        << scene.name;
   }
   all.print("all");
   metal.print("metal, closed ends");
   RecordProperty("metal_tip_p95_vox", std::to_string(p95(metal.tip)));
   RecordProperty("all_tip_p95_vox", std::to_string(p95(all.tip)));
-  EXPECT_LE(median(metal.tip), kMetalTipMedianVox);
+  EXPECT_LE(p95(all.tip), kTipP95Vox);
+  EXPECT_LE(p95(all.ilm), kDistanceP95Um);
+  EXPECT_LE(p95(all.rpe), kDistanceP95Um);
   EXPECT_LE(p95(metal.tip), kMetalTipP95Vox);
-  EXPECT_LE(median(metal.ilm), kMetalDistanceMedianUm);
-  EXPECT_LE(median(metal.rpe), kMetalDistanceMedianUm);
   EXPECT_LE(p95(metal.ilm), kMetalDistanceP95Um);
   EXPECT_LE(p95(metal.rpe), kMetalDistanceP95Um);
 }

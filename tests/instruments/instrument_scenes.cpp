@@ -63,9 +63,11 @@ SceneVolume make_scene_volume(const InstrumentScene& scene, std::uint32_t ascans
 
   // The pose as the simulator states it (the tool does not move in these scenes).
   const sim::InstrumentModel model(tool, simulation.field_half_width_mm(), um_per_px, depth);
-  out.tip = sim::tip_voxel(model.state(tool.pose), simulation.scan);
-  out.ilm_px = under.ilm_px;
-  out.rpe_px = under.rpe_px;
+  const sim::ToolState tip = model.tip_state(tool.pose);
+  out.tip = sim::tip_voxel(tip, simulation.scan);
+  const sim::ColumnTruth under_tip = retina.layers({tip.tip_x, tip.tip_y});
+  out.ilm_px = under_tip.ilm_px;
+  out.rpe_px = under_tip.rpe_px;
   out.to_ilm_um = (out.ilm_px - out.tip.depth_px) * um_per_px;
   out.to_rpe_um = (out.rpe_px - out.tip.depth_px) * um_per_px;
   return out;

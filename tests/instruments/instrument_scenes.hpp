@@ -30,7 +30,7 @@ struct SceneVolume {
   seg_test::SimulatedVolume volume;  // as processed (what the detection reads), with the truth
   gpu::Volume filtered;              // median + Gaussian (what the segmentation reads)
   gpu::segmentation::VolumeSampling sampling;
-  sim::VoxelPoint tip;  // truth (the pose's tip point)
+  sim::VoxelPoint tip;  // truth (InstrumentModel::tip_state)
   double ilm_px = 0.0;  // the truth surfaces under the tip (continuous)
   double rpe_px = 0.0;
   double to_ilm_um = 0.0;  // truth distances, signed as the detection's

@@ -16,10 +16,16 @@ using segmentation::SurfaceState;
 
 // The largest end radius tried (um): a 19 G shaft's.
 constexpr double kMaxRadiusUm = 550.0;
+// The end's fit tries radii and extremes this far apart (um), then this far about the best.
+constexpr double kCoarseStepUm = 8.0;
+constexpr double kFineStepUm = 2.0;
 // The end's fit weighs the spread of its reflexes' centre depths (px^2) against the share of
 // A-scans where its footprint disagrees with the sphere's: this much of each costs the same.
 constexpr double kDepthSpreadPx2 = 4.0;
 constexpr double kFootprintMismatch = 0.1;
+constexpr double kAxisLengthUm = 600.0;
+// A sphere seen by fewer reflexes is not tried: a few agree on any centre by chance.
+constexpr std::size_t kMinEndReflexes = 6;
 // Surfaces are taken this many A-scans away from the shadow mask at least.
 constexpr std::int64_t kSurfaceMarginAscans = 2;
 
@@ -342,7 +348,7 @@ End end_of(const std::vector<Place>& cells, const InstrumentFindings& f, const A
   }
   std::size_t rim_count = 0, partial = 0, shadow = 0;
   for (std::size_t i = 0; i < end.cells.size(); ++i) {
-    if (end.along[i] >= end.s_max - rim) {
+    if (end.along[i] >= end.s_max - kAxisLengthUm) {
       end.rim_across += axis.across(end.cells[i]);
       ++rim_count;
     }
@@ -375,6 +381,56 @@ std::vector<Reflex> reflexes_of(const End& end, const InstrumentFindings& f, con
   return reflexes;
 }
 
+// How steeply the tool rises towards its shaft, behind a point of its axis: the tangent of its
+// pitch (um of the medium's depth per um en face) from the ridge of its reflexes (the shallowest
+// per bin of one lateral sample along the axis: the top line of a cylinder, whatever its radius),
+// the median of the ridge's slopes over kRiseBaseUm behind that point (robust to a wider shaft's
+// end and the cap in the window). Per bin boundary (bins from the end's first reflex up to the
+// extreme, `rim` wide); 0 (a level tool) with fewer than kMinRiseSlopes slopes or a ridge that
+// rises towards the tip.
+constexpr double kRiseBaseUm = 100.0;
+constexpr std::size_t kMinRiseSlopes = 5;
+
+struct Rise {
+  double first = 0.0, bin = 1.0;
+  std::vector<double> behind;  // [bin]: the tangent behind the bin's start
+  double at(double s) const {
+    if (behind.empty() || s <= first) return 0.0;
+    const auto i = static_cast<std::size_t>((s - first) / bin);
+    return behind[std::min(i, behind.size() - 1)];
+  }
+};
+
+Rise rise_of(const std::vector<Reflex>& reflexes, const End& end, double um_per_px_medium) {
+  Rise rise;
+  rise.first = end.s_max - 2.0 * kMaxRadiusUm;
+  rise.bin = end.rim;
+  const auto bins = static_cast<std::size_t>(std::ceil((end.s_max - rise.first) / end.rim)) + 1;
+  std::vector<double> top(bins, std::numeric_limits<double>::infinity());
+  for (const Reflex& r : reflexes) {
+    if (r.s < rise.first) continue;
+    const auto i = std::min(bins - 1, static_cast<std::size_t>((r.s - rise.first) / end.rim));
+    top[i] = std::min(top[i], r.z);
+  }
+  const std::size_t apart =
+      std::max<std::size_t>(1, static_cast<std::size_t>(kRiseBaseUm / end.rim));
+  const double per_base = um_per_px_medium / (static_cast<double>(apart) * end.rim);
+  rise.behind.assign(bins, 0.0);
+  std::vector<double> slopes, sorted;
+  for (std::size_t i = apart; i < bins; ++i) {
+    // Pairs ending before bin i.
+    const std::size_t j = i - 1;
+    if (j >= apart && std::isfinite(top[j]) && std::isfinite(top[j - apart])) {
+      slopes.push_back((top[j] - top[j - apart]) * per_base);
+    }
+    if (slopes.size() < kMinRiseSlopes) continue;
+    sorted = slopes;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    rise.behind[i] = std::max(0.0, sorted[sorted.size() / 2]);
+  }
+  return rise;
+}
+
 // Mask rows [b_lo, b_hi], A-scans [a_lo, a_hi] of each.
 struct Window {
   std::int64_t b_lo = 0, b_hi = -1, a_lo = 0, a_hi = -1;
@@ -389,24 +445,35 @@ struct Sphere {
   Window window;
 };
 
+// The candidate ends: radii [r_lo, r_hi] by r_step, and the extreme e in [e_lo, e_hi) by e_step
+// beyond the footprint's last A-scan along the axis (the true extreme lies before the next sample
+// along it: up to a B-scan's spacing where the axis runs across B-scans).
+struct SphereGrid {
+  double r_lo, r_hi, r_step, e_lo, e_hi, e_step;
+};
+
 std::vector<Sphere> spheres_of(const End& end, const Axis& axis, const InstrumentFindings& f,
-                               double sx, double sy) {
+                               double sx, double sy, const SphereGrid& grid) {
   std::vector<Sphere> spheres;
-  for (double r = 2.0 * end.rim; r <= kMaxRadiusUm; r += 2.0) {
-    Sphere s;
-    s.r = r;
-    s.cs = end.s_max + 0.5 * end.rim - r;
-    s.reach = r + end.rim;
-    s.cx = axis.mx + s.cs * axis.ux - end.rim_across * axis.uy;
-    s.cy = axis.my + s.cs * axis.uy + end.rim_across * axis.ux;
-    // Wide enough: the tests decide (the casts round towards 0, hence a sample more each side).
-    s.window.a_lo = std::max<std::int64_t>(0, static_cast<std::int64_t>((s.cx - s.reach) / sx) - 1);
-    s.window.a_hi =
-        std::min<std::int64_t>(f.ascans - 1, static_cast<std::int64_t>((s.cx + s.reach) / sx) + 1);
-    s.window.b_lo = std::max<std::int64_t>(0, static_cast<std::int64_t>((s.cy - s.reach) / sy) - 1);
-    s.window.b_hi =
-        std::min<std::int64_t>(f.bscans - 1, static_cast<std::int64_t>((s.cy + s.reach) / sy) + 1);
-    spheres.push_back(s);
+  for (double r = grid.r_lo; r <= grid.r_hi; r += grid.r_step) {
+    for (double e = grid.e_lo; e < grid.e_hi; e += grid.e_step) {
+      Sphere s;
+      s.r = r;
+      s.cs = end.s_max + e - r;
+      s.reach = r + end.rim;
+      s.cx = axis.mx + s.cs * axis.ux - end.rim_across * axis.uy;
+      s.cy = axis.my + s.cs * axis.uy + end.rim_across * axis.ux;
+      // Wide enough: the tests decide (the casts round towards 0, hence a sample more each side).
+      s.window.a_lo =
+          std::max<std::int64_t>(0, static_cast<std::int64_t>((s.cx - s.reach) / sx) - 1);
+      s.window.a_hi = std::min<std::int64_t>(f.ascans - 1,
+                                             static_cast<std::int64_t>((s.cx + s.reach) / sx) + 1);
+      s.window.b_lo =
+          std::max<std::int64_t>(0, static_cast<std::int64_t>((s.cy - s.reach) / sy) - 1);
+      s.window.b_hi = std::min<std::int64_t>(f.bscans - 1,
+                                             static_cast<std::int64_t>((s.cy + s.reach) / sy) + 1);
+      spheres.push_back(s);
+    }
   }
   return spheres;
 }
@@ -576,34 +643,51 @@ double footprint_mismatch(const Sphere& s, const Axis& axis, const MaskedRuns& m
 }
 
 // The depths of the sphere's centre its reflexes give: z = zc - sqrt(r^2 - d^2) (um of the
-// medium) for those in front of the centre; their mean and variance (px), count >= 3.
+// medium) for those in front of the centre; their mean and (unbiased) variance (px), count >=
+// kMinEndReflexes.
 struct CentreDepths {
   std::size_t count = 0;
   double mean = 0.0, variance = 0.0;
 };
 
-CentreDepths centre_depths(const std::vector<Reflex>& reflexes, const Sphere& s,
+// The tool's pitch p as the end's fit uses it.
+struct Pitch {
+  double tan = 0.0, sin = 0.0, per_cos = 1.0;
+  explicit Pitch(double tan_p)
+      : tan(tan_p),
+        sin(tan_p / std::sqrt(1.0 + tan_p * tan_p)),
+        per_cos(std::sqrt(1.0 + tan_p * tan_p)) {}
+};
+
+CentreDepths centre_depths(const std::vector<Reflex>& reflexes, const Sphere& s, const Pitch& pitch,
                            double um_per_px_medium) {
   double sum = 0.0, sum2 = 0.0;
   CentreDepths out;
   for (const Reflex& reflex : reflexes) {
     if (reflex.s < s.cs) break;
-    const double ds = reflex.s - s.cs;
-    const double d2 = ds * ds + reflex.dc * reflex.dc;
-    if (d2 >= s.r * s.r) continue;
-    const double zc = reflex.z + std::sqrt(s.r * s.r - d2) / um_per_px_medium;
+    const double f = reflex.s - s.cs;
+    const double rr = s.r * s.r - reflex.dc * reflex.dc;
+    if (f * f >= rr) continue;
+    // The capsule's top above its axis at (f ahead, dc across): with R^2 = r^2 - dc^2 the cap's
+    // sqrt(R^2 - f^2) where f > R sin p, else the cylinder rising behind it, R / cos p - f tan p
+    // (a pitched tool's cylinder hides the front of its cap from the beam).
+    const double rc = std::sqrt(rr);
+    const double above =
+        f > rc * pitch.sin ? std::sqrt(rr - f * f) : rc * pitch.per_cos - f * pitch.tan;
+    const double zc = reflex.z + above / um_per_px_medium;
     sum += zc;
     sum2 += zc * zc;
     ++out.count;
   }
-  if (out.count < 3) return out;
-  out.mean = sum / static_cast<double>(out.count);
-  out.variance = std::max(0.0, sum2 / static_cast<double>(out.count) - out.mean * out.mean);
+  if (out.count < kMinEndReflexes) return out;
+  const auto n = static_cast<double>(out.count);
+  out.mean = sum / n;
+  out.variance = std::max(0.0, sum2 / n - out.mean * out.mean) * n / (n - 1.0);
   return out;
 }
 
 struct Fit {
-  double radius = 0.0, center_px = 0.0, cost = 1e300;
+  double radius = 0.0, center_px = 0.0, cost = 1e300, cs = 0.0;
 };
 
 // The rounded end (a capsule's cap, the shape of every metal tool's end): a sphere of radius r
@@ -614,19 +698,31 @@ Fit fit_end(const End& end, const Axis& axis, const InstrumentFindings& f, doubl
             double um_per_px_medium) {
   Fit best;
   const std::vector<Reflex> reflexes = reflexes_of(end, f, axis);
-  if (reflexes.size() < 3) return best;  // no sphere sees three
-  const std::vector<Sphere> spheres = spheres_of(end, axis, f, sx, sy);
-  const MaskedRuns masked(f, covering(spheres));
-  for (const Sphere& s : spheres) {
-    // The footprint's share of the cost is a floor to it: a sphere that cannot beat the best
-    // so far is not worth its reflexes' square roots.
-    const double mismatch = footprint_mismatch(s, axis, masked, sx, sy);
-    if (mismatch / kFootprintMismatch >= best.cost) continue;
-    const CentreDepths depths = centre_depths(reflexes, s, um_per_px_medium);
-    if (depths.count < 3) continue;
-    const double cost = depths.variance / kDepthSpreadPx2 + mismatch / kFootprintMismatch;
-    if (cost < best.cost) best = {s.r, depths.mean, cost};
-  }
+  if (reflexes.size() < kMinEndReflexes) return best;  // no sphere sees enough
+  const Rise rise = rise_of(reflexes, end, um_per_px_medium);
+  const auto search = [&](const SphereGrid& grid) {
+    const std::vector<Sphere> spheres = spheres_of(end, axis, f, sx, sy, grid);
+    const MaskedRuns masked(f, covering(spheres));
+    for (const Sphere& s : spheres) {
+      // The footprint's share of the cost is a floor to it: a sphere that cannot beat the best
+      // so far is not worth its reflexes' square roots.
+      const double mismatch = footprint_mismatch(s, axis, masked, sx, sy);
+      if (mismatch / kFootprintMismatch >= best.cost) continue;
+      const CentreDepths depths =
+          centre_depths(reflexes, s, Pitch(rise.at(s.cs)), um_per_px_medium);
+      if (depths.count < kMinEndReflexes) continue;
+      const double cost = depths.variance / kDepthSpreadPx2 + mismatch / kFootprintMismatch;
+      if (cost < best.cost) best = {s.r, depths.mean, cost, s.cs};
+    }
+  };
+  // Coarse, then fine about the best (the cost varies smoothly with both).
+  const double beyond = std::max(std::abs(axis.ux) * sx, std::abs(axis.uy) * sy);
+  search({2.0 * end.rim, kMaxRadiusUm, kCoarseStepUm, 0.0, beyond, kCoarseStepUm});
+  if (best.cost >= 1e300) return best;
+  const double e = best.cs + best.radius - end.s_max;
+  search({std::max(2.0 * end.rim, best.radius - kCoarseStepUm),
+          std::min(kMaxRadiusUm, best.radius + kCoarseStepUm), kFineStepUm,
+          std::max(0.0, e - kCoarseStepUm), std::min(beyond, e + kCoarseStepUm), kFineStepUm});
   return best;
 }
 
@@ -647,26 +743,292 @@ double nearest_reflex_px(const End& end, const InstrumentFindings& f, const Axis
   return depth_px;
 }
 
+// Where an end's tip is (um en face, depth px).
+struct EndTip {
+  double x = 0.0, y = 0.0, depth_px = 0.0;
+  bool translucent = false;
+};
+
+// A rounded metal end (tip_finder.hpp, 3.), or a translucent end at its rim at the depth of the
+// tool's middle there.
+EndTip tip_of_end(const std::vector<Place>& cells, const InstrumentFindings& f, const Axis& axis,
+                  double sx, double sy, double um_per_px_medium) {
+  const End end = end_of(cells, f, axis, std::min(sx, sy));
+  const Fit fit = end.translucent ? Fit{} : fit_end(end, axis, f, sx, sy, um_per_px_medium);
+  const bool fitted = fit.cost < 1e300;
+  const double tip_s = fitted ? fit.cs : end.s_max + 0.5 * end.rim;
+  EndTip tip;
+  tip.translucent = end.translucent;
+  tip.x = axis.mx + tip_s * axis.ux - end.rim_across * axis.uy;
+  tip.y = axis.my + tip_s * axis.uy + end.rim_across * axis.ux;
+  tip.depth_px = fitted ? fit.center_px : nearest_reflex_px(end, f, axis, tip.x, tip.y);
+  return tip;
+}
+
+// The footprint's A-scans within kProngLengthUm of its extreme, split into 8-connected parts: an
+// open forceps' two jaws, apart there, each a prong of its own (a closed tool has one). Parts of
+// fewer than kMinProngAscans A-scans, or ending further than half kProngLengthUm behind the
+// extreme, are not prongs.
+constexpr double kProngLengthUm = 300.0;
+constexpr std::size_t kMinProngAscans = 12;
+
+std::vector<std::vector<Place>> prongs_of(const std::vector<Place>& cells, const Axis& axis) {
+  std::vector<double> along(cells.size());
+  double s_max = -1e300;
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    along[i] = axis.along(cells[i]);
+    s_max = std::max(s_max, along[i]);
+  }
+  std::vector<std::size_t> near;
+  std::uint32_t b_lo = ~0u, b_hi = 0, a_lo = ~0u, a_hi = 0;
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    if (along[i] < s_max - kProngLengthUm) continue;
+    near.push_back(i);
+    b_lo = std::min(b_lo, cells[i].b);
+    b_hi = std::max(b_hi, cells[i].b);
+    a_lo = std::min(a_lo, cells[i].a);
+    a_hi = std::max(a_hi, cells[i].a);
+  }
+  std::vector<std::vector<Place>> prongs;
+  if (near.empty()) return prongs;
+  // Labels over the parts' bounding box: 0 none, 1 unvisited, 2 visited.
+  const std::size_t width = a_hi - a_lo + 1, height = b_hi - b_lo + 1;
+  std::vector<std::uint8_t> grid(width * height, 0);
+  std::vector<std::size_t> index_of(width * height, 0);
+  for (const std::size_t i : near) {
+    const std::size_t g = (cells[i].b - b_lo) * width + (cells[i].a - a_lo);
+    grid[g] = 1;
+    index_of[g] = i;
+  }
+  std::vector<std::size_t> stack;
+  for (const std::size_t seed : near) {
+    const std::size_t g0 = (cells[seed].b - b_lo) * width + (cells[seed].a - a_lo);
+    if (grid[g0] != 1) continue;
+    std::vector<Place> prong;
+    double prong_max = -1e300;
+    grid[g0] = 2;
+    stack.assign(1, g0);
+    while (!stack.empty()) {
+      const std::size_t g = stack.back();
+      stack.pop_back();
+      prong.push_back(cells[index_of[g]]);
+      prong_max = std::max(prong_max, along[index_of[g]]);
+      const auto gb = static_cast<std::int64_t>(g / width),
+                 ga = static_cast<std::int64_t>(g % width);
+      for (const auto& [db, da] : kNeighbours) {
+        const std::int64_t nb = gb + db, na = ga + da;
+        if (nb < 0 || na < 0 || nb >= static_cast<std::int64_t>(height) ||
+            na >= static_cast<std::int64_t>(width)) {
+          continue;
+        }
+        const auto n = static_cast<std::size_t>(nb) * width + static_cast<std::size_t>(na);
+        if (grid[n] == 1) {
+          grid[n] = 2;
+          stack.push_back(n);
+        }
+      }
+    }
+    if (prong.size() >= kMinProngAscans && prong_max >= s_max - 0.5 * kProngLengthUm) {
+      prongs.push_back(std::move(prong));
+    }
+  }
+  return prongs;
+}
+
+// A translucent tool's paddle: a tilted plate, whose middle (its A-scans' reflexes) is a plane
+// z = z0 + g . (x - x0, y - y0) (px; x, y um), fitted to them by least squares.
+struct Plane {
+  double x0 = 0.0, y0 = 0.0, z0 = 0.0, gx = 0.0, gy = 0.0;
+  bool valid = false;
+  double at(double x, double y) const { return z0 + gx * (x - x0) + gy * (y - y0); }
+};
+
+Plane paddle_plane(const std::vector<Place>& cells, const InstrumentFindings& f, const Axis& axis) {
+  Plane plane;
+  double n = 0.0;
+  for (const Place& c : cells) {
+    if (f.mask[c.k] != ColumnKind::partial) continue;
+    n += 1.0;
+    plane.x0 += axis.x(c);
+    plane.y0 += axis.y(c);
+    plane.z0 += f.reflex_px[c.k];
+  }
+  if (n < 3.0) return plane;
+  plane.x0 /= n;
+  plane.y0 /= n;
+  plane.z0 /= n;
+  double xx = 0.0, xy = 0.0, yy = 0.0, xz = 0.0, yz = 0.0;
+  for (const Place& c : cells) {
+    if (f.mask[c.k] != ColumnKind::partial) continue;
+    const double dx = axis.x(c) - plane.x0, dy = axis.y(c) - plane.y0;
+    const double dz = f.reflex_px[c.k] - plane.z0;
+    xx += dx * dx;
+    xy += dx * dy;
+    yy += dy * dy;
+    xz += dx * dz;
+    yz += dy * dz;
+  }
+  const double det = xx * yy - xy * xy;
+  if (!(det > 0.0)) return plane;
+  plane.gx = (yy * xz - xy * yz) / det;
+  plane.gy = (xx * yz - xy * xz) / det;
+  plane.valid = true;
+  return plane;
+}
+
+// The paddle deepens towards its leading edge: its axis is the plane's gradient where it is
+// pitched by more than kMinPaddleRise (else the footprint's). The tip is the middle of the leading
+// edge (instrument_truth.hpp): the footprint's A-scans within two samples along the axis of its
+// extreme give the edge's ends across it, and the plane its depth.
+constexpr double kMinPaddleRise = 0.1;
+
+EndTip tip_of_paddle(const std::vector<Place>& cells, const InstrumentFindings& f,
+                     const Axis& principal, double sx, double sy, double um_per_px_medium,
+                     Axis& axis) {
+  axis = principal;
+  const Plane plane = paddle_plane(cells, f, principal);
+  const double g = std::hypot(plane.gx, plane.gy);
+  if (plane.valid && g * um_per_px_medium >= kMinPaddleRise) {
+    axis.ux = plane.gx / g;
+    axis.uy = plane.gy / g;
+  }
+  double s_max = -1e300;
+  for (const Place& c : cells) s_max = std::max(s_max, axis.along(c));
+  const double step = std::max(std::abs(axis.ux) * sx, std::abs(axis.uy) * sy);
+  double lo = 1e300, hi = -1e300;
+  for (const Place& c : cells) {
+    if (axis.along(c) < s_max - 2.0 * step) continue;
+    lo = std::min(lo, axis.across(c));
+    hi = std::max(hi, axis.across(c));
+  }
+  const double tip_s = s_max + 0.5 * std::min(sx, sy), tip_c = 0.5 * (lo + hi);
+  EndTip tip;
+  tip.translucent = true;
+  tip.x = axis.mx + tip_s * axis.ux - tip_c * axis.uy;
+  tip.y = axis.my + tip_s * axis.uy + tip_c * axis.ux;
+  tip.depth_px = plane.valid ? plane.at(tip.x, tip.y) : 0.0;
+  return tip;
+}
+
+// A paddle lying on the retina has no dark gap beneath it: its A-scans there are not classified
+// (column_classification.hpp), and the footprint stops short of the leading edge. The
+// segmentation's ILM there is the paddle's front surface, parallel to its middle plane: where the
+// footprint's leading partly shadowed A-scans (kPaddleLeadUm along its axis) have an ILM a steady
+// height above the plane (kPaddleOnIlmPx about its median, at least half of them), the footprint
+// grows into the clear A-scans around it whose ILM lies at that height too; they join the mask as
+// partly shadowed, their reflex on the plane.
+constexpr double kPaddleLeadUm = 150.0;
+constexpr double kPaddleOnIlmPx = 3.0;
+
+void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, double sx, double sy) {
+  if (s.bscans != f.bscans || s.ascans != f.ascans) return;
+  const Axis principal = axis_of(fp.ascans, f, sx, sy);
+  const Plane plane = paddle_plane(fp.ascans, f, principal);
+  const double g = std::hypot(plane.gx, plane.gy);
+  if (!plane.valid || g == 0.0) return;
+  Axis axis = principal;
+  axis.ux = plane.gx / g;
+  axis.uy = plane.gy / g;
+  const auto ilm_at = [&](std::size_t k) {
+    return s.state[k] == SurfaceState::measured && std::isfinite(s.ilm[k]) ? double{s.ilm[k]}
+                                                                           : std::nan("");
+  };
+  double s_max = -1e300;
+  for (const Place& c : fp.ascans) {
+    if (f.mask[c.k] == ColumnKind::partial) s_max = std::max(s_max, axis.along(c));
+  }
+  std::vector<double> heights;
+  for (const Place& c : fp.ascans) {
+    if (f.mask[c.k] != ColumnKind::partial || axis.along(c) < s_max - kPaddleLeadUm) continue;
+    const double ilm = ilm_at(c.k);
+    if (std::isfinite(ilm)) heights.push_back(plane.at(axis.x(c), axis.y(c)) - ilm);
+  }
+  if (heights.size() < kMinEndReflexes) return;
+  std::nth_element(heights.begin(), heights.begin() + heights.size() / 2, heights.end());
+  const double height = heights[heights.size() / 2];
+  const auto steady = std::count_if(heights.begin(), heights.end(), [&](double h) {
+    return std::abs(h - height) <= kPaddleOnIlmPx;
+  });
+  if (2 * static_cast<std::size_t>(steady) < heights.size() || height <= 0.0) return;
+  const auto on_paddle = [&](std::int64_t b, std::int64_t a) {
+    const std::size_t k = f.index(static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a));
+    if (f.mask[k] != ColumnKind::clear) return false;
+    const double ilm = ilm_at(k);
+    const Place p{static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(b),
+                  static_cast<std::uint32_t>(a)};
+    return std::isfinite(ilm) &&
+           std::abs(plane.at(axis.x(p), axis.y(p)) - ilm - height) <= kPaddleOnIlmPx;
+  };
+  std::vector<Place> pending = fp.ascans;
+  while (!pending.empty()) {
+    const Place c = pending.back();
+    pending.pop_back();
+    for (const auto& [db, da] : kNeighbours) {
+      const std::int64_t b = std::int64_t{c.b} + db, a = std::int64_t{c.a} + da;
+      if (!inside_mask(f, b, a) || !on_paddle(b, a)) continue;
+      const Place p{static_cast<std::uint32_t>(
+                        f.index(static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a))),
+                    static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a)};
+      f.mask[p.k] = ColumnKind::partial;
+      f.reflex_px[p.k] = static_cast<float>(plane.at(axis.x(p), axis.y(p)));
+      fp.ascans.push_back(p);
+      pending.push_back(p);
+    }
+  }
+}
+
 InstrumentTip tip_of(const Footprint& fp, const InstrumentFindings& f,
                      const InstrumentConfig& config, const VolumeSampling& sampling) {
   const double sx = sampling.ascan_spacing_um, sy = sampling.bscan_spacing_um;
-  const Axis axis = axis_of(fp.ascans, f, sx, sy);
-  const End end = end_of(fp.ascans, f, axis, std::min(sx, sy));
   const double um_per_px_medium = sampling.axial_um_per_px / config.medium_group_index;
-  const Fit fit = end.translucent ? Fit{} : fit_end(end, axis, f, sx, sy, um_per_px_medium);
-  const bool fitted = fit.cost < 1e300;
-  const double radius_um = fitted ? fit.radius : 0.0;
-  const double tip_s = end.s_max + 0.5 * end.rim - radius_um;
-  const double tip_x = axis.mx + tip_s * axis.ux - end.rim_across * axis.uy;
-  const double tip_y = axis.my + tip_s * axis.uy + end.rim_across * axis.ux;
+  const Axis principal = axis_of(fp.ascans, f, sx, sy);
+  const std::vector<std::vector<Place>> prongs = prongs_of(fp.ascans, principal);
+  Axis axis = principal;
+  EndTip end;
+  if (end_of(fp.ascans, f, principal, std::min(sx, sy)).translucent) {
+    end = tip_of_paddle(fp.ascans, f, principal, sx, sy, um_per_px_medium, axis);
+  } else if (prongs.size() >= 2) {
+    // An open forceps: the tip is the middle of its jaws' ends (instrument_truth.hpp).
+    for (const std::vector<Place>& prong : prongs) {
+      Axis own = axis_of(prong, f, sx, sy);
+      if (own.ux * principal.ux + own.uy * principal.uy < 0.0) {
+        own.ux = -own.ux;
+        own.uy = -own.uy;
+      }
+      const EndTip t = tip_of_end(prong, f, own, sx, sy, um_per_px_medium);
+      end.x += t.x;
+      end.y += t.y;
+      end.depth_px += t.depth_px;
+    }
+    const auto n = static_cast<double>(prongs.size());
+    end.x /= n;
+    end.y /= n;
+    end.depth_px /= n;
+  } else {
+    // The footprint's principal axis leans towards a wider shaft that the field's border cuts:
+    // the axis of the end's last kAxisLengthUm, in the same sense, follows the tip's part.
+    std::vector<Place> near;
+    const End whole = end_of(fp.ascans, f, principal, std::min(sx, sy));
+    for (std::size_t i = 0; i < whole.cells.size(); ++i) {
+      if (whole.along[i] >= whole.s_max - kAxisLengthUm) near.push_back(whole.cells[i]);
+    }
+    if (near.size() >= kMinEndReflexes) {
+      axis = axis_of(near, f, sx, sy);
+      if (axis.ux * principal.ux + axis.uy * principal.uy < 0.0) {
+        axis.ux = -axis.ux;
+        axis.uy = -axis.uy;
+      }
+    }
+    end = tip_of_end(fp.ascans, f, axis, sx, sy, um_per_px_medium);
+  }
   InstrumentTip tip;
   tip.footprint_ascans = static_cast<std::uint32_t>(fp.ascans.size());
   tip.translucent = end.translucent;
-  tip.ascan = tip_x / sx;
-  tip.bscan = tip_y / sy;
-  tip.depth_px = fitted ? fit.center_px : nearest_reflex_px(end, f, axis, tip_x, tip_y);
-  tip.x_um = tip_x;
-  tip.y_um = tip_y;
+  tip.ascan = end.x / sx;
+  tip.bscan = end.y / sy;
+  tip.depth_px = end.depth_px;
+  tip.x_um = end.x;
+  tip.y_um = end.y;
   tip.axis_x = axis.ux;
   tip.axis_y = axis.uy;
   tip.z_um = tip.depth_px * sampling.axial_um_per_px;
@@ -705,6 +1067,13 @@ void find_tips(InstrumentFindings& findings, const Surfaces& surfaces,
   }
   if (found.size() > InstrumentFindings::kMaxInstruments) {
     found.resize(InstrumentFindings::kMaxInstruments);
+  }
+  const double sx = sampling.ascan_spacing_um, sy = sampling.bscan_spacing_um;
+  for (Footprint& fp : found) {
+    if (end_of(fp.ascans, findings, axis_of(fp.ascans, findings, sx, sy), std::min(sx, sy))
+            .translucent) {
+      extend_paddle(fp, findings, surfaces, sx, sy);
+    }
   }
   for (const Footprint& fp : found) {
     InstrumentTip tip = tip_of(fp, findings, config, sampling);

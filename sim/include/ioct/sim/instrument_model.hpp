@@ -82,6 +82,12 @@ class InstrumentModel {
   // The pose `seconds` after the start of the acquisition.
   ToolPose pose_at(double seconds) const noexcept;
   ToolState state(const ToolPose& pose) const noexcept;
+  // The tool's tip as the instrument detection must find it (its ground truth): the pose's tip
+  // point (the centre of a closed tool's rounded end, the middle of the scraper's paddle's
+  // leading edge), except for open forceps: the middle of the two jaws' end centres, the metal
+  // that meets the tissue first. The closed jaws' point lies in empty space ahead of them, and
+  // deeper than either jaw by jaw length x (1 - cos(opening / 2)) x sin(pitch).
+  ToolState tip_state(const ToolPose& pose) const noexcept;
 
   // Builds the instrument's parts for `pose` (no allocation).
   void place(const ToolPose& pose) noexcept;
