@@ -47,6 +47,7 @@ TEST(ColumnClassification, MetalReflexOverAShadowIsShadowWithItsPeak) {
   const ColumnFinding f = classify_column(column.data(), params(), 0);
   EXPECT_EQ(f.kind, ColumnKind::shadow);
   EXPECT_FLOAT_EQ(f.reflex_px, 150.0f);
+  EXPECT_FLOAT_EQ(f.front_px, 0.0f);  // metal: no front to read
 }
 
 TEST(ColumnClassification, TheReflexBelowTissueIsTheToolsNotTheTissues) {
@@ -95,6 +96,7 @@ TEST(ColumnClassification, TranslucentToolAboveTheRetinaIsPartialAtItsMiddle) {
   const ColumnFinding f = classify_column(column.data(), params(), 0);
   EXPECT_EQ(f.kind, ColumnKind::partial);
   EXPECT_FLOAT_EQ(f.reflex_px, 114.5f);
+  EXPECT_FLOAT_EQ(f.front_px, 100.0f);  // its front surface: half its height above the middle
 }
 
 TEST(ColumnClassification, ADimFloaterAboveTheRetinaIsClear) {

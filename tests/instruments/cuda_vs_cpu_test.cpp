@@ -44,6 +44,9 @@ void expect_same_findings(const InstrumentFindings& a, const InstrumentFindings&
   ASSERT_EQ(0,
             std::memcmp(a.reflex_px.data(), b.reflex_px.data(), a.reflex_px.size() * sizeof(float)))
       << what;
+  ASSERT_EQ(a.front_px.size(), b.front_px.size()) << what;
+  ASSERT_EQ(0, std::memcmp(a.front_px.data(), b.front_px.data(), a.front_px.size() * sizeof(float)))
+      << what;
   ASSERT_EQ(a.tips.size(), b.tips.size()) << what;
   for (std::size_t i = 0; i < a.tips.size(); ++i) {
     EXPECT_EQ(a.tips[i].ascan, b.tips[i].ascan) << what;

@@ -30,6 +30,7 @@ void CpuInstrumentDetector::classify(VolumeRef ref, BscanSpan group, const Colum
       const std::size_t k = findings.index(b, a);
       findings.columns[k] = c.kind;
       findings.reflex_px[k] = c.reflex_px;
+      findings.front_px[k] = c.front_px;
     }
   });
 }

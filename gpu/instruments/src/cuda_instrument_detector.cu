@@ -50,10 +50,11 @@ __global__ void histogram_bscans(const std::uint8_t* bscans, std::size_t pixels,
 }
 
 // A-scans of B-scan blockIdx.y, one per thread: the B-scan's floor (its histogram's median), then
-// each column's kind and reflex.
+// each column's kind, reflex and translucent front.
 __global__ void classify_columns(const std::uint8_t* bscans, std::uint32_t ascans,
                                  ColumnParams params, const std::uint32_t* histograms,
-                                 std::uint8_t* kinds, float* reflexes, std::uint8_t* floors) {
+                                 std::uint8_t* kinds, float* reflexes, float* fronts,
+                                 std::uint8_t* floors) {
   __shared__ int floor_level;
   const std::uint32_t b = blockIdx.y;
   const std::size_t pixels = std::size_t{ascans} * static_cast<std::size_t>(params.depth);
@@ -68,6 +69,7 @@ __global__ void classify_columns(const std::uint8_t* bscans, std::uint32_t ascan
       classify_column(bscans + b * pixels + std::size_t{a} * params.depth, params, floor_level);
   kinds[std::size_t{b} * ascans + a] = static_cast<std::uint8_t>(c.kind);
   reflexes[std::size_t{b} * ascans + a] = c.reflex_px;
+  fronts[std::size_t{b} * ascans + a] = c.front_px;
 }
 
 // Throws BackendUnavailable without a CUDA device (before any CUDA object is made).
@@ -94,6 +96,7 @@ void CudaInstrumentDetector::classify(VolumeRef volume, BscanSpan group, const C
   const std::size_t columns = std::size_t{group.count} * ascans;
   kinds_.resize(columns);
   reflexes_.resize(columns);
+  fronts_.resize(columns);
   floors_.resize(group.count);
   if (host_kinds_.size() < columns) host_kinds_ = cuda::PinnedArray<std::uint8_t>(columns);
   cudaStream_t stream = stream_.get();
@@ -123,7 +126,7 @@ void CudaInstrumentDetector::classify(VolumeRef volume, BscanSpan group, const C
                           group.count);
   classify_columns<<<columns_grid, kColumnThreads, 0, stream>>>(
       group_pixels, static_cast<std::uint32_t>(ascans), params, histograms_.data(), kinds_.data(),
-      reflexes_.data(), floors_.data());
+      reflexes_.data(), fronts_.data(), floors_.data());
   cuda::check_launch("instruments: classify_columns");
   const std::size_t offset = std::size_t{group.first} * ascans;
   cuda::copy_async(host_kinds_.data(), kinds_.data(), columns, cudaMemcpyDeviceToHost, stream,
@@ -131,6 +134,9 @@ void CudaInstrumentDetector::classify(VolumeRef volume, BscanSpan group, const C
   cuda::copy_async(findings.reflex_px.data() + offset, reflexes_.data(), reflexes_.bytes(),
                    cudaMemcpyDeviceToHost, stream, cuda::Payload::other,
                    "instruments: the reflexes to the host");
+  cuda::copy_async(findings.front_px.data() + offset, fronts_.data(), fronts_.bytes(),
+                   cudaMemcpyDeviceToHost, stream, cuda::Payload::other,
+                   "instruments: the translucent fronts to the host");
   cuda::copy_async(findings.floor.data() + group.first, floors_.data(), group.count,
                    cudaMemcpyDeviceToHost, stream, cuda::Payload::other,
                    "instruments: the floors to the host");

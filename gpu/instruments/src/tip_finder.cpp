@@ -28,6 +28,10 @@ constexpr double kAxisLengthUm = 600.0;
 constexpr std::size_t kMinEndReflexes = 6;
 // Surfaces are taken this many A-scans away from the shadow mask at least.
 constexpr std::int64_t kSurfaceMarginAscans = 2;
+// On one side of the tip only, the surfaces' line is fitted to this many usable A-scans (or
+// B-scans), within this many of the nearest.
+constexpr double kSideSamples = 8.0;
+constexpr std::int64_t kSideReach = 16;
 
 // The first of kinds[from, n) that is not clear (n if none). Most of a mask is clear: eight
 // A-scans are skipped at a time.
@@ -236,9 +240,36 @@ SurfaceAt surfaces_at(const InstrumentFindings& f, const Surfaces& s, double bsc
       rpe = (1.0 - t) * s.rpe[kl] + t * s.rpe[kh];
       span = static_cast<double>(hi - lo) * spacing;
     } else {
+      // One-sided: the retina slopes; a line through the side's nearest usable A-scans
+      // (kSideSamples, within kSideReach of the first), evaluated at the tip.
       const std::int64_t i = has_lo ? lo : hi;
-      ilm = s.ilm[index_of(i)];
-      rpe = s.rpe[index_of(i)];
+      const std::int64_t step = has_lo ? -1 : 1;
+      double count = 0.0, t_sum = 0.0, tt_sum = 0.0, side_ilm = 0.0, side_rpe = 0.0;
+      double t_ilm = 0.0, t_rpe = 0.0;
+      for (std::int64_t j = i;
+           j >= 0 && j < n && count < kSideSamples && std::abs(j - i) <= kSideReach; j += step) {
+        if (!ok(j)) continue;
+        const double t = static_cast<double>(j) - at;
+        const std::size_t k = index_of(j);
+        count += 1.0;
+        t_sum += t;
+        tt_sum += t * t;
+        side_ilm += s.ilm[k];
+        side_rpe += s.rpe[k];
+        t_ilm += t * s.ilm[k];
+        t_rpe += t * s.rpe[k];
+      }
+      const double spread = tt_sum - t_sum * t_sum / count;
+      if (count >= 3.0 && spread > 0.0) {
+        // The lines' values at t = 0.
+        const double ilm_slope = (t_ilm - t_sum * side_ilm / count) / spread;
+        const double rpe_slope = (t_rpe - t_sum * side_rpe / count) / spread;
+        ilm = (side_ilm - ilm_slope * t_sum) / count;
+        rpe = (side_rpe - rpe_slope * t_sum) / count;
+      } else {
+        ilm = s.ilm[index_of(i)];
+        rpe = s.rpe[index_of(i)];
+      }
       // One-sided: an extrapolation, trusted as if the span were twice the distance.
       span = 2.0 * std::max(1.0, std::abs(at - static_cast<double>(i))) * spacing;
     }
@@ -835,6 +866,11 @@ std::vector<std::vector<Place>> prongs_of(const std::vector<Place>& cells, const
   return prongs;
 }
 
+// Classified as partly shadowed by the column code (not grown onto the paddle: extend_paddle).
+bool classified_partial(const InstrumentFindings& f, const Place& c) {
+  return f.mask[c.k] == ColumnKind::partial && f.front_px[c.k] > 0.0f;
+}
+
 // A translucent tool's paddle: a tilted plate, whose middle (its A-scans' reflexes) is a plane
 // z = z0 + g . (x - x0, y - y0) (px; x, y um), fitted to them by least squares.
 struct Plane {
@@ -847,7 +883,7 @@ Plane paddle_plane(const std::vector<Place>& cells, const InstrumentFindings& f,
   Plane plane;
   double n = 0.0;
   for (const Place& c : cells) {
-    if (f.mask[c.k] != ColumnKind::partial) continue;
+    if (!classified_partial(f, c)) continue;
     n += 1.0;
     plane.x0 += axis.x(c);
     plane.y0 += axis.y(c);
@@ -859,7 +895,7 @@ Plane paddle_plane(const std::vector<Place>& cells, const InstrumentFindings& f,
   plane.z0 /= n;
   double xx = 0.0, xy = 0.0, yy = 0.0, xz = 0.0, yz = 0.0;
   for (const Place& c : cells) {
-    if (f.mask[c.k] != ColumnKind::partial) continue;
+    if (!classified_partial(f, c)) continue;
     const double dx = axis.x(c) - plane.x0, dy = axis.y(c) - plane.y0;
     const double dz = f.reflex_px[c.k] - plane.z0;
     xx += dx * dx;
@@ -901,7 +937,21 @@ EndTip tip_of_paddle(const std::vector<Place>& cells, const InstrumentFindings& 
     lo = std::min(lo, axis.across(c));
     hi = std::max(hi, axis.across(c));
   }
-  const double tip_s = s_max + 0.5 * std::min(sx, sy), tip_c = 0.5 * (lo + hi);
+  // The footprint ends at the leading face's top edge, which lies h sin p ahead of the face's
+  // middle (h: half the paddle's thickness, its half height in an A-scan times cos p).
+  std::vector<double> half_heights;
+  for (const Place& c : cells) {
+    if (classified_partial(f, c)) half_heights.push_back(f.reflex_px[c.k] - f.front_px[c.k]);
+  }
+  double ahead = 0.0;
+  if (!half_heights.empty() && axis.ux != principal.ux) {
+    std::nth_element(half_heights.begin(), half_heights.begin() + half_heights.size() / 2,
+                     half_heights.end());
+    const double tan_p = g * um_per_px_medium;
+    const double half_height_um = half_heights[half_heights.size() / 2] * um_per_px_medium;
+    ahead = half_height_um * tan_p / (1.0 + tan_p * tan_p);  // h_v cos p sin p
+  }
+  const double tip_s = s_max + 0.5 * std::min(sx, sy) - ahead, tip_c = 0.5 * (lo + hi);
   EndTip tip;
   tip.translucent = true;
   tip.x = axis.mx + tip_s * axis.ux - tip_c * axis.uy;

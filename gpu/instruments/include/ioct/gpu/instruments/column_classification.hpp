@@ -15,7 +15,7 @@
 //   clear    anything else (tissue from the top, nothing at all, an object too deep to be a tool).
 // A metal tool's reflex is its last peak (from the last bright px upwards while the px rise),
 // refined by a parabola through it and its neighbours; a translucent tool's is the middle of the
-// object.
+// object, and its front surface the object's top.
 #pragma once
 
 #include <cstdint>
@@ -30,6 +30,10 @@ enum class ColumnKind : std::uint8_t { clear = 0, shadow = 1, partial = 2 };
 struct ColumnFinding {
   ColumnKind kind = ColumnKind::clear;
   float reflex_px = 0.0f;  // NaN-free: 0 for clear
+  // A translucent tool's front surface (the object's first px): with its middle (reflex_px),
+  // half its height in this A-scan, which places its leading edge (tip_finder.hpp). 0 unless
+  // partial.
+  float front_px = 0.0f;
 };
 
 IOCT_HD float parabola_peak(int at, int v0, int v1, int v2) {
@@ -106,6 +110,7 @@ IOCT_HD ColumnFinding classify_column(const std::uint8_t* column, const ColumnPa
   out.kind = ColumnKind::partial;
   // Its front and back surfaces bound it: its middle is its axis.
   out.reflex_px = 0.5f * static_cast<float>(top + end - 1);
+  out.front_px = static_cast<float>(top);
   return out;
 }
 

@@ -28,6 +28,7 @@ class CudaInstrumentDetector final : public InstrumentDetector {
   cuda::DeviceArray<std::uint8_t> bscans_;       // the group's B-scans, uploaded from a host volume
   cuda::DeviceArray<std::uint8_t> kinds_;        // [bscan of the group][ascan]
   cuda::DeviceArray<float> reflexes_;            // [bscan of the group][ascan]
+  cuda::DeviceArray<float> fronts_;              // [bscan of the group][ascan]
   cuda::DeviceArray<std::uint8_t> floors_;       // [bscan of the group]
   cuda::DeviceArray<std::uint32_t> histograms_;  // [bscan of the group][256]
   cuda::PinnedArray<std::uint8_t> host_kinds_;

@@ -39,8 +39,8 @@ struct InstrumentTip {
   double x_um = 0.0, y_um = 0.0, z_um = 0.0;        // um from the first voxel
   // The instrument's axis en face (unit, in um): from the shaft towards the tip.
   double axis_x = 1.0, axis_y = 0.0;
-  double ilm_px = kNone, rpe_px = kNone;            // the surfaces at the tip's lateral position
-  double to_ilm_um = kNone, to_rpe_um = kNone;      // signed, see above
+  double ilm_px = kNone, rpe_px = kNone;        // the surfaces at the tip's lateral position
+  double to_ilm_um = kNone, to_rpe_um = kNone;  // signed, see above
   DistanceSource source = DistanceSource::none;
 };
 
@@ -56,6 +56,7 @@ struct InstrumentFindings {
   std::vector<ColumnKind> columns;
   std::vector<ColumnKind> mask;
   std::vector<float> reflex_px;     // [bscan][ascan]; 0 where clear
+  std::vector<float> front_px;      // [bscan][ascan]; a translucent tool's front, 0 elsewhere
   std::vector<std::uint8_t> floor;  // [bscan]: the noise floor found (u8)
   std::vector<InstrumentTip> tips;  // largest footprint first, at most kMaxInstruments
   // The index in tips of the one nearest to the RPE (smallest to_rpe_um; without distances, the
@@ -70,6 +71,7 @@ struct InstrumentFindings {
     columns.assign(n, ColumnKind::clear);
     mask.assign(n, ColumnKind::clear);
     reflex_px.assign(n, 0.0f);
+    front_px.assign(n, 0.0f);
     floor.assign(bscan_count, 0);
     tips.clear();
     nearest = -1;
