@@ -970,9 +970,8 @@ EndTip tip_of_paddle(const std::vector<Place>& cells, const InstrumentFindings& 
 constexpr double kPaddleLeadUm = 150.0;
 constexpr double kPaddleOnIlmPx = 3.0;
 
-void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, double sx, double sy) {
+void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, const Axis& principal) {
   if (s.bscans != f.bscans || s.ascans != f.ascans) return;
-  const Axis principal = axis_of(fp.ascans, f, sx, sy);
   const Plane plane = paddle_plane(fp.ascans, f, principal);
   const double g = std::hypot(plane.gx, plane.gy);
   if (!plane.valid || g == 0.0) return;
@@ -1027,17 +1026,45 @@ void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, doub
   }
 }
 
-InstrumentTip tip_of(const Footprint& fp, const InstrumentFindings& f,
-                     const InstrumentConfig& config, const VolumeSampling& sampling) {
+InstrumentTip finish_tip(const Footprint& fp, const EndTip& end, const Axis& axis,
+                         const VolumeSampling& sampling) {
+  const double sx = sampling.ascan_spacing_um, sy = sampling.bscan_spacing_um;
+  InstrumentTip tip;
+  tip.footprint_ascans = static_cast<std::uint32_t>(fp.ascans.size());
+  tip.translucent = end.translucent;
+  tip.ascan = end.x / sx;
+  tip.bscan = end.y / sy;
+  tip.depth_px = end.depth_px;
+  tip.x_um = end.x;
+  tip.y_um = end.y;
+  tip.axis_x = axis.ux;
+  tip.axis_y = axis.uy;
+  tip.z_um = tip.depth_px * sampling.axial_um_per_px;
+  return tip;
+}
+
+// A footprint, its principal axis and its end along that axis.
+struct Tool {
+  Footprint fp;
+  Axis principal;
+  End whole;
+};
+
+InstrumentTip tip_of(const Tool& tool, const InstrumentFindings& f, const InstrumentConfig& config,
+                     const VolumeSampling& sampling) {
   const double sx = sampling.ascan_spacing_um, sy = sampling.bscan_spacing_um;
   const double um_per_px_medium = sampling.axial_um_per_px / config.medium_group_index;
-  const Axis principal = axis_of(fp.ascans, f, sx, sy);
-  const std::vector<std::vector<Place>> prongs = prongs_of(fp.ascans, principal);
+  const Footprint& fp = tool.fp;
+  const Axis& principal = tool.principal;
+  const End& whole = tool.whole;
   Axis axis = principal;
   EndTip end;
-  if (end_of(fp.ascans, f, principal, std::min(sx, sy)).translucent) {
+  if (whole.translucent) {
     end = tip_of_paddle(fp.ascans, f, principal, sx, sy, um_per_px_medium, axis);
-  } else if (prongs.size() >= 2) {
+    return finish_tip(fp, end, axis, sampling);
+  }
+  const std::vector<std::vector<Place>> prongs = prongs_of(whole.cells, principal);
+  if (prongs.size() >= 2) {
     // An open forceps: the tip is the middle of its jaws' ends (instrument_truth.hpp).
     for (const std::vector<Place>& prong : prongs) {
       Axis own = axis_of(prong, f, sx, sy);
@@ -1058,7 +1085,6 @@ InstrumentTip tip_of(const Footprint& fp, const InstrumentFindings& f,
     // The footprint's principal axis leans towards a wider shaft that the field's border cuts:
     // the axis of the end's last kAxisLengthUm, in the same sense, follows the tip's part.
     std::vector<Place> near;
-    const End whole = end_of(fp.ascans, f, principal, std::min(sx, sy));
     for (std::size_t i = 0; i < whole.cells.size(); ++i) {
       if (whole.along[i] >= whole.s_max - kAxisLengthUm) near.push_back(whole.cells[i]);
     }
@@ -1071,18 +1097,7 @@ InstrumentTip tip_of(const Footprint& fp, const InstrumentFindings& f,
     }
     end = tip_of_end(fp.ascans, f, axis, sx, sy, um_per_px_medium);
   }
-  InstrumentTip tip;
-  tip.footprint_ascans = static_cast<std::uint32_t>(fp.ascans.size());
-  tip.translucent = end.translucent;
-  tip.ascan = end.x / sx;
-  tip.bscan = end.y / sy;
-  tip.depth_px = end.depth_px;
-  tip.x_um = end.x;
-  tip.y_um = end.y;
-  tip.axis_x = axis.ux;
-  tip.axis_y = axis.uy;
-  tip.z_um = tip.depth_px * sampling.axial_um_per_px;
-  return tip;
+  return finish_tip(fp, end, axis, sampling);
 }
 
 // A-scans classified as masked with at least kMinMaskedNeighbours of their 8 neighbours so too.
@@ -1119,14 +1134,18 @@ void find_tips(InstrumentFindings& findings, const Surfaces& surfaces,
     found.resize(InstrumentFindings::kMaxInstruments);
   }
   const double sx = sampling.ascan_spacing_um, sy = sampling.bscan_spacing_um;
+  std::vector<Tool> tools;
+  tools.reserve(found.size());
   for (Footprint& fp : found) {
-    if (end_of(fp.ascans, findings, axis_of(fp.ascans, findings, sx, sy), std::min(sx, sy))
-            .translucent) {
-      extend_paddle(fp, findings, surfaces, sx, sy);
-    }
+    Tool tool;
+    tool.principal = axis_of(fp.ascans, findings, sx, sy);
+    tool.whole = end_of(fp.ascans, findings, tool.principal, std::min(sx, sy));
+    if (tool.whole.translucent) extend_paddle(fp, findings, surfaces, tool.principal);
+    tool.fp = std::move(fp);
+    tools.push_back(std::move(tool));
   }
-  for (const Footprint& fp : found) {
-    InstrumentTip tip = tip_of(fp, findings, config, sampling);
+  for (const Tool& tool : tools) {
+    InstrumentTip tip = tip_of(tool, findings, config, sampling);
     const SurfaceAt at = surfaces_at(findings, surfaces, tip.bscan, tip.ascan, sampling);
     tip.source = at.source;
     tip.ilm_px = at.ilm;
