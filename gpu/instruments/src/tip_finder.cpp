@@ -1026,6 +1026,42 @@ void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, cons
   }
 }
 
+// The direction in which a footprint's metal reflexes deepen fastest (a plane through them by
+// least squares), in `axis`'s frame; `axis` itself where they hardly deepen (a level tool).
+Axis steepest_axis(const std::vector<Place>& cells, const InstrumentFindings& f, const Axis& axis) {
+  double n = 0.0, x = 0.0, y = 0.0, z = 0.0;
+  for (const Place& c : cells) {
+    if (f.mask[c.k] != ColumnKind::shadow) continue;
+    n += 1.0;
+    x += axis.x(c);
+    y += axis.y(c);
+    z += f.reflex_px[c.k];
+  }
+  if (n < 3.0) return axis;
+  x /= n;
+  y /= n;
+  z /= n;
+  double xx = 0.0, xy = 0.0, yy = 0.0, xz = 0.0, yz = 0.0;
+  for (const Place& c : cells) {
+    if (f.mask[c.k] != ColumnKind::shadow) continue;
+    const double dx = axis.x(c) - x, dy = axis.y(c) - y, dz = f.reflex_px[c.k] - z;
+    xx += dx * dx;
+    xy += dx * dy;
+    yy += dy * dy;
+    xz += dx * dz;
+    yz += dy * dz;
+  }
+  const double det = xx * yy - xy * xy;
+  if (!(det > 0.0)) return axis;
+  const double gx = (yy * xz - xy * yz) / det, gy = (xx * yz - xy * xz) / det;
+  const double g = std::hypot(gx, gy);
+  if (!(g > 0.0)) return axis;
+  Axis out = axis;
+  out.ux = gx / g;
+  out.uy = gy / g;
+  return out;
+}
+
 InstrumentTip finish_tip(const Footprint& fp, const EndTip& end, const Axis& axis,
                          const VolumeSampling& sampling) {
   const double sx = sampling.ascan_spacing_um, sy = sampling.bscan_spacing_um;
@@ -1063,12 +1099,27 @@ InstrumentTip tip_of(const Tool& tool, const InstrumentFindings& f, const Instru
     end = tip_of_paddle(fp.ascans, f, principal, sx, sy, um_per_px_medium, axis);
     return finish_tip(fp, end, axis, sampling);
   }
-  const std::vector<std::vector<Place>> prongs = prongs_of(whole.cells, principal);
+  std::vector<std::vector<Place>> prongs = prongs_of(whole.cells, principal);
+  Axis bisector = principal;
+  if (prongs.size() < 2) {
+    // Open jaws whose shaft is out of the field make a V as wide as it is long: its principal
+    // axis may run across it. Both jaws deepen towards their ends: the reflexes' steepest
+    // direction is the V's bisector.
+    const Axis steepest = steepest_axis(fp.ascans, f, principal);
+    if (steepest.ux != principal.ux || steepest.uy != principal.uy) {
+      std::vector<std::vector<Place>> found =
+          prongs_of(end_of(fp.ascans, f, steepest, std::min(sx, sy)).cells, steepest);
+      if (found.size() >= 2) {
+        prongs = std::move(found);
+        bisector = steepest;
+      }
+    }
+  }
   if (prongs.size() >= 2) {
     // An open forceps: the tip is the middle of its jaws' ends (instrument_truth.hpp).
     for (const std::vector<Place>& prong : prongs) {
       Axis own = axis_of(prong, f, sx, sy);
-      if (own.ux * principal.ux + own.uy * principal.uy < 0.0) {
+      if (own.ux * bisector.ux + own.uy * bisector.uy < 0.0) {
         own.ux = -own.ux;
         own.uy = -own.uy;
       }
