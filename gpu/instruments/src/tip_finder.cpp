@@ -871,6 +871,19 @@ bool classified_partial(const InstrumentFindings& f, const Place& c) {
   return f.mask[c.k] == ColumnKind::partial && f.front_px[c.k] > 0.0f;
 }
 
+// Half the paddle's height in an A-scan (px, from its front surface to its middle): the median
+// over its classified A-scans; 0 without any.
+double median_half_height(const std::vector<Place>& cells, const InstrumentFindings& f) {
+  std::vector<double> half_heights;
+  for (const Place& c : cells) {
+    if (classified_partial(f, c)) half_heights.push_back(f.reflex_px[c.k] - f.front_px[c.k]);
+  }
+  if (half_heights.empty()) return 0.0;
+  std::nth_element(half_heights.begin(), half_heights.begin() + half_heights.size() / 2,
+                   half_heights.end());
+  return half_heights[half_heights.size() / 2];
+}
+
 // A translucent tool's paddle: a tilted plate, whose middle (its A-scans' reflexes) is a plane
 // z = z0 + g . (x - x0, y - y0) (px; x, y um), fitted to them by least squares.
 struct Plane {
@@ -924,7 +937,8 @@ EndTip tip_of_paddle(const std::vector<Place>& cells, const InstrumentFindings& 
   axis = principal;
   const Plane plane = paddle_plane(cells, f, principal);
   const double g = std::hypot(plane.gx, plane.gy);
-  if (plane.valid && g * um_per_px_medium >= kMinPaddleRise) {
+  const bool pitched = plane.valid && g * um_per_px_medium >= kMinPaddleRise;
+  if (pitched) {
     axis.ux = plane.gx / g;
     axis.uy = plane.gy / g;
   }
@@ -933,22 +947,17 @@ EndTip tip_of_paddle(const std::vector<Place>& cells, const InstrumentFindings& 
   const double step = std::max(std::abs(axis.ux) * sx, std::abs(axis.uy) * sy);
   double lo = 1e300, hi = -1e300;
   for (const Place& c : cells) {
-    if (axis.along(c) < s_max - 2.0 * step) continue;
+    if (!classified_partial(f, c) && axis.along(c) < s_max - 2.0 * step) continue;
     lo = std::min(lo, axis.across(c));
     hi = std::max(hi, axis.across(c));
   }
   // The footprint ends at the leading face's top edge, which lies h sin p ahead of the face's
   // middle (h: half the paddle's thickness, its half height in an A-scan times cos p).
-  std::vector<double> half_heights;
-  for (const Place& c : cells) {
-    if (classified_partial(f, c)) half_heights.push_back(f.reflex_px[c.k] - f.front_px[c.k]);
-  }
+  const double half_height = median_half_height(cells, f);
   double ahead = 0.0;
-  if (!half_heights.empty() && axis.ux != principal.ux) {
-    std::nth_element(half_heights.begin(), half_heights.begin() + half_heights.size() / 2,
-                     half_heights.end());
+  if (pitched && half_height > 0.0) {
     const double tan_p = g * um_per_px_medium;
-    const double half_height_um = half_heights[half_heights.size() / 2] * um_per_px_medium;
+    const double half_height_um = half_height * um_per_px_medium;
     ahead = half_height_um * tan_p / (1.0 + tan_p * tan_p);  // h_v cos p sin p
   }
   const double tip_s = s_max + 0.5 * std::min(sx, sy) - ahead, tip_c = 0.5 * (lo + hi);
@@ -960,14 +969,12 @@ EndTip tip_of_paddle(const std::vector<Place>& cells, const InstrumentFindings& 
   return tip;
 }
 
-// A paddle lying on the retina has no dark gap beneath it: its A-scans there are not classified
-// (column_classification.hpp), and the footprint stops short of the leading edge. The
-// segmentation's ILM there is the paddle's front surface, parallel to its middle plane: where the
-// footprint's leading partly shadowed A-scans (kPaddleLeadUm along its axis) have an ILM a steady
-// height above the plane (kPaddleOnIlmPx about its median, at least half of them), the footprint
-// grows into the clear A-scans around it whose ILM lies at that height too; they join the mask as
-// partly shadowed, their reflex on the plane.
-constexpr double kPaddleLeadUm = 150.0;
+// A paddle on or just above the retina has no long dark gap beneath it: its A-scans there are not
+// classified (column_classification.hpp), and the footprint stops short of the leading edge. The
+// segmentation's ILM there is the paddle's front surface: half the paddle's height above its
+// middle plane. The footprint grows into the clear A-scans around it whose ILM lies on that front
+// (within kPaddleOnIlmPx); they join the mask as partly shadowed, their reflex on the plane. Ahead
+// of the paddle the retina lies below its front, and meets the front's plane only further on.
 constexpr double kPaddleOnIlmPx = 3.0;
 
 void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, const Axis& principal) {
@@ -982,23 +989,8 @@ void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, cons
     return s.state[k] == SurfaceState::measured && std::isfinite(s.ilm[k]) ? double{s.ilm[k]}
                                                                            : std::nan("");
   };
-  double s_max = -1e300;
-  for (const Place& c : fp.ascans) {
-    if (f.mask[c.k] == ColumnKind::partial) s_max = std::max(s_max, axis.along(c));
-  }
-  std::vector<double> heights;
-  for (const Place& c : fp.ascans) {
-    if (f.mask[c.k] != ColumnKind::partial || axis.along(c) < s_max - kPaddleLeadUm) continue;
-    const double ilm = ilm_at(c.k);
-    if (std::isfinite(ilm)) heights.push_back(plane.at(axis.x(c), axis.y(c)) - ilm);
-  }
-  if (heights.size() < kMinEndReflexes) return;
-  std::nth_element(heights.begin(), heights.begin() + heights.size() / 2, heights.end());
-  const double height = heights[heights.size() / 2];
-  const auto steady = std::count_if(heights.begin(), heights.end(), [&](double h) {
-    return std::abs(h - height) <= kPaddleOnIlmPx;
-  });
-  if (2 * static_cast<std::size_t>(steady) < heights.size() || height <= 0.0) return;
+  const double height = median_half_height(fp.ascans, f);
+  if (!(height > 0.0)) return;
   const auto on_paddle = [&](std::int64_t b, std::int64_t a) {
     const std::size_t k = f.index(static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a));
     if (f.mask[k] != ColumnKind::clear) return false;
