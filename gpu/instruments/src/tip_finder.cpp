@@ -23,6 +23,8 @@ constexpr double kFineStepUm = 2.0;
 // A-scans where its footprint disagrees with the sphere's: this much of each costs the same.
 constexpr double kDepthSpreadPx2 = 4.0;
 constexpr double kFootprintMismatch = 0.1;
+// The end's axis and its middle across it are those of its last this many um: symmetric about
+// the tool's axis (its rim's few A-scans are not), and short of a wider shaft that the border cuts.
 constexpr double kAxisLengthUm = 600.0;
 // A sphere seen by fewer reflexes is not tried: a few agree on any centre by chance.
 constexpr std::size_t kMinEndReflexes = 6;
@@ -352,13 +354,13 @@ Axis axis_of(const std::vector<Place>& cells, const InstrumentFindings& f, doubl
   return axis;
 }
 
-// The footprint's end: its A-scans within the largest radius of its extreme along the axis (all
-// the fit looks at); the rim, the A-scans within one lateral sample of the extreme, and their
-// offset across the axis.
+// The footprint's end: its A-scans within twice the largest radius of its extreme along the axis
+// (all the fit looks at); rim, one lateral sample; the tool's axis across the footprint's axis
+// (the mean offset of the end's last kAxisLengthUm).
 struct End {
   std::vector<Place> cells;
   std::vector<double> along;  // each cell's place along the axis (um)
-  double s_max = -1e300, rim = 0.0, rim_across = 0.0;
+  double s_max = -1e300, rim = 0.0, mid_across = 0.0;
   bool translucent = false;
 };
 
@@ -377,17 +379,17 @@ End end_of(const std::vector<Place>& cells, const InstrumentFindings& f, const A
       end.along.push_back(along[i]);
     }
   }
-  std::size_t rim_count = 0, partial = 0, shadow = 0;
+  std::size_t mid_count = 0, partial = 0, shadow = 0;
   for (std::size_t i = 0; i < end.cells.size(); ++i) {
     if (end.along[i] >= end.s_max - kAxisLengthUm) {
-      end.rim_across += axis.across(end.cells[i]);
-      ++rim_count;
+      end.mid_across += axis.across(end.cells[i]);
+      ++mid_count;
     }
     if (end.along[i] >= end.s_max - 2.0 * rim) {
       (f.mask[end.cells[i].k] == ColumnKind::partial ? partial : shadow) += 1;
     }
   }
-  end.rim_across /= static_cast<double>(rim_count);
+  end.mid_across /= static_cast<double>(mid_count);
   end.translucent = partial > shadow;
   return end;
 }
@@ -404,7 +406,7 @@ std::vector<Reflex> reflexes_of(const End& end, const InstrumentFindings& f, con
   for (std::size_t i = 0; i < end.cells.size(); ++i) {
     const Place& c = end.cells[i];
     if (f.mask[c.k] == ColumnKind::shadow) {
-      reflexes.push_back({end.along[i], axis.across(c) - end.rim_across, f.reflex_px[c.k]});
+      reflexes.push_back({end.along[i], axis.across(c) - end.mid_across, f.reflex_px[c.k]});
     }
   }
   std::sort(reflexes.begin(), reflexes.end(),
@@ -492,8 +494,8 @@ std::vector<Sphere> spheres_of(const End& end, const Axis& axis, const Instrumen
       s.r = r;
       s.cs = end.s_max + e - r;
       s.reach = r + end.rim;
-      s.cx = axis.mx + s.cs * axis.ux - end.rim_across * axis.uy;
-      s.cy = axis.my + s.cs * axis.uy + end.rim_across * axis.ux;
+      s.cx = axis.mx + s.cs * axis.ux - end.mid_across * axis.uy;
+      s.cy = axis.my + s.cs * axis.uy + end.mid_across * axis.ux;
       // Wide enough: the tests decide (the casts round towards 0, hence a sample more each side).
       s.window.a_lo =
           std::max<std::int64_t>(0, static_cast<std::int64_t>((s.cx - s.reach) / sx) - 1);
@@ -790,8 +792,8 @@ EndTip tip_of_end(const std::vector<Place>& cells, const InstrumentFindings& f, 
   const double tip_s = fitted ? fit.cs : end.s_max + 0.5 * end.rim;
   EndTip tip;
   tip.translucent = end.translucent;
-  tip.x = axis.mx + tip_s * axis.ux - end.rim_across * axis.uy;
-  tip.y = axis.my + tip_s * axis.uy + end.rim_across * axis.ux;
+  tip.x = axis.mx + tip_s * axis.ux - end.mid_across * axis.uy;
+  tip.y = axis.my + tip_s * axis.uy + end.mid_across * axis.ux;
   tip.depth_px = fitted ? fit.center_px : nearest_reflex_px(end, f, axis, tip.x, tip.y);
   return tip;
 }

@@ -8,20 +8,27 @@
 //    kept.
 // 2. Axis: the principal direction of a footprint's A-scans in um. The shaft leaves the field,
 //    so the tip is the end away from the footprint's A-scans on the volume's border (without
-//    any, the end where the reflex lies deeper: the shaft rises towards the viewer).
+//    any, the end where the reflex lies deeper: the shaft rises towards the viewer). A wider
+//    shaft cut by the border pulls it aside: the direction of the end's last 600 um is used.
 // 3. Tip: the footprint's extreme along the axis is the rim of the tool's rounded end (a capsule's
-//    cap: a sphere of radius r). For every r, the sphere whose rim is that extreme: its reflexes
-//    in front of its centre give the centre's depth (reflex + sqrt(r^2 - d^2) in px of the
-//    medium), and its disc should match the footprint there; the r with the least spread of
-//    those depths and the least disagreement of the footprint wins, and its centre is the tip.
-//    A translucent end (mostly partly shadowed A-scans) is flat: the tip is the rim, at the
-//    depth of the middle of the tool there.
+//    cap: a sphere of radius r). For every r, and for the extreme between the last A-scan and the
+//    next sample along the axis, the sphere whose rim is that extreme: its reflexes in front of
+//    its centre give the centre's depth (the capsule's top above its axis, in px of the medium:
+//    the cap's sqrt(R^2 - f^2), or where its pitched cylinder hides the cap R / cos p - f tan p,
+//    R^2 = r^2 - across^2, the pitch p from the ridge of the reflexes behind the centre), and its
+//    disc should match the footprint there; the r with the least spread of those depths and the
+//    least disagreement of the footprint wins, and its centre is the tip. Open jaws (the
+//    footprint's last 300 um in two parts): each jaw's end so, and the tip their middle.
+//    A translucent end (mostly partly shadowed A-scans) is the scraper's flat paddle: the tip is
+//    the middle of its leading edge on the paddle's middle plane (fitted to its reflexes),
+//    back by its half thickness x sin(pitch); a paddle on the retina is first grown into the
+//    A-scans whose segmented ILM lies on its front surface.
 // 4. Distances: the ILM and RPE at the tip's lateral position. The tip's own A-scan is under the
 //    tool; the surfaces come from the nearest measured A-scans at least 2 A-scans and 1 B-scan
 //    away from the mask (the filtered volume smears the shadow's edge), along the B-scan and
-//    across B-scans, interpolated linearly where both sides exist, each axis weighted by the
-//    inverse of its span (inferred); or from the A-scan itself when it is clear of the mask and
-//    measured (measured).
+//    across B-scans, interpolated linearly where both sides exist (with one side only, a line
+//    through its 8 nearest usable A-scans), each axis weighted by the inverse of its span
+//    (inferred); or from the A-scan itself when it is clear of the mask and measured (measured).
 #pragma once
 
 #include "ioct/gpu/instruments/instrument_config.hpp"
@@ -30,7 +37,8 @@
 
 namespace ioct::gpu::instruments {
 
-// Fills findings.tips, nearest and warning from findings.mask and reflex_px. `surfaces` of other
+// Fills findings.tips, nearest and warning from findings.mask, reflex_px and front_px (and grows
+// the mask onto a paddle lying on the retina, from the surfaces' ILM). `surfaces` of other
 // dimensions than the mask (or empty) give tips without distances.
 void find_tips(InstrumentFindings& findings, const segmentation::Surfaces& surfaces,
                const InstrumentConfig& config, const VolumeSampling& sampling);
