@@ -144,7 +144,10 @@ Footprint region_of(const InstrumentFindings& f, Place start, ColumnKind* open,
   return fp;
 }
 
-std::vector<Footprint> footprints(const InstrumentFindings& f, std::uint32_t min_ascans) {
+// The instruments' footprints, largest first; into `loose` the regions only partly shadowed
+// (each a membrane, a floater, or a paddle's part cut off from its tool: join_paddle_parts).
+std::vector<Footprint> footprints(const InstrumentFindings& f, std::uint32_t min_ascans,
+                                  std::vector<Footprint>& loose) {
   std::vector<ColumnKind> open = f.mask;
   std::vector<Footprint> out;
   std::vector<std::uint64_t> stack;
@@ -162,6 +165,8 @@ std::vector<Footprint> footprints(const InstrumentFindings& f, std::uint32_t min
       });
       if (fp.ascans.size() >= min_ascans && static_cast<std::size_t>(metal) >= min_ascans) {
         out.push_back(std::move(fp));
+      } else if (metal == 0) {
+        loose.push_back(std::move(fp));
       }
     }
   }
@@ -1056,6 +1061,71 @@ Axis steepest_axis(const std::vector<Place>& cells, const InstrumentFindings& f,
   return out;
 }
 
+// A paddle just above the retina: its leading face's A-scans (a short object over a gap) are
+// classified, but the A-scans behind them (no long gap beneath) are not, and cut them off from the
+// tool. A partly shadowed region ahead of the paddle (its A-scans within kPaddleReachUm of the
+// footprint's extreme along the axis, within the paddle's width across it) whose reflexes lie
+// between the paddle's middle plane and its front surface (kPaddleOnIlmPx of slack) is that face:
+// it joins the footprint and the mask, and so do the clear A-scans between (within the paddle's
+// width, from kPaddleReachUm behind the footprint's extreme up to the face's), their reflexes on
+// the plane: the segmented ILM there may be the paddle's, not to be taken for the retina's.
+constexpr double kPaddleReachUm = 300.0;
+
+void join_paddle_parts(Footprint& fp, const std::vector<Footprint>& loose, InstrumentFindings& f,
+                       const Axis& principal) {
+  const Plane plane = paddle_plane(fp.ascans, f, principal);
+  const double g = std::hypot(plane.gx, plane.gy);
+  const double half_height = median_half_height(fp.ascans, f);
+  if (!plane.valid || !(g > 0.0) || !(half_height > 0.0)) return;
+  Axis axis = principal;
+  axis.ux = plane.gx / g;
+  axis.uy = plane.gy / g;
+  double s_max = -1e300, lo = 1e300, hi = -1e300;
+  for (const Place& c : fp.ascans) {
+    s_max = std::max(s_max, axis.along(c));
+    if (!classified_partial(f, c)) continue;
+    lo = std::min(lo, axis.across(c));
+    hi = std::max(hi, axis.across(c));
+  }
+  double face_max = -1e300;
+  for (const Footprint& part : loose) {
+    const bool on_face = std::all_of(part.ascans.begin(), part.ascans.end(), [&](const Place& c) {
+      const double s = axis.along(c), across = axis.across(c);
+      const double above = plane.at(axis.x(c), axis.y(c)) - f.reflex_px[c.k];
+      return f.columns[c.k] == ColumnKind::partial && s > s_max && s <= s_max + kPaddleReachUm &&
+             across >= lo && across <= hi && above >= -kPaddleOnIlmPx &&
+             above <= half_height + kPaddleOnIlmPx;
+    });
+    if (!on_face) continue;
+    for (const Place& c : part.ascans) {
+      f.mask[c.k] = ColumnKind::partial;
+      fp.ascans.push_back(c);
+      face_max = std::max(face_max, axis.along(c));
+    }
+  }
+  if (face_max == -1e300) return;
+  std::uint32_t b_lo = ~0u, b_hi = 0, a_lo = ~0u, a_hi = 0;
+  for (const Place& c : fp.ascans) {
+    b_lo = std::min(b_lo, c.b);
+    b_hi = std::max(b_hi, c.b);
+    a_lo = std::min(a_lo, c.a);
+    a_hi = std::max(a_hi, c.a);
+  }
+  for (std::uint32_t b = b_lo; b <= b_hi; ++b) {
+    for (std::uint32_t a = a_lo; a <= a_hi; ++a) {
+      const Place c{static_cast<std::uint32_t>(f.index(b, a)), b, a};
+      const double s = axis.along(c), across = axis.across(c);
+      if (f.mask[c.k] != ColumnKind::clear || s < s_max - kPaddleReachUm || s > face_max ||
+          across < lo || across > hi) {
+        continue;
+      }
+      f.mask[c.k] = ColumnKind::partial;
+      f.reflex_px[c.k] = static_cast<float>(plane.at(axis.x(c), axis.y(c)));
+      fp.ascans.push_back(c);
+    }
+  }
+}
+
 InstrumentTip finish_tip(const Footprint& fp, const EndTip& end, const Axis& axis,
                          const VolumeSampling& sampling) {
   const double sx = sampling.ascan_spacing_um, sy = sampling.bscan_spacing_um;
@@ -1169,7 +1239,8 @@ void find_tips(InstrumentFindings& findings, const Surfaces& surfaces,
   findings.tips.clear();
   findings.nearest = -1;
   findings.warning = false;
-  std::vector<Footprint> found = footprints(findings, config.min_ascans);
+  std::vector<Footprint> loose;
+  std::vector<Footprint> found = footprints(findings, config.min_ascans, loose);
   // The mask keeps the instruments' A-scans only (not a membrane's, a floater's, speckle's).
   std::fill(findings.mask.begin(), findings.mask.end(), ColumnKind::clear);
   for (const Footprint& fp : found) {
@@ -1185,7 +1256,10 @@ void find_tips(InstrumentFindings& findings, const Surfaces& surfaces,
     Tool tool;
     tool.principal = axis_of(fp.ascans, findings, sx, sy);
     tool.whole = end_of(fp.ascans, findings, tool.principal, std::min(sx, sy));
-    if (tool.whole.translucent) extend_paddle(fp, findings, surfaces, tool.principal);
+    if (tool.whole.translucent) {
+      extend_paddle(fp, findings, surfaces, tool.principal);
+      join_paddle_parts(fp, loose, findings, tool.principal);
+    }
     tool.fp = std::move(fp);
     tools.push_back(std::move(tool));
   }
