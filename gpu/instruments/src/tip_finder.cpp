@@ -983,6 +983,8 @@ EndTip tip_of_paddle(const std::vector<Place>& cells, const InstrumentFindings& 
 // (within kPaddleOnIlmPx); they join the mask as partly shadowed, their reflex on the plane. Ahead
 // of the paddle the retina lies below its front, and meets the front's plane only further on.
 constexpr double kPaddleOnIlmPx = 3.0;
+// How far ahead of a paddle's classified part it is looked for (um along its axis).
+constexpr double kPaddleReachUm = 300.0;
 
 void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, const Axis& principal) {
   if (s.bscans != f.bscans || s.ascans != f.ascans) return;
@@ -998,13 +1000,24 @@ void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, cons
   };
   const double height = median_half_height(fp.ascans, f);
   if (!(height > 0.0)) return;
+  // Within the paddle's width and kPaddleReachUm ahead of its classified part: further on, the
+  // front's plane meets the retina ahead of the paddle.
+  double s_max = -1e300, lo = 1e300, hi = -1e300;
+  for (const Place& c : fp.ascans) {
+    if (!classified_partial(f, c)) continue;
+    s_max = std::max(s_max, axis.along(c));
+    lo = std::min(lo, axis.across(c));
+    hi = std::max(hi, axis.across(c));
+  }
   const auto on_paddle = [&](std::int64_t b, std::int64_t a) {
     const std::size_t k = f.index(static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a));
     if (f.mask[k] != ColumnKind::clear) return false;
     const double ilm = ilm_at(k);
     const Place p{static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(b),
                   static_cast<std::uint32_t>(a)};
-    return std::isfinite(ilm) &&
+    const double across = axis.across(p);
+    return std::isfinite(ilm) && axis.along(p) <= s_max + kPaddleReachUm && across >= lo &&
+           across <= hi &&
            std::abs(plane.at(axis.x(p), axis.y(p)) - ilm - height) <= kPaddleOnIlmPx;
   };
   std::vector<Place> pending = fp.ascans;
@@ -1065,14 +1078,15 @@ Axis steepest_axis(const std::vector<Place>& cells, const InstrumentFindings& f,
 // classified, but the A-scans behind them (no long gap beneath) are not, and cut them off from the
 // tool. A partly shadowed region ahead of the paddle (its A-scans within kPaddleReachUm of the
 // footprint's extreme along the axis, within the paddle's width across it) whose reflexes lie
-// between the paddle's middle plane and its front surface (kPaddleOnIlmPx of slack) is that face:
+// between the paddle's middle plane and its front surface (kPaddleOnIlmPx of slack), and above
+// the segmented ILM, is that face:
 // it joins the footprint and the mask, and so do the clear A-scans between (within the paddle's
 // width, from kPaddleReachUm behind the footprint's extreme up to the face's), their reflexes on
 // the plane: the segmented ILM there may be the paddle's, not to be taken for the retina's.
-constexpr double kPaddleReachUm = 300.0;
 
 void join_paddle_parts(Footprint& fp, const std::vector<Footprint>& loose, InstrumentFindings& f,
-                       const Axis& principal) {
+                       const Surfaces& surfaces, const Axis& principal) {
+  if (surfaces.bscans != f.bscans || surfaces.ascans != f.ascans) return;
   const Plane plane = paddle_plane(fp.ascans, f, principal);
   const double g = std::hypot(plane.gx, plane.gy);
   const double half_height = median_half_height(fp.ascans, f);
@@ -1092,9 +1106,12 @@ void join_paddle_parts(Footprint& fp, const std::vector<Footprint>& loose, Instr
     const bool on_face = std::all_of(part.ascans.begin(), part.ascans.end(), [&](const Place& c) {
       const double s = axis.along(c), across = axis.across(c);
       const double above = plane.at(axis.x(c), axis.y(c)) - f.reflex_px[c.k];
-      return f.columns[c.k] == ColumnKind::partial && s > s_max && s <= s_max + kPaddleReachUm &&
-             across >= lo && across <= hi && above >= -kPaddleOnIlmPx &&
-             above <= half_height + kPaddleOnIlmPx;
+      // Above the segmented ILM: not speckle inside the retina, which the plane meets further on.
+      const bool above_retina = surfaces.state[c.k] == SurfaceState::measured &&
+                                f.reflex_px[c.k] + kPaddleOnIlmPx <= surfaces.ilm[c.k];
+      return f.columns[c.k] == ColumnKind::partial && above_retina && s > s_max &&
+             s <= s_max + kPaddleReachUm && across >= lo && across <= hi &&
+             above >= -kPaddleOnIlmPx && above <= half_height + kPaddleOnIlmPx;
     });
     if (!on_face) continue;
     for (const Place& c : part.ascans) {
@@ -1258,7 +1275,7 @@ void find_tips(InstrumentFindings& findings, const Surfaces& surfaces,
     tool.whole = end_of(fp.ascans, findings, tool.principal, std::min(sx, sy));
     if (tool.whole.translucent) {
       extend_paddle(fp, findings, surfaces, tool.principal);
-      join_paddle_parts(fp, loose, findings, tool.principal);
+      join_paddle_parts(fp, loose, findings, surfaces, tool.principal);
     }
     tool.fp = std::move(fp);
     tools.push_back(std::move(tool));
