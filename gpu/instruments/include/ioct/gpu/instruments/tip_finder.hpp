@@ -21,8 +21,9 @@
 //    footprint's last 300 um in two parts): each jaw's end so, and the tip their middle.
 //    A translucent end (mostly partly shadowed A-scans) is the scraper's flat paddle: the tip is
 //    the middle of its leading edge on the paddle's middle plane (fitted to its reflexes),
-//    back by its half thickness x sin(pitch); a paddle on the retina is first grown into the
-//    A-scans whose segmented ILM lies on its front surface.
+//    back by its half thickness x sin(pitch); a paddle on or just above the retina is first
+//    grown into the A-scans whose segmented ILM lies on its front surface, and joined to its
+//    leading face where that was classified apart from it.
 // 4. Distances: the ILM and RPE at the tip's lateral position. The tip's own A-scan is under the
 //    tool; the surfaces come from the nearest measured A-scans at least 2 A-scans and 1 B-scan
 //    away from the mask (the filtered volume smears the shadow's edge), along the B-scan and
