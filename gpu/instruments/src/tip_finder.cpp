@@ -475,9 +475,9 @@ struct Window {
   bool empty() const { return b_lo > b_hi || a_lo > a_hi; }
 };
 
-// A candidate end: a sphere of radius r whose rim is the footprint's extreme, its centre cs along
-// the axis and (cx, cy) en face (um). Its footprint is compared out to reach, a sample further,
-// over the A-scans of `window`.
+// A candidate end: a sphere of radius r whose rim is (about) the footprint's extreme, its centre cs
+// along the axis and (cx, cy) en face (um). Its footprint is compared out to reach, a sample
+// further, over the A-scans of `window`.
 struct Sphere {
   double r = 0.0, cs = 0.0, cx = 0.0, cy = 0.0, reach = 0.0;
   Window window;
@@ -680,9 +680,9 @@ double footprint_mismatch(const Sphere& s, const Axis& axis, const MaskedRuns& m
   return cells > 0 ? static_cast<double>(mismatches) / static_cast<double>(cells) : 1.0;
 }
 
-// The depths of the sphere's centre its reflexes give: z = zc - sqrt(r^2 - d^2) (um of the
-// medium) for those in front of the centre; their mean and (unbiased) variance (px), count >=
-// kMinEndReflexes.
+// The depths of the sphere's centre its reflexes give: z = zc - (the capsule's top above its axis
+// there, um of the medium) for those in front of the centre; their mean and (unbiased) variance
+// (px), count >= kMinEndReflexes.
 struct CentreDepths {
   std::size_t count = 0;
   double mean = 0.0, variance = 0.0;
@@ -724,14 +724,16 @@ CentreDepths centre_depths(const std::vector<Reflex>& reflexes, const Sphere& s,
   return out;
 }
 
+// The end's sphere: its radius (um), its centre's depth (px) and place along the axis (um).
 struct Fit {
   double radius = 0.0, center_px = 0.0, cost = 1e300, cs = 0.0;
 };
 
 // The rounded end (a capsule's cap, the shape of every metal tool's end): a sphere of radius r
-// whose rim is the footprint's extreme. In front of its centre every reflex lies on it. Tried for
-// every r, the one whose reflexes agree best on the centre's depth zc and whose disc matches the
-// footprint best wins (the smallest r of equal costs).
+// whose rim is the footprint's extreme (up to a sample beyond its last A-scan). In front of its
+// centre every reflex lies on the capsule's top (centre_depths). Tried for every r and extreme
+// (coarse, then fine), the one whose reflexes agree best on the centre's depth zc and whose disc
+// matches the footprint best wins (the smallest r of equal costs).
 Fit fit_end(const End& end, const Axis& axis, const InstrumentFindings& f, double sx, double sy,
             double um_per_px_medium) {
   Fit best;
@@ -764,8 +766,7 @@ Fit fit_end(const End& end, const Axis& axis, const InstrumentFindings& f, doubl
   return best;
 }
 
-// A flat (translucent) end, or too few reflexes for a sphere: the depth of the reflex nearest to
-// the tip (a translucent tool's is the middle of its front and back surface).
+// Too few reflexes for a sphere: the depth of the reflex nearest to the tip.
 double nearest_reflex_px(const End& end, const InstrumentFindings& f, const Axis& axis,
                          double tip_x, double tip_y) {
   double nearest = 1e300, depth_px = 0.0;
