@@ -148,10 +148,10 @@ INSTANTIATE_TEST_SUITE_P(
         // membrane): the jaws' shadow crosses the middle B-scans.
         RetinaCase{"forceps_low_flat",
                    [](SimulatedVolumeSpec& s) {
-                     sim::InstrumentConfig t =
+                     sim::InstrumentConfig forceps =
                          instrument(sim::InstrumentKind::forceps, 0.3f, 0.0f, 0.5f, 150.0f, 30.0f);
-                     t.pose.pitch_deg = 10.0f;
-                     s.simulation.instruments.push_back(t);
+                     forceps.pose.pitch_deg = 10.0f;
+                     s.simulation.instruments.push_back(forceps);
                    }},
         // A needle and a translucent scraper in the vitreous.
         RetinaCase{"needle_and_scraper",
