@@ -25,7 +25,9 @@ constexpr int kCostThreads = 256;
 constexpr int kPairsPerCostBlock = 8;
 constexpr int kColumnsPerCostBlock = 16;
 constexpr int kFinishThreads = 128;
-constexpr int kChunk = 16;  // search columns whose costs a thread loads at once
+constexpr int kFitThreads = 64;       // a fit per thread: many small blocks
+constexpr int kVerdictThreads = 256;  // a B-scan per block
+constexpr int kChunk = 16;            // search columns whose costs a thread loads at once
 // Shared memory a search may use for its step choices; more goes to global memory (slower trace
 // back, same result).
 constexpr std::size_t kSharedStepsLimit = 160 * 1024;
@@ -144,15 +146,6 @@ struct PathJob {
   std::int32_t* coarse;        // memory's [bscan][ascan] cells
   std::uint8_t* coarse_valid;  // [bscan]
   std::uint8_t* floors;        // [bscan]
-  // RPE stage: the fits.
-  const std::uint8_t* volume;
-  const std::int32_t* ilm_px;  // [group][ascan]
-  float* ilm;                  // memory [bscan][ascan]
-  float* rpe;
-  float* bm;
-  float* confidence;
-  std::uint8_t* verdict;    // [bscan]
-  std::uint8_t* contrasts;  // scratch [group][ascan][3]: rpe, ilm, choroid
 };
 
 __device__ __forceinline__ std::int32_t load_cost(const std::int32_t* cost, int columns, int states,
@@ -178,76 +171,6 @@ __device__ void sum_background(const PathJob& job, int g, int b) {
                                                     detail::kFloorSampleStride);
     job.floors[b] = static_cast<std::uint8_t>(detail::histogram_quantile(
         bins, samples, detail::kFloorNumerator, detail::kFloorDenominator));
-  }
-}
-
-// Sub-px fits of the B-scan's A-scans, its typical contrasts, confidences and verdict (after the
-// RPE search; `rpe_px` is this block's path).
-__device__ void fit_bscan(const PathJob& job, int g, int b, const std::int32_t* rpe_px) {
-  __shared__ std::uint32_t rpe_histogram[kHistogramBins];
-  __shared__ std::uint32_t ilm_histogram[kHistogramBins];
-  __shared__ std::uint32_t thickness_histogram[kHistogramBins];
-  __shared__ int typical[3];
-  __shared__ int confident;
-  const SegmentationParams& p = job.p;
-  for (int i = threadIdx.x; i < kHistogramBins; i += blockDim.x) {
-    rpe_histogram[i] = 0;
-    ilm_histogram[i] = 0;
-    thickness_histogram[i] = 0;
-  }
-  if (threadIdx.x == 0) confident = 0;
-  __syncthreads();
-  const int floor = job.floors[b];
-  const std::size_t row = static_cast<std::size_t>(b) * p.ascans;
-  const std::size_t group_row = static_cast<std::size_t>(g) * p.ascans;
-  for (int a = threadIdx.x; a < p.ascans; a += blockDim.x) {
-    const std::uint8_t* column = job.volume + (row + a) * p.depth;
-    const int ilm_px = job.ilm_px[group_row + a];
-    const int rpe = rpe_px[a];
-    const detail::ColumnFit fit =
-        detail::fit_column(column, p.depth, ilm_px, rpe, floor, p.ilm_level);
-    job.ilm[row + a] = fit.ilm;
-    job.rpe[row + a] = fit.rpe;
-    job.bm[row + a] = fit.bm;
-    const int rpe_contrast = detail::clamp_u8(fit.rpe_contrast);
-    const int ilm_contrast = detail::clamp_u8(fit.ilm_contrast);
-    std::uint8_t* c = job.contrasts + (group_row + a) * 3;
-    c[0] = static_cast<std::uint8_t>(rpe_contrast);
-    c[1] = static_cast<std::uint8_t>(ilm_contrast);
-    c[2] = static_cast<std::uint8_t>(detail::clamp_u8(fit.choroid));
-    atomicAdd(&rpe_histogram[rpe_contrast], 1u);
-    atomicAdd(&ilm_histogram[ilm_contrast], 1u);
-    atomicAdd(&thickness_histogram[detail::clamp_u8(rpe - ilm_px)], 1u);
-  }
-  __syncthreads();
-  const auto count = static_cast<std::uint32_t>(p.ascans);
-  // Three medians, by threads of different warps where there are enough.
-  const std::uint32_t* histograms[3] = {rpe_histogram, ilm_histogram, thickness_histogram};
-  for (int k = 0; k < 3; ++k) {
-    if (threadIdx.x == (32u * k) % blockDim.x) {
-      typical[k] = detail::histogram_quantile(histograms[k], count, 1, 2);
-    }
-  }
-  __syncthreads();
-  int mine = 0;
-  for (int a = threadIdx.x; a < p.ascans; a += blockDim.x) {
-    const std::uint8_t* c = job.contrasts + (group_row + a) * 3;
-    detail::ColumnFit fit;
-    fit.rpe_contrast = c[0];
-    fit.ilm_contrast = c[1];
-    fit.choroid = c[2];
-    const float confidence = detail::column_confidence(fit, typical[0], typical[1]);
-    job.confidence[row + a] = confidence;
-    mine += confidence >= 0.5f ? 1 : 0;
-  }
-  if (mine != 0) atomicAdd(&confident, mine);
-  __syncthreads();
-  if (threadIdx.x == 0) {
-    const bool retina =
-        detail::retina_present(confident, p.ascans, p.presence_fraction, typical[0], typical[1],
-                               p.min_contrast, typical[2], p.min_thickness);
-    job.verdict[b] =
-        static_cast<std::uint8_t>(retina ? BscanVerdict::retina : BscanVerdict::no_retina);
   }
 }
 
@@ -376,17 +299,112 @@ __global__ void __launch_bounds__(1024) path_kernel(PathJob job) {
       path[a + 1] = origin[a + 1] + state;
     }
   }
-  if (job.stage == PathStage::ilm) return;
+  if (job.stage != PathStage::coarse) return;
   __syncthreads();
-  if (job.stage == PathStage::rpe) {
-    fit_bscan(job, g, b, path);
-    return;
-  }
   // The coarse cells of every A-scan, for this B-scan's and its neighbours' fine searches.
   for (int a = threadIdx.x; a < job.p.ascans; a += blockDim.x) {
     job.coarse[static_cast<std::size_t>(b) * job.p.ascans + a] = path[a / kCoarsePair];
   }
   if (threadIdx.x == 0) job.coarse_valid[b] = 1;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Fits, after the RPE search: each A-scan's sub-px surfaces and contrasts (a thread per A-scan:
+// a fit walks its column serially, so it is spread over many blocks rather than left to the
+// search's one block per B-scan), then each B-scan's typical contrasts, confidences and verdict.
+
+struct FitJob {
+  const std::uint8_t* volume;
+  const std::uint8_t* floors;  // [bscan]
+  const std::int32_t* ilm_px;  // [group][ascan]
+  const std::int32_t* rpe_px;  // [group][ascan]
+  float* ilm;                  // memory [bscan][ascan]
+  float* rpe;
+  float* bm;
+  float* confidence;
+  std::uint8_t* verdict;    // [bscan]
+  std::uint8_t* contrasts;  // scratch [group][ascan][3]: rpe, ilm, choroid
+  int first;
+  SegmentationParams p;
+};
+
+__global__ void fit_kernel(FitJob job) {
+  const int a = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x);
+  const SegmentationParams& p = job.p;
+  if (a >= p.ascans) return;
+  const int g = static_cast<int>(blockIdx.y);
+  const int b = job.first + g;
+  const std::size_t row = static_cast<std::size_t>(b) * p.ascans;
+  const std::size_t group_row = static_cast<std::size_t>(g) * p.ascans;
+  const std::uint8_t* column = job.volume + (row + a) * p.depth;
+  const detail::ColumnFit fit =
+      detail::fit_column(column, p.depth, job.ilm_px[group_row + a], job.rpe_px[group_row + a],
+                         job.floors[b], p.ilm_level);
+  job.ilm[row + a] = fit.ilm;
+  job.rpe[row + a] = fit.rpe;
+  job.bm[row + a] = fit.bm;
+  std::uint8_t* c = job.contrasts + (group_row + a) * 3;
+  c[0] = static_cast<std::uint8_t>(detail::clamp_u8(fit.rpe_contrast));
+  c[1] = static_cast<std::uint8_t>(detail::clamp_u8(fit.ilm_contrast));
+  c[2] = static_cast<std::uint8_t>(detail::clamp_u8(fit.choroid));
+}
+
+__global__ void verdict_kernel(FitJob job) {
+  __shared__ std::uint32_t rpe_histogram[kHistogramBins];
+  __shared__ std::uint32_t ilm_histogram[kHistogramBins];
+  __shared__ std::uint32_t thickness_histogram[kHistogramBins];
+  __shared__ int typical[3];
+  __shared__ int confident;
+  const SegmentationParams& p = job.p;
+  const int g = static_cast<int>(blockIdx.x);
+  const int b = job.first + g;
+  for (int i = threadIdx.x; i < kHistogramBins; i += blockDim.x) {
+    rpe_histogram[i] = 0;
+    ilm_histogram[i] = 0;
+    thickness_histogram[i] = 0;
+  }
+  if (threadIdx.x == 0) confident = 0;
+  __syncthreads();
+  const std::size_t row = static_cast<std::size_t>(b) * p.ascans;
+  const std::size_t group_row = static_cast<std::size_t>(g) * p.ascans;
+  for (int a = threadIdx.x; a < p.ascans; a += blockDim.x) {
+    const std::uint8_t* c = job.contrasts + (group_row + a) * 3;
+    atomicAdd(&rpe_histogram[c[0]], 1u);
+    atomicAdd(&ilm_histogram[c[1]], 1u);
+    atomicAdd(&thickness_histogram[detail::clamp_u8(job.rpe_px[group_row + a] -
+                                                    job.ilm_px[group_row + a])],
+              1u);
+  }
+  __syncthreads();
+  const auto count = static_cast<std::uint32_t>(p.ascans);
+  // Three medians, by threads of different warps where there are enough.
+  const std::uint32_t* histograms[3] = {rpe_histogram, ilm_histogram, thickness_histogram};
+  for (int k = 0; k < 3; ++k) {
+    if (threadIdx.x == (32u * k) % blockDim.x) {
+      typical[k] = detail::histogram_quantile(histograms[k], count, 1, 2);
+    }
+  }
+  __syncthreads();
+  int mine = 0;
+  for (int a = threadIdx.x; a < p.ascans; a += blockDim.x) {
+    const std::uint8_t* c = job.contrasts + (group_row + a) * 3;
+    detail::ColumnFit fit;
+    fit.rpe_contrast = c[0];
+    fit.ilm_contrast = c[1];
+    fit.choroid = c[2];
+    const float confidence = detail::column_confidence(fit, typical[0], typical[1]);
+    job.confidence[row + a] = confidence;
+    mine += confidence >= 0.5f ? 1 : 0;
+  }
+  if (mine != 0) atomicAdd(&confident, mine);
+  __syncthreads();
+  if (threadIdx.x == 0) {
+    const bool retina =
+        detail::retina_present(confident, p.ascans, p.presence_fraction, typical[0], typical[1],
+                               p.min_contrast, typical[2], p.min_thickness);
+    job.verdict[b] =
+        static_cast<std::uint8_t>(retina ? BscanVerdict::retina : BscanVerdict::no_retina);
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -812,16 +830,6 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
     path.first = first;
     path.p = p;
     path.columns = p.ascans;
-    // The RPE search goes on to the fits.
-    path.floors = d.floors.data();
-    path.volume = device_volume;
-    path.ilm_px = d.ilm_px.data();
-    path.ilm = d.raw_ilm.data();
-    path.rpe = d.raw_rpe.data();
-    path.bm = d.raw_bm.data();
-    path.confidence = d.raw_confidence.data();
-    path.verdict = d.raw_verdict.data();
-    path.contrasts = d.contrasts.data();
     path.states = p.band;
     path.max_step = p.max_step;
     path.penalty = p.step_penalty;
@@ -829,6 +837,28 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
     launch_path(path, count, d.max_steps_shared, stream);
     stage_done();
   }
+  {
+    FitJob job{};
+    job.volume = device_volume;
+    job.floors = d.floors.data();
+    job.ilm_px = d.ilm_px.data();
+    job.rpe_px = d.rpe_px.data();
+    job.ilm = d.raw_ilm.data();
+    job.rpe = d.raw_rpe.data();
+    job.bm = d.raw_bm.data();
+    job.confidence = d.raw_confidence.data();
+    job.verdict = d.raw_verdict.data();
+    job.contrasts = d.contrasts.data();
+    job.first = first;
+    job.p = p;
+    const dim3 grid(static_cast<unsigned>((p.ascans + kFitThreads - 1) / kFitThreads),
+                    static_cast<unsigned>(count));
+    fit_kernel<<<grid, kFitThreads, 0, stream>>>(job);
+    cuda::check_launch("fit_kernel");
+    verdict_kernel<<<count, kVerdictThreads, 0, stream>>>(job);
+    cuda::check_launch("verdict_kernel");
+  }
+  stage_done();
   const BscanSpan outputs = outputs_affected(group, d.bscans);
   {
     FinishJob job{};

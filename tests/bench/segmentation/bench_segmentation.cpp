@@ -188,8 +188,8 @@ int main(int argc, char** argv) {
     const Timing cpu_time = summarize(cpu_us);
     const double copy_gbps = static_cast<double>(group_bytes) / (copy.median_us * 1e3);
     static const char* const kStageNames[CudaSegmenter::kStages] = {
-        "coarse_costs", "coarse_search",   "ilm_costs", "ilm_search",
-        "rpe_costs",    "rpe_search+fits", "finishing"};
+        "coarse_costs", "coarse_search", "ilm_costs", "ilm_search",
+        "rpe_costs",    "rpe_search",    "fits",      "finishing"};
     std::printf("device: %s (%d SMs)\n", properties.name, properties.multiProcessorCount);
     std::printf("group: %u B-scans x %u A-scans x %u px (%.2f MB)\n", group, volume.ascans(),
                 volume.depth(), static_cast<double>(group_bytes) / 1e6);

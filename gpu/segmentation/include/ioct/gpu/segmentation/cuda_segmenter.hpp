@@ -70,15 +70,15 @@ class CudaSegmenter final : public Segmenter {
   cudaStream_t stream() const noexcept { return stream_; }
 
   // enqueue_group launches each group (by volume, group and stream) as a CUDA graph captured on
-  // first use, which takes out most of the launch overhead of its seven kernels; off: plain
+  // first use, which takes out most of the launch overhead of its nine kernels; off: plain
   // launches on the stream (also for the legacy default stream, which cannot be captured).
   void set_use_graphs(bool use) noexcept { use_graphs_ = use; }
 
   // Benchmarks: when set, enqueue_group launches directly and records one event after each of
   // its kStages stages (coarse costs with the background histograms, coarse search with the
-  // background level, ILM costs, ILM search, RPE costs, RPE search with the fits and verdicts,
-  // finishing) into these events.
-  static constexpr int kStages = 7;
+  // background level, ILM costs, ILM search, RPE costs, RPE search, the fits with the B-scans'
+  // verdicts, finishing) into these events.
+  static constexpr int kStages = 8;
   void set_stage_events(const cudaEvent_t* events) noexcept { stage_events_ = events; }
 
  private:
