@@ -45,7 +45,32 @@ TEST(ArrivalForecast, PastDueTimesAreSkippedByWholePeriods) {
   EXPECT_EQ(f.next_due_ns(20 * kMs, kMs), 20 * kMs);      // due now
   EXPECT_EQ(f.next_due_ns(21 * kMs, kMs), 20 * kMs);      // late, but within late_ns
   EXPECT_EQ(f.next_due_ns(21 * kMs + 1, kMs), 30 * kMs);  // missed: the next one
-  EXPECT_EQ(f.next_due_ns(75 * kMs, kMs), 80 * kMs);
+  EXPECT_EQ(f.next_due_ns(45 * kMs, kMs), 50 * kMs);
+}
+
+TEST(ArrivalForecast, AStreamSilentForItsAwaitedEventsHasNoForecast) {
+  ioct::ArrivalForecast f;
+  f.observe(0, 0);
+  f.observe(10 * kMs, 1);
+  const std::uint64_t last_awaited = 10 * kMs + ioct::ArrivalForecast::kAwaitedEvents * 10 * kMs;
+  EXPECT_EQ(f.next_due_ns(last_awaited, kMs), last_awaited);
+  EXPECT_EQ(f.next_due_ns(last_awaited + kMs + 1, kMs), 0u);  // stopped
+  f.observe(200 * kMs, 19);                                   // it comes back: forecast again
+  EXPECT_EQ(f.next_due_ns(200 * kMs, kMs), 210 * kMs);
+}
+
+TEST(IdleSleep, AStoppedStreamWithAPeriodShorterThanTheWindowsLetsTheThreadSleep) {
+  // Groups 1 ms apart with a 1 ms window on each side: the windows cover all time while they
+  // come, but once they stop the thread must go back to sleeping.
+  ioct::ArrivalForecast f;
+  for (std::uint64_t n = 0; n < 5; ++n) f.observe(100 * kMs + n * kMs, n);
+  const std::uint64_t last = 104 * kMs;
+  const std::uint64_t poll = 250'000;
+  for (std::uint64_t now = last; now <= last + 4 * kMs; now += 100'000) {
+    EXPECT_EQ(ioct::idle_sleep_ns(f, now, kMs, poll), 0u) << now - last;
+  }
+  EXPECT_EQ(ioct::idle_sleep_ns(f, last + 6 * kMs, kMs, poll), poll);
+  EXPECT_EQ(ioct::idle_sleep_ns(f, last + 1'000 * kMs, kMs, poll), poll);
 }
 
 TEST(ArrivalForecast, TimeGoingBackwardsStartsAfresh) {

@@ -3,8 +3,10 @@
 // polling for a short window around it, so the thread is running when the event comes. Waking a
 // sleeping thread takes tens of microseconds on a quiet machine but up to a millisecond on some
 // hosts (deep idle states, a virtual CPU the hypervisor parked), and that wake-up would be in
-// every group's latency. If the event does not come within the window, the thread sleeps again:
-// a stopped producer costs no CPU.
+// every group's latency. If the event does not come within the window, the thread sleeps until
+// the next one's; when none came for kAwaitedEvents periods the stream is taken as stopped and
+// the thread only sleeps, so a stopped producer costs no CPU (without that bound, a period under
+// twice the window would keep it spinning for as long as the producer is stopped).
 #pragma once
 
 #include <algorithm>
@@ -41,14 +43,18 @@ class ArrivalForecast {
   }
 
   // The first time the next event is due at or after `now_ns` minus `late_ns`: the last event
-  // plus whole periods (events missed in between are skipped over); 0 when there is no forecast.
+  // plus whole periods (events missed in between are skipped over); 0 when there is no forecast,
+  // or when that is more than kAwaitedEvents periods after the last event (the stream stopped).
   std::uint64_t next_due_ns(std::uint64_t now_ns, std::uint64_t late_ns) const noexcept {
     const std::uint64_t period = period_ns();
     if (period == 0) return 0;
     std::uint64_t due = last_ns_ + period;
     if (due + late_ns < now_ns) due += ((now_ns - late_ns - due) / period + 1) * period;
-    return due;
+    return due - last_ns_ <= kAwaitedEvents * period ? due : 0;
   }
+
+  // Due times after the last event that are still awaited; past them the stream has stopped.
+  static constexpr std::uint64_t kAwaitedEvents = 4;
 
  private:
   static constexpr int kIntervals = 4;
