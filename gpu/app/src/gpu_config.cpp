@@ -24,9 +24,10 @@ void add_ring_keys(config::KeyTable<GpuConfig>& k) {
       .real_in("ring.wait_s", IOCT_MEMBER(live.wait_s), 0.0, 1e6,
                "seconds to wait for the ring to appear", "--wait")
       .real_in("ring.spin_window_s", IOCT_MEMBER(live.spin_window_s), 0.0, 0.1,
-               "seconds the live loop and the stages' thread stay awake, polling, on each side of "
-               "when the next group is due, so waking a sleeping thread is not in a group's "
-               "latency; 0: sleep between polls only",
+               "seconds the live loop and the stages' thread (the next group) and the frames' "
+               "encoding thread (the next frame) stay awake, polling, on each side of when it is "
+               "due, so waking a sleeping thread is not in its latency; asleep once 4 periods "
+               "passed without one; 0: sleep between polls only",
                "--spin-window");
 }
 
