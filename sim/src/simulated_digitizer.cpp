@@ -306,7 +306,9 @@ void SimulatedDigitizer::take_bench_state(GroupJob& job) {
     for (std::size_t t = 0; t < tools; ++t) {
       const ToolPose pose = inline_.instruments[t].pose_at(seconds);
       job.poses[b * tools + t] = pose;
-      job.truth.tool_states[b * tools + t] = inline_.instruments[t].state(pose);
+      // The tip the detection must find (open forceps: between the jaws' ends), as the
+      // instrument accuracy tests take it.
+      job.truth.tool_states[b * tools + t] = inline_.instruments[t].tip_state(pose);
     }
   }
   sweep_counter_ += geometry.sweeps_per_group();
