@@ -892,19 +892,21 @@ double median_half_height(const std::vector<Place>& cells, const InstrumentFindi
   return half_heights[half_heights.size() / 2];
 }
 
-// A translucent tool's paddle: a tilted plate, whose middle (its A-scans' reflexes) is a plane
-// z = z0 + g . (x - x0, y - y0) (px; x, y um), fitted to them by least squares.
+// A plane z = z0 + g . (x - x0, y - y0) (px; x, y um) through reflexes, by least squares.
 struct Plane {
   double x0 = 0.0, y0 = 0.0, z0 = 0.0, gx = 0.0, gy = 0.0;
-  bool valid = false;
+  bool valid = false;  // three reflexes or more, not all on one line
   double at(double x, double y) const { return z0 + gx * (x - x0) + gy * (y - y0); }
 };
 
-Plane paddle_plane(const std::vector<Place>& cells, const InstrumentFindings& f, const Axis& axis) {
+// The plane through the reflexes of the `cells` that `take` accepts, in `axis`'s frame.
+template <class Take>
+Plane reflex_plane(const std::vector<Place>& cells, const InstrumentFindings& f, const Axis& axis,
+                   Take&& take) {
   Plane plane;
   double n = 0.0;
   for (const Place& c : cells) {
-    if (!classified_partial(f, c)) continue;
+    if (!take(c)) continue;
     n += 1.0;
     plane.x0 += axis.x(c);
     plane.y0 += axis.y(c);
@@ -916,7 +918,7 @@ Plane paddle_plane(const std::vector<Place>& cells, const InstrumentFindings& f,
   plane.z0 /= n;
   double xx = 0.0, xy = 0.0, yy = 0.0, xz = 0.0, yz = 0.0;
   for (const Place& c : cells) {
-    if (!classified_partial(f, c)) continue;
+    if (!take(c)) continue;
     const double dx = axis.x(c) - plane.x0, dy = axis.y(c) - plane.y0;
     const double dz = f.reflex_px[c.k] - plane.z0;
     xx += dx * dx;
@@ -931,6 +933,12 @@ Plane paddle_plane(const std::vector<Place>& cells, const InstrumentFindings& f,
   plane.gy = (xx * yz - xy * xz) / det;
   plane.valid = true;
   return plane;
+}
+
+// A translucent tool's paddle: a tilted plate, whose middle is the plane through its A-scans'
+// reflexes.
+Plane paddle_plane(const std::vector<Place>& cells, const InstrumentFindings& f, const Axis& axis) {
+  return reflex_plane(cells, f, axis, [&](const Place& c) { return classified_partial(f, c); });
 }
 
 // The paddle deepens towards its leading edge: its axis is the plane's gradient where it is
@@ -1042,36 +1050,14 @@ void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, cons
 // The direction in which a footprint's metal reflexes deepen fastest (a plane through them by
 // least squares), in `axis`'s frame; `axis` itself where they hardly deepen (a level tool).
 Axis steepest_axis(const std::vector<Place>& cells, const InstrumentFindings& f, const Axis& axis) {
-  double n = 0.0, x = 0.0, y = 0.0, z = 0.0;
-  for (const Place& c : cells) {
-    if (f.mask[c.k] != ColumnKind::shadow) continue;
-    n += 1.0;
-    x += axis.x(c);
-    y += axis.y(c);
-    z += f.reflex_px[c.k];
-  }
-  if (n < 3.0) return axis;
-  x /= n;
-  y /= n;
-  z /= n;
-  double xx = 0.0, xy = 0.0, yy = 0.0, xz = 0.0, yz = 0.0;
-  for (const Place& c : cells) {
-    if (f.mask[c.k] != ColumnKind::shadow) continue;
-    const double dx = axis.x(c) - x, dy = axis.y(c) - y, dz = f.reflex_px[c.k] - z;
-    xx += dx * dx;
-    xy += dx * dy;
-    yy += dy * dy;
-    xz += dx * dz;
-    yz += dy * dz;
-  }
-  const double det = xx * yy - xy * xy;
-  if (!(det > 0.0)) return axis;
-  const double gx = (yy * xz - xy * yz) / det, gy = (xx * yz - xy * xz) / det;
-  const double g = std::hypot(gx, gy);
+  const Plane plane = reflex_plane(
+      cells, f, axis, [&](const Place& c) { return f.mask[c.k] == ColumnKind::shadow; });
+  if (!plane.valid) return axis;
+  const double g = std::hypot(plane.gx, plane.gy);
   if (!(g > 0.0)) return axis;
   Axis out = axis;
-  out.ux = gx / g;
-  out.uy = gy / g;
+  out.ux = plane.gx / g;
+  out.uy = plane.gy / g;
   return out;
 }
 

@@ -248,6 +248,55 @@ IOCT_HD float parabola_offset(int left, int centre, int right) {
   return offset > 0.5f ? 0.5f : offset;
 }
 
+// The ILM reflex's peak below the rise at `ilm_px`: the first local maximum within kIlmPeakReach
+// px (a plateau counts). Returns its px; its value in `top`.
+IOCT_HD int reflex_peak(const std::uint8_t* column, int depth, int ilm_px, int* top) {
+  int p = ilm_px;
+  int peak = px(column, depth, ilm_px);
+  for (int k = 1; k <= kIlmPeakReach; ++k) {
+    const int v = px(column, depth, ilm_px + k);
+    if (v < peak) break;
+    if (v > peak) {
+      peak = v;
+      p = ilm_px + k;
+    }
+  }
+  *top = peak;
+  return p;
+}
+
+// The vitreous level above the rise at `ilm_px`: the darkest of `start` and the kIlmBaseReach px
+// above it.
+IOCT_HD int darkest_above(const std::uint8_t* column, int depth, int ilm_px, int start) {
+  int base = start;
+  for (int k = 1; k <= kIlmBaseReach; ++k) base = min_int(base, px(column, depth, ilm_px - k));
+  return base;
+}
+
+// The brightest px in [from, from + reach] (the first of equals; 0 and `from` for a black run).
+// Returns its value; its px in `at`.
+IOCT_HD int brightest(const std::uint8_t* column, int depth, int from, int reach, int* at) {
+  int best = 0;
+  *at = from;
+  for (int k = 0; k <= reach; ++k) {
+    const int v = px(column, depth, from + k);
+    if (v > best) {
+      best = v;
+      *at = from + k;
+    }
+  }
+  return best;
+}
+
+// The first px in (after, after + reach], and inside the column, at or below `level`; -1 if none.
+IOCT_HD int first_at_or_below(const std::uint8_t* column, int depth, int after, int reach,
+                              float level) {
+  for (int x = after + 1; x <= after + reach && x < depth; ++x) {
+    if (static_cast<float>(px(column, depth, x)) <= level) return x;
+  }
+  return -1;
+}
+
 // The px in (after, to] where the intensity rises most steeply (the deepest of equals).
 IOCT_HD int steepest_rise(const std::uint8_t* column, int depth, int after, int to) {
   int steepest = to;
@@ -276,28 +325,13 @@ inline constexpr float kGapShare = 0.15f;
 inline constexpr int kTissueRun = 6;
 inline constexpr float kTissueShare = 0.7f;
 IOCT_HD int rise_beneath_membrane(const std::uint8_t* column, int depth, int ilm_px) {
-  int p = ilm_px;
-  int top = px(column, depth, ilm_px);
-  for (int k = 1; k <= kIlmPeakReach; ++k) {  // the reflex's peak, as fit_column finds it
-    const int v = px(column, depth, ilm_px + k);
-    if (v < top) break;
-    if (v > top) {
-      top = v;
-      p = ilm_px + k;
-    }
-  }
-  int base = top;
-  for (int k = 1; k <= kIlmBaseReach; ++k) base = min_int(base, px(column, depth, ilm_px - k));
+  int top = 0;
+  const int p = reflex_peak(column, depth, ilm_px, &top);  // as fit_column finds it
+  const int base = darkest_above(column, depth, ilm_px, top);
   const float span = static_cast<float>(top - base);
   const float gap_level = static_cast<float>(base) + kGapShare * span;
   const float tissue_level = static_cast<float>(base) + kTissueShare * span;
-  int gap = -1;
-  for (int x = p + 1; x <= p + kGapStartReach && x < depth; ++x) {
-    if (static_cast<float>(px(column, depth, x)) <= gap_level) {
-      gap = x;
-      break;
-    }
-  }
+  const int gap = first_at_or_below(column, depth, p, kGapStartReach, gap_level);
   if (gap < 0) return ilm_px;
   // The retina: the first px past the gap at the tissue level; the steepest rise before it.
   for (int x = gap + 1; x <= gap + kGapReach && x < depth; ++x) {
@@ -323,17 +357,9 @@ inline constexpr int kBandReach = 48;
 inline constexpr float kBandContrast = 2.0f;
 inline constexpr float kBandFloorShare = 0.85f;
 IOCT_HD int rise_beneath_band(const std::uint8_t* column, int depth, int ilm_px) {
-  int base = px(column, depth, ilm_px);
-  for (int k = 1; k <= kIlmBaseReach; ++k) base = min_int(base, px(column, depth, ilm_px - k));
-  int band = 0;
+  const int base = darkest_above(column, depth, ilm_px, px(column, depth, ilm_px));
   int band_end = ilm_px;
-  for (int k = 0; k <= kBandLook; ++k) {
-    const int v = px(column, depth, ilm_px + k);
-    if (v > band) {
-      band = v;
-      band_end = ilm_px + k;
-    }
-  }
+  const int band = brightest(column, depth, ilm_px, kBandLook, &band_end);
   const int band_level = band - base;
   if (band_level <= 0) return ilm_px;
   const float lowest = static_cast<float>(base) + kBandFloorShare * static_cast<float>(band_level);
@@ -365,10 +391,9 @@ inline constexpr float kThickGapShare = 0.3f;
 inline constexpr float kThickTissueContrast = 1.2f;
 inline constexpr float kThickTissueShare = 0.85f;
 IOCT_HD int rise_beneath_thick_band(const std::uint8_t* column, int depth, int ilm_px) {
-  int base = px(column, depth, ilm_px);
-  for (int k = 1; k <= kIlmBaseReach; ++k) base = min_int(base, px(column, depth, ilm_px - k));
-  int top = 0;
-  for (int k = 0; k <= kBandLook; ++k) top = max_int(top, px(column, depth, ilm_px + k));
+  const int base = darkest_above(column, depth, ilm_px, px(column, depth, ilm_px));
+  int top_px = ilm_px;
+  int top = brightest(column, depth, ilm_px, kBandLook, &top_px);
   if (top <= base) return ilm_px;
   const float half = static_cast<float>(base) + 0.5f * static_cast<float>(top - base);
   // The band: from the rise down while at half its first peak's level or more.
@@ -382,13 +407,7 @@ IOCT_HD int rise_beneath_thick_band(const std::uint8_t* column, int depth, int i
   if (end - ilm_px < kThickBandPx || end - ilm_px >= kThickBandReach) return ilm_px;
   const float span = static_cast<float>(top - base);
   const float gap_level = static_cast<float>(base) + kThickGapShare * span;
-  int gap = -1;
-  for (int x = end + 1; x <= end + kThickGapReach && x < depth; ++x) {
-    if (static_cast<float>(px(column, depth, x)) <= gap_level) {
-      gap = x;
-      break;
-    }
-  }
+  const int gap = first_at_or_below(column, depth, end, kThickGapReach, gap_level);
   if (gap < 0) return ilm_px;
   for (int x = gap + 1; x <= gap + kThickTissueReach && x < depth; ++x) {
     if (static_cast<float>(px(column, depth, x)) <
@@ -445,18 +464,9 @@ IOCT_HD ColumnFit fit_column(const std::uint8_t* column, int depth, int ilm_px, 
   ilm_px = rise_beneath_membrane(column, depth, ilm_px);
   ilm_px = rise_beneath_thick_band(column, depth, ilm_px);
   ilm_px = rise_beneath_band(column, depth, ilm_px);
-  int p = ilm_px;
-  int top = px(column, depth, ilm_px);
-  for (int k = 1; k <= kIlmPeakReach; ++k) {  // the first local maximum (a plateau counts)
-    const int v = px(column, depth, ilm_px + k);
-    if (v < top) break;
-    if (v > top) {
-      top = v;
-      p = ilm_px + k;
-    }
-  }
-  int base = top;
-  for (int k = 1; k <= kIlmBaseReach; ++k) base = min_int(base, px(column, depth, ilm_px - k));
+  int top = 0;
+  const int p = reflex_peak(column, depth, ilm_px, &top);
+  const int base = darkest_above(column, depth, ilm_px, top);
   fit.ilm_contrast = top - base;
   const float level = static_cast<float>(base) + ilm_level * static_cast<float>(top - base);
   fit.ilm = static_cast<float>(p);
