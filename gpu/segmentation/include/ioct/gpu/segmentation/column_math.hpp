@@ -373,57 +373,6 @@ IOCT_HD int rise_beneath_band(const std::uint8_t* column, int depth, int ilm_px)
   return ilm_px;
 }
 
-// A thick band lifted off the retina (a vitreous band, a thickened posterior hyaloid at the
-// disc): kThickBandPx to kThickBandReach px at half its peak's level or more above the vitreous,
-// then, within kThickGapReach px, a gap down to kThickGapShare of its peak, and within
-// kThickTissueReach px below the gap the retina: kThickTissueContrast times as far above the
-// vitreous as the band's peak, and on average at least kThickTissueShare of the band's peak over
-// the kThickTissueRun px from there. Returns the px of the steepest rise out of the gap, or
-// `ilm_px`. The retina's own bands fail one of these: a thick NFL at the disc's margin is
-// thicker, and has the RPE beneath its gap (a line, the darker choroid below it); the inner
-// retina over a dark ONL has the outer retina beneath it, no brighter than itself.
-inline constexpr int kThickBandPx = 12;
-inline constexpr int kThickBandReach = 48;
-inline constexpr int kThickGapReach = 16;
-inline constexpr int kThickTissueReach = 24;
-inline constexpr int kThickTissueRun = 12;
-inline constexpr float kThickGapShare = 0.3f;
-inline constexpr float kThickTissueContrast = 1.2f;
-inline constexpr float kThickTissueShare = 0.85f;
-IOCT_HD int rise_beneath_thick_band(const std::uint8_t* column, int depth, int ilm_px) {
-  const int base = darkest_above(column, depth, ilm_px, px(column, depth, ilm_px));
-  int top_px = ilm_px;
-  int top = brightest(column, depth, ilm_px, kBandLook, &top_px);
-  if (top <= base) return ilm_px;
-  const float half = static_cast<float>(base) + 0.5f * static_cast<float>(top - base);
-  // The band: from the rise down while at half its first peak's level or more.
-  int end = ilm_px;
-  while (end < ilm_px + kThickBandReach && end + 1 < depth &&
-         static_cast<float>(px(column, depth, end + 1)) >= half) {
-    ++end;
-    top = max_int(top, px(column, depth, end));
-  }
-  // Thinner than kThickBandPx: the ILM's reflex; as thick as kThickBandReach: the retina.
-  if (end - ilm_px < kThickBandPx || end - ilm_px >= kThickBandReach) return ilm_px;
-  const float span = static_cast<float>(top - base);
-  const float gap_level = static_cast<float>(base) + kThickGapShare * span;
-  const int gap = first_at_or_below(column, depth, end, kThickGapReach, gap_level);
-  if (gap < 0) return ilm_px;
-  for (int x = gap + 1; x <= gap + kThickTissueReach && x < depth; ++x) {
-    if (static_cast<float>(px(column, depth, x)) <
-        static_cast<float>(base) + kThickTissueContrast * span) {
-      continue;
-    }
-    int run = 0;
-    for (int k = 0; k < kThickTissueRun; ++k) run += px(column, depth, x + k) - base;
-    if (static_cast<float>(run) < static_cast<float>(kThickTissueRun) * kThickTissueShare * span) {
-      return ilm_px;
-    }
-    return steepest_rise(column, depth, gap, x);
-  }
-  return ilm_px;
-}
-
 // Refines the search's px (ILM at the steepest rise, RPE near its centre) of one A-scan.
 IOCT_HD ColumnFit fit_column(const std::uint8_t* column, int depth, int ilm_px, int rpe_px,
                              int floor, float ilm_level) {
@@ -461,8 +410,10 @@ IOCT_HD ColumnFit fit_column(const std::uint8_t* column, int depth, int ilm_px, 
   // ILM: the retina's surface, beneath a lifted membrane or a dim band on it; the inner reflex's
   // peak below the steepest rise, the vitreous level above it, and where the rise crosses
   // ilm_level of the way between them.
+  // (A third check, for a 12-47 px band lifted over a gap with brighter tissue beneath, took the
+  // Spectralis disc's ILM 11.7 -> 9.9 px nearer but moved a normal retina's ILM into the retina
+  // in the simulated appliance's scene, its mean error 0.65 -> 1.26 px: left out.)
   ilm_px = rise_beneath_membrane(column, depth, ilm_px);
-  ilm_px = rise_beneath_thick_band(column, depth, ilm_px);
   ilm_px = rise_beneath_band(column, depth, ilm_px);
   int top = 0;
   const int p = reflex_peak(column, depth, ilm_px, &top);
