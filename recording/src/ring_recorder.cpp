@@ -23,10 +23,6 @@ namespace {
 constexpr std::uint64_t kNsPerS = 1'000'000'000;
 constexpr int kWriterWakeMs = 200;  // the writer refreshes the file's counters this often idle
 
-std::uint64_t seconds_to_ns(double seconds) {
-  return static_cast<std::uint64_t>(seconds * 1e9);
-}
-
 // Counters both threads add to; snapshot() is what goes into the file.
 class SharedCounters {
  public:

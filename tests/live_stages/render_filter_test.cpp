@@ -11,9 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
 #include <filesystem>
-#include <mutex>
 #include <string>
 #include <vector>
 
@@ -24,6 +22,7 @@
 #include "ioct/gpu/render/renderer.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"
 #include "live_volumes.hpp"
+#include "pass_gate.hpp"
 
 namespace ioct::gpu::live {
 namespace {
@@ -46,30 +45,6 @@ TEST(RenderFilterRule, WeissModesRenderThePerBscanMedianAndTheOthersTheSegmentat
     EXPECT_EQ(c.gaussian_sigma, 1.5) << "the segmentation's own filter";
   }
 }
-
-// Counts the hand-overs that went through passes.
-class PassCount {
- public:
-  void on_pass(const StagesPass& pass) {
-    std::lock_guard lock(mutex_);
-    groups_ += pass.groups;
-    ++passes_;
-    changed_.notify_all();
-  }
-  void wait_for_groups(std::uint64_t groups) {
-    std::unique_lock lock(mutex_);
-    changed_.wait(lock, [&] { return groups_ >= groups; });
-  }
-  std::uint64_t passes() const {
-    std::lock_guard lock(mutex_);
-    return passes_;
-  }
-
- private:
-  mutable std::mutex mutex_;
-  std::condition_variable changed_;
-  std::uint64_t groups_ = 0, passes_ = 0;
-};
 
 Volume filtered_by(const char* filter, const Volume& volume) {
   Volume out;
@@ -129,7 +104,7 @@ class RenderFilterStages : public ::testing::Test {
                                  render::apply_render_changes(c.render, shot.params));
   }
 
-  PassCount passes_;
+  PassGate passes_;
   FakeLiveVolume live_;
   const std::filesystem::path dir_ =
       std::filesystem::temp_directory_path() /

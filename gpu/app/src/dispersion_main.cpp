@@ -82,7 +82,7 @@ Group read_group_file(const FileOptions& o) {
 
 // The next group published on `ring`, waiting up to `wait_s` for the ring and the group.
 Group read_live_group(const std::string& ring, double wait_s) {
-  const std::uint64_t deadline = ioct::monotonic_ns() + static_cast<std::uint64_t>(wait_s * 1e9);
+  const std::uint64_t deadline = ioct::monotonic_ns() + ioct::seconds_to_ns(wait_s);
   for (;;) {
     try {
       shm::RingReader reader = shm::RingReader::attach(ring, {"ioct-dispersion"});

@@ -26,10 +26,6 @@ namespace {
 constexpr std::uint64_t kNsPerS = 1'000'000'000;
 constexpr int kProblemsPrinted = 10;  // then only counted, so a bad stream cannot flood the log
 
-std::uint64_t seconds_to_ns(double seconds) {
-  return static_cast<std::uint64_t>(seconds * 1e9);
-}
-
 void sleep_ns(std::uint64_t ns) {
   std::this_thread::sleep_for(std::chrono::nanoseconds(ns));
 }

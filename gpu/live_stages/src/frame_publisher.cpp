@@ -36,7 +36,7 @@ FramePublisher::FramePublisher(const shm::FrameRingConfig& ring, int nice, doubl
       bscan_encoder_(90, kEncodeBands, encode_pool_),
       tip_bscans_encoder_(90, kEncodeBands, encode_pool_),
       nice_(nice) {
-  spin_ns_ = static_cast<std::uint64_t>(spin_window_s * 1e9);
+  spin_ns_ = ioct::seconds_to_ns(spin_window_s);
   status_.source_state = static_cast<std::uint64_t>(shm::SourceState::waiting);
   {
     std::lock_guard lock(mutex_);

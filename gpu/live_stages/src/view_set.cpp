@@ -5,16 +5,13 @@
 #include <stdexcept>
 #include <string>
 
+#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/render/render_params_json.hpp"
 
 namespace ioct::gpu::live {
 namespace {
 
 constexpr std::uint64_t kNever = UINT64_MAX;
-
-std::uint64_t seconds_to_ns(double s) {
-  return static_cast<std::uint64_t>(s * 1e9);
-}
 
 // The output at `scale` of its size (the same picture, fewer rays).
 void shrink(render::ViewConfig& view, double scale) {

@@ -209,7 +209,7 @@ void VolumeStages::work() {
       // New groups, a change, the next frame due (auto-rotation, a view that stopped moving) or
       // the stop, whichever comes first.
       bool views_due = false;
-      const auto spin_ns = static_cast<std::uint64_t>(config_.spin_window_s * 1e9);
+      const std::uint64_t spin_ns = ioct::seconds_to_ns(config_.spin_window_s);
       for (;;) {
         const std::uint64_t now = ioct::monotonic_ns();
         const std::uint64_t due = have_volume_ ? views_.next_due_ns(now) : UINT64_MAX;

@@ -22,4 +22,9 @@ inline std::uint64_t monotonic_ns() noexcept {
   return clock_ns(CLOCK_MONOTONIC);
 }
 
+// A duration in seconds (a configuration's) on that time base; 0 for negative ones.
+inline std::uint64_t seconds_to_ns(double seconds) noexcept {
+  return seconds > 0.0 ? static_cast<std::uint64_t>(seconds * 1e9) : 0;
+}
+
 }  // namespace ioct
