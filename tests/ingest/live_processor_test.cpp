@@ -128,7 +128,11 @@ TEST_P(LiveProcessorTest, BuildsVolumesFromTheRingAndWritesImagesAndSummary) {
   EXPECT_EQ(c.volumes_completed, 2u);
   EXPECT_EQ(c.volumes_with_gaps, 0u);
   EXPECT_EQ(c.volumes_abandoned, 0u);
-  EXPECT_EQ(c.images_written, 4u);
+  // Each volume's bscan.png and enface.png, written or (on the image writer's thread, latest
+  // wins) replaced by the next volume's before their turn; the last volume's are on disk.
+  EXPECT_EQ(c.images_written + c.images_replaced, 4u);
+  EXPECT_GE(c.images_written, 2u);
+  EXPECT_EQ(c.image_errors, 0u);
   EXPECT_EQ(summary.latency.count(), 4u);
   EXPECT_GT(summary.latency.quantile(0.5), 0u);
   EXPECT_EQ(summary.status_flags_seen, shm::kStatusSimulated | shm::kStatusLaserOn);

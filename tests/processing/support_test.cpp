@@ -1,11 +1,16 @@
-// The small pieces under the live loop: the worker pool (the latency histogram is tested in
-// tests/concurrency).
+// The small pieces under the live loop: the worker pool and the latest-wins worker that writes
+// the live files (the latency histogram is tested in tests/concurrency).
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <chrono>
+#include <future>
 #include <stdexcept>
+#include <string>
+#include <thread>
 #include <vector>
 
+#include "ioct/gpu/latest_wins_worker.hpp"
 #include "ioct/gpu/worker_pool.hpp"
 
 namespace ioct::gpu {
@@ -63,6 +68,55 @@ TEST(WorkerPool, RethrowsATaskErrorAfterTheOthersFinish) {
   pool.run(4, [&](std::uint32_t, unsigned) { ++again; });
   EXPECT_EQ(again.load(), 4);
   EXPECT_THROW(WorkerPool(0), std::invalid_argument);
+}
+
+// A task that blocks (a disk that does not answer) holds up neither the caller nor the newest
+// task: submit returns at once, the tasks waiting meanwhile are replaced by the newest, and stop()
+// still runs that one before it returns.
+TEST(LatestWinsWorker, TheCallerNeverWaitsAndOnlyTheNewestWaitingTaskRuns) {
+  LatestWinsWorker worker;
+  std::promise<void> release;
+  std::shared_future<void> released = release.get_future().share();
+  std::promise<void> first_started;
+  std::vector<int> ran;  // written by the worker's thread only, read after stop()
+  worker.submit([&] {
+    first_started.set_value();
+    released.wait();
+    ran.push_back(0);
+  });
+  first_started.get_future().wait();
+  const auto begin = std::chrono::steady_clock::now();
+  for (int i = 1; i <= 5; ++i) worker.submit([&ran, i] { ran.push_back(i); });
+  EXPECT_LT(std::chrono::steady_clock::now() - begin, std::chrono::seconds(1))
+      << "submit waited for the blocked task";
+  release.set_value();
+  worker.stop();
+  EXPECT_EQ(ran, (std::vector<int>{0, 5}));
+  const LatestWinsWorker::Counts counts = worker.counts();
+  EXPECT_EQ(counts.done, 2u);
+  EXPECT_EQ(counts.replaced, 4u);
+  EXPECT_EQ(counts.failed, 0u);
+  worker.submit([&ran] { ran.push_back(99); });  // after stop(): ignored
+  worker.stop();
+  EXPECT_EQ(ran.size(), 2u);
+}
+
+TEST(LatestWinsWorker, AFailingTaskIsCountedWithItsReasonAndTheNextStillRuns) {
+  LatestWinsWorker worker;
+  std::atomic<int> after{0};
+  std::promise<void> failed;
+  worker.submit([&] {
+    failed.set_value();
+    throw std::runtime_error("cannot write /nowhere/render.png: No such file or directory");
+  });
+  failed.get_future().wait();
+  worker.submit([&] { after.fetch_add(1); });
+  worker.stop();
+  const LatestWinsWorker::Counts counts = worker.counts();
+  EXPECT_EQ(counts.failed, 1u);
+  EXPECT_EQ(counts.done, 1u);
+  EXPECT_EQ(after.load(), 1);
+  EXPECT_NE(counts.problem.find("/nowhere/render.png"), std::string::npos) << counts.problem;
 }
 
 }  // namespace

@@ -27,7 +27,8 @@ void add_ring_keys(config::KeyTable<GpuConfig>& k) {
                "seconds the live loop and the stages' thread (the next group) and the frames' "
                "encoding thread (the next frame) stay awake, polling, on each side of when it is "
                "due, so waking a sleeping thread is not in its latency; asleep once 4 periods "
-               "passed without one; 0: sleep between polls only",
+               "passed without one; only where a GPU does that work (on a CPU they sleep); 0: "
+               "sleep between polls only",
                "--spin-window");
 }
 

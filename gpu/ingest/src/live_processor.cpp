@@ -1,6 +1,7 @@
 #include "ioct/gpu/ingest/live_processor.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cinttypes>
 #include <cstdio>
 #include <sstream>
@@ -14,6 +15,7 @@
 #include "ioct/concurrency/spin_pause.hpp"
 #include "ioct/gpu/ingest/live_pipeline.hpp"
 #include "ioct/gpu/ingest/run_summary_json.hpp"
+#include "ioct/gpu/latest_wins_worker.hpp"
 #include "ioct/gpu/processing/group_check.hpp"
 #include "ioct/gpu/volume/png_file.hpp"
 #include "ioct/shm/ring_attach.hpp"
@@ -90,7 +92,10 @@ class LiveProcessor::Session final : public LiveEvents {
     const std::uint64_t limit_ns = seconds_to_ns(config_.run_s);
     const std::uint64_t status_ns = seconds_to_ns(config_.status_interval_s);
     const std::uint64_t poll_ns = seconds_to_ns(config_.poll_interval_s);
-    const std::uint64_t spin_ns = seconds_to_ns(config_.spin_window_s);
+    // Awake around the next group only where a GPU processes it
+    // (concurrency/arrival_forecast.hpp says why not on a CPU).
+    const std::uint64_t spin_ns =
+        backend_name() == "cuda" ? seconds_to_ns(config_.spin_window_s) : 0;
     for (;;) {
       if (owner_.stop_.load(std::memory_order_relaxed)) return StopReason::stop_requested;
       const std::uint64_t now = ioct::monotonic_ns();
@@ -132,8 +137,7 @@ class LiveProcessor::Session final : public LiveEvents {
     poll_started_ns_ = ioct::monotonic_ns();
     pipeline_->drain(*this);
     write_pending_images();  // a volume the device pipeline reported after its last group
-    const std::uint64_t now = ioct::monotonic_ns();
-    if (!images_) {
+    if (!images_submitted_) {
       // No volume completed (a short run, or the stream ended mid-volume): show what arrived,
       // gaps zeroed, rather than nothing.
       const Volume* volume = nullptr;
@@ -142,7 +146,10 @@ class LiveProcessor::Session final : public LiveEvents {
         write_pending_images();
       }
     }
+    image_writer_.stop();  // the files the summary names are on disk
+    const std::uint64_t now = ioct::monotonic_ns();
     if (config_.status_interval_s > 0) print_status(now);
+    report_image_failures();
     RunSummary summary;
     if (owner_.stage_ != nullptr && finish_stage) {
       summary.stages = owner_.stage_->finish(config_.out_dir);
@@ -151,6 +158,7 @@ class LiveProcessor::Session final : public LiveEvents {
     summary.geometry = geometry_;
     summary.seconds = static_cast<double>(now - started_ns_) / kNsPerS;
     summary.counters = counters();
+    add_image_counts(summary.counters);
     summary.latency = latency_total_;
     summary.images = images_;
     summary.status_flags_seen = status_flags_seen_;
@@ -162,6 +170,7 @@ class LiveProcessor::Session final : public LiveEvents {
   void on_volume(const Volume& volume, const VolumeInfo& info) override {
     const std::uint64_t begin = ioct::monotonic_ns();
     ++counters_.volumes_completed;
+    owner_.volumes_completed_.store(counters_.volumes_completed, std::memory_order_release);
     if (!info.complete()) {
       ++counters_.volumes_with_gaps;
       // Its gaps were zeroed: the stage takes the whole volume with the next group handed to
@@ -279,24 +288,36 @@ class LiveProcessor::Session final : public LiveEvents {
     pending_ = std::move(pending);
   }
 
+  // The files are written on the image writer's thread: a busy disk must not hold up the loop.
   void write_pending_images() {
     if (!pending_) return;
-    PendingImages pending = std::move(*pending_);
-    pending_.reset();
-    try {
+    images_submitted_ = true;
+    image_writer_.submit([this, pending = std::move(*pending_)] {
       write_png_gray8(pending.set.bscan_png, pending.bscan);
-      ++counters_.images_written;
+      image_files_written_.fetch_add(1, std::memory_order_relaxed);
       write_png_gray8(pending.set.enface_png, pending.enface);
-      ++counters_.images_written;
-      images_ = pending.set;
-    } catch (const std::exception& e) {
-      ++counters_.image_errors;
-      note_problem(e.what());
-    }
-    owner_.volumes_completed_.store(counters_.volumes_completed, std::memory_order_release);
+      image_files_written_.fetch_add(1, std::memory_order_relaxed);
+      images_ = pending.set;  // read after image_writer_.stop()
+    });
+    pending_.reset();
+  }
+
+  void add_image_counts(LiveCounters& c) const {
+    const LatestWinsWorker::Counts images = image_writer_.counts();
+    c.images_written = image_files_written_.load(std::memory_order_relaxed);
+    c.images_replaced = 2 * images.replaced;  // a bscan.png and an enface.png each
+    c.image_errors = images.failed;
+  }
+
+  void report_image_failures() {
+    const LatestWinsWorker::Counts images = image_writer_.counts();
+    if (images.failed == image_failures_reported_) return;
+    image_failures_reported_ = images.failed;
+    note_problem(images.problem);
   }
 
   void print_status(std::uint64_t now) {
+    report_image_failures();
     const LiveCounters c = counters();
     const double interval = static_cast<double>(now - last_status_ns_) / kNsPerS;
     const double groups_per_s =
@@ -332,13 +353,17 @@ class LiveProcessor::Session final : public LiveEvents {
   std::uint64_t ingest_ns_ = 0;        // the last group's: read, process, place
   bool stage_needs_whole_volume_ = false;
   std::optional<PendingImages> pending_;
-  std::optional<ImageSet> images_;
+  bool images_submitted_ = false;
+  std::optional<ImageSet> images_;  // the last set written (by the image writer's thread)
+  std::atomic<std::uint64_t> image_files_written_{0};
+  std::uint64_t image_failures_reported_ = 0;
   std::uint32_t status_flags_seen_ = 0;
   std::string last_problem_;
   int problems_printed_ = 0;
   std::uint64_t started_ns_ = 0;
   std::uint64_t last_status_ns_ = 0;
   std::uint64_t last_processed_ = 0;
+  LatestWinsWorker image_writer_;  // last: stopped before the members its tasks use go
 };
 
 void LiveProcessor::set_db_range(const DbScaleConfig& scale) {

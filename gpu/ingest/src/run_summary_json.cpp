@@ -77,6 +77,7 @@ nlohmann::json to_json(const RunSummary& s) {
     j["images"] = nullptr;
   }
   j["images_written"] = c.images_written;
+  j["images_replaced"] = c.images_replaced;
   j["image_errors"] = c.image_errors;
   j["status_flags_seen"] = status_flag_names(s.status_flags_seen);
   j["stage_errors"] = c.stage_errors;

@@ -36,7 +36,7 @@ FramePublisher::FramePublisher(const shm::FrameRingConfig& ring, int nice, doubl
       bscan_encoder_(90, kEncodeBands, encode_pool_),
       tip_bscans_encoder_(90, kEncodeBands, encode_pool_),
       nice_(nice) {
-  spin_ns_ = ioct::seconds_to_ns(spin_window_s);
+  set_spin_window(spin_window_s);
   status_.source_state = static_cast<std::uint64_t>(shm::SourceState::waiting);
   {
     std::lock_guard lock(mutex_);
@@ -49,6 +49,10 @@ FramePublisher::FramePublisher(const shm::FrameRingConfig& ring, int nice, doubl
     close();  // the encoding thread is joined: a joinable thread must not be destroyed
     throw;
   }
+}
+
+void FramePublisher::set_spin_window(double spin_window_s) noexcept {
+  spin_ns_.store(ioct::seconds_to_ns(spin_window_s), std::memory_order_relaxed);
 }
 
 FramePublisher::~FramePublisher() {
@@ -223,7 +227,8 @@ void FramePublisher::encode_frames() {
   for (;;) {
     ViewSlot* slot = next_waiting_locked();
     while (slot == nullptr && !frames_stopping_) {
-      wait_for_next(lock, frame_wake_, frame_arrivals_, frames_handed_, spin_ns_, UINT64_MAX);
+      wait_for_next(lock, frame_wake_, frame_arrivals_, frames_handed_,
+                    spin_ns_.load(std::memory_order_relaxed), UINT64_MAX);
       slot = next_waiting_locked();
     }
     if (slot == nullptr) return;  // stopping, with nothing left to write

@@ -26,7 +26,6 @@
 #include "device_stage_chain.hpp"
 #include "forecast_wait.hpp"
 #include "frame_instrument.hpp"
-#include "live_image_writer.hpp"
 #include "thread_nice.hpp"
 
 namespace ioct::gpu::live {
@@ -124,7 +123,8 @@ VolumeStages::VolumeStages(VolumeStagesConfig config)
     shm::FrameRingConfig ring;
     ring.name = config_.frame_ring;
     ring.group = config_.frame_group;
-    publisher_ = std::make_unique<FramePublisher>(ring, config_.nice, config_.spin_window_s);
+    // Asleep only until the stages know whether a GPU renders (make_backends).
+    publisher_ = std::make_unique<FramePublisher>(ring, config_.nice, 0.0);
   }
   thread_ = std::thread([this] { work(); });
 }
@@ -209,13 +209,12 @@ void VolumeStages::work() {
       // New groups, a change, the next frame due (auto-rotation, a view that stopped moving) or
       // the stop, whichever comes first.
       bool views_due = false;
-      const std::uint64_t spin_ns = ioct::seconds_to_ns(config_.spin_window_s);
       for (;;) {
         const std::uint64_t now = ioct::monotonic_ns();
         const std::uint64_t due = have_volume_ ? views_.next_due_ns(now) : UINT64_MAX;
         views_due = due <= now;
         if (stop_ || dirty_groups_ > 0 || views_due) break;
-        wait_for_next(lock, wake_, handovers_, handed_over_, spin_ns,
+        wait_for_next(lock, wake_, handovers_, handed_over_, spin_ns_,
                       due == UINT64_MAX ? UINT64_MAX : due - now);
       }
       if (dirty_groups_ == 0 && stop_) return;  // stopped with nothing pending
@@ -288,6 +287,11 @@ bool VolumeStages::make_backends() {
     const bool cpu_renderer = renderer_->backend_name() == "cpu";
     uses_device_ = filter_->backend_name() == "cuda" || segmenter_->backend_name() == "cuda" ||
                    renderer_->backend_name() == "cuda";
+    // Awake around the next group and frame only where a GPU does the work
+    // (concurrency/arrival_forecast.hpp says why not on a CPU).
+    spin_ns_ = uses_device_ ? ioct::seconds_to_ns(config_.spin_window_s) : 0;
+    if (publisher_ != nullptr)
+      publisher_->set_spin_window(uses_device_ ? config_.spin_window_s : 0.0);
     // CUDA stages (and CUDA detection, which reads the chain's unfiltered input in place) keep
     // the volume on the device; any CPU stage takes host volumes.
     auto device = DeviceStageChain::make(*filter_, render_filter_.get(), *segmenter_, *renderer_,
@@ -618,8 +622,9 @@ void VolumeStages::write_live_image(std::uint64_t now_ns) {
     return;
   }
   last_image_ns_ = now_ns;
-  if (!image_writer_) image_writer_ = std::make_unique<LiveImageWriter>(config_.live_image);
-  image_writer_->submit(image_);
+  if (!image_writer_) image_writer_ = std::make_unique<LatestWinsWorker>();
+  image_writer_->submit(
+      [path = config_.live_image, image = image_] { render::write_png(path, image); });
 }
 
 ViewParams VolumeStages::params() const {
@@ -710,7 +715,7 @@ nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
   }
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();  // after the pending B-scans' pass
-  LiveImageWriter::Counts live_images;
+  LatestWinsWorker::Counts live_images;
   if (image_writer_) {
     image_writer_->stop();  // before finish's own render.png
     live_images = image_writer_->counts();
@@ -768,7 +773,7 @@ nlohmann::json VolumeStages::finish(const std::filesystem::path& out_dir) {
   j["frames_replaced"] = frames.replaced;
   j["frame_errors"] = f.frame_errors + frames.errors;
   j["frame_problem"] = frames.problem.empty() ? f.frame_problem : frames.problem;
-  j["live_images_written"] = live_images.written;
+  j["live_images_written"] = live_images.done;
   if (live_images.failed > 0) {
     j["live_images_failed"] = live_images.failed;
     j["live_image_problem"] = live_images.problem;

@@ -65,8 +65,9 @@ struct LiveCounters {
   std::uint64_t volumes_with_gaps = 0;  // completed with B-scans missing (zeroed)
   std::uint64_t volumes_abandoned = 0;  // their end never arrived
   std::uint64_t images_written = 0;     // PNG files
-  std::uint64_t image_errors = 0;
-  std::uint64_t stage_errors = 0;  // hand-overs to the live stage that failed
+  std::uint64_t images_replaced = 0;    // PNG files not written: a newer volume's came first
+  std::uint64_t image_errors = 0;       // sets of files whose writing failed
+  std::uint64_t stage_errors = 0;       // hand-overs to the live stage that failed
   std::uint64_t dropped() const noexcept { return dropped_lapped + dropped_behind; }
 };
 

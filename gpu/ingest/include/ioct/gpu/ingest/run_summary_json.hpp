@@ -13,7 +13,8 @@ namespace ioct::gpu {
 //   groups_per_second, ascans_per_second, bscans_rejected,
 //   volumes{completed, with_gaps, abandoned}, latency_ms{count, p50, p99, max},
 //   images{bscan, enface, volume_index, complete, bscans_missing, bscan_shown, zero_fraction,
-//          saturated_fraction} or null, images_written, image_errors, status_flags_seen[],
+//          saturated_fraction} or null, images_written, images_replaced, image_errors,
+//          status_flags_seen[],
 //   last_problem.
 nlohmann::json to_json(const RunSummary& summary);
 

@@ -43,6 +43,9 @@ class FramePublisher {
   // `spin_window_s` of when the next frame is due (forecast from the last ones; 0: asleep only).
   explicit FramePublisher(const shm::FrameRingConfig& ring, int nice = 0,
                           double spin_window_s = 0.0);
+  // Changes that window (0: asleep only) for the frames after this: the stages set it once they
+  // know whether a GPU renders.
+  void set_spin_window(double spin_window_s) noexcept;
   ~FramePublisher();  // close()
   FramePublisher(const FramePublisher&) = delete;
   FramePublisher& operator=(const FramePublisher&) = delete;
@@ -141,7 +144,7 @@ class FramePublisher {
   std::uint64_t frames_came_ = 0;
   std::atomic<std::uint64_t> frames_handed_{0};  // every frame handed over, replaced or not
   ArrivalForecast frame_arrivals_;
-  std::uint64_t spin_ns_ = 0;
+  std::atomic<std::uint64_t> spin_ns_{0};
   std::uint64_t replaced_ = 0;
   bool frames_stopping_ = false;
   render::RgbaImage encoding_;

@@ -48,6 +48,7 @@
 #include "ioct/gpu/instruments/instrument_config.hpp"
 #include "ioct/gpu/instruments/instrument_findings.hpp"
 #include "ioct/gpu/instruments/tip_bscans.hpp"
+#include "ioct/gpu/latest_wins_worker.hpp"
 #include "ioct/gpu/live_stages/view_control.hpp"
 #include "ioct/gpu/live_stages/view_set.hpp"
 #include "ioct/gpu/processing/oct_processor.hpp"
@@ -75,7 +76,6 @@ class InstrumentDetector;
 namespace ioct::gpu::live {
 
 class DeviceStageChain;
-class LiveImageWriter;
 
 // One pass, as the benchmarks see it: CLOCK_MONOTONIC ns when it took its B-scans and when each
 // stage's work was done (on the device: when the device finished it).
@@ -131,7 +131,8 @@ struct VolumeStagesConfig {
   int nice = 10;
   // Awake and polling this long on each side of when the next group's hand-over is due
   // (concurrency/arrival_forecast.hpp), so the pass starts without a sleeping thread's wake-up;
-  // 0: wait asleep only. ioct-gpu sets it from ring.spin_window_s, as the live loop's.
+  // 0: wait asleep only. Only where a stage runs on the GPU (on a CPU the threads sleep).
+  // ioct-gpu sets it from ring.spin_window_s, as the live loop's.
   double spin_window_s = 1e-3;
   // Called on the stages' thread after every pass (benchmarks, tests); keep it short.
   std::function<void(const StagesPass&)> on_pass;
@@ -276,8 +277,8 @@ class VolumeStages final : public LiveStage, public ViewControl {
   // the host path its volume render_filtered_, kept only while the renderer holds it.
   std::unique_ptr<filters::VolumeFilter> render_filter_;
   Volume render_filtered_;
-  bool renderer_bscan_median_ = false;             // host path: the renderer holds render_filtered_
-  std::unique_ptr<LiveImageWriter> image_writer_;  // render.png, off the stages' thread
+  bool renderer_bscan_median_ = false;  // host path: the renderer holds render_filtered_
+  std::unique_ptr<LatestWinsWorker> image_writer_;  // render.png, off the stages' thread
   Volume input_;
   Volume filtered_;
   segmentation::Surfaces surfaces_;
@@ -290,7 +291,8 @@ class VolumeStages final : public LiveStage, public ViewControl {
   std::uint32_t bscan_shown_ = 0;
   std::uint64_t last_render_ns_ = 0;
   std::uint64_t last_image_ns_ = 0;
-  bool uses_device_ = false;  // a stage runs on the GPU: its memory is reported
+  bool uses_device_ = false;   // a stage runs on the GPU: its memory is reported
+  std::uint64_t spin_ns_ = 0;  // the stages' thread's spin window: config's on the GPU, else 0
   std::uint64_t last_memory_ns_ = 0;
 
   std::thread thread_;
