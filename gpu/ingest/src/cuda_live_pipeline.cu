@@ -125,6 +125,7 @@ struct CudaLivePipeline::Impl {
   struct Snapshot {
     std::uint32_t volume = 0;  // in the host volume pool
     VolumeInfo info;
+    cuda::Event copied;  // on the snapshot stream
   };
   // A group whose processing is enqueued, until its last write has landed.
   struct Landing {
@@ -203,6 +204,7 @@ struct CudaLivePipeline::Impl {
   ~Impl() {
     cudaStreamSynchronize(copy_stream.get());
     cudaStreamSynchronize(processor.stream());
+    cudaStreamSynchronize(snapshot_stream.get());
   }
 
   std::size_t bscan_bytes() const { return std::size_t{volume_ascans} * depth; }
@@ -222,14 +224,23 @@ struct CudaLivePipeline::Impl {
     }
   }
 
-  // Copies the volume as it is now to a host volume, on the processing stream (so before any
-  // later group writes into it).
+  // Copies the volume as it is now to a host volume, on a stream of its own: the group that
+  // completed the volume lands (and goes to the stages) without waiting for the whole volume to
+  // cross the bus (45 MB, about 0.9 ms, at the default geometry); the next group's processing
+  // waits for the copy instead (process()), so no later group writes into what it reads.
   void snapshot(const VolumeInfo& info, Landing& landing) {
     const std::uint32_t index = host_volumes.acquire(book.positions(), volume_ascans, depth);
     const std::span<std::uint8_t> pixels = host_volumes.volume(index).pixels();
+    IOCT_CUDA_CHECK(cudaEventRecord(volume_placed.get(), processor.stream()));
+    IOCT_CUDA_CHECK(cudaStreamWaitEvent(snapshot_stream.get(), volume_placed.get(), 0));
     IOCT_CUDA_CHECK(cudaMemcpyAsync(pixels.data(), volume.data(), pixels.size(),
-                                    cudaMemcpyDeviceToHost, processor.stream()));
-    landing.snapshots.push_back(Snapshot{index, info});
+                                    cudaMemcpyDeviceToHost, snapshot_stream.get()));
+    Snapshot& s = landing.snapshots.emplace_back();
+    s.volume = index;
+    s.info = info;
+    IOCT_CUDA_CHECK(cudaEventRecord(s.copied.get(), snapshot_stream.get()));
+    IOCT_CUDA_CHECK(cudaEventRecord(snapshot_read.get(), snapshot_stream.get()));
+    snapshot_pending = true;
   }
 
   void deliver(const Snapshot& s, LiveEvents& events) {
@@ -237,17 +248,22 @@ struct CudaLivePipeline::Impl {
     host_volumes.release(s.volume);
   }
 
-  // Reports the groups whose processing has completed, in order.
+  // Reports the groups whose processing has completed, in order, and then the volumes they
+  // completed whose host copies have landed: the stages take a group before the volume's host
+  // copy is turned into images (tens of ms on the CPU, 1 group in 8).
   bool retire(LiveEvents& events) {
     bool any = false;
     while (!landing.empty() && landing.front().landed.done()) {
       Landing& l = landing.front();
       buffers[l.buffer].busy = false;
-      // The group first, then the volume it completed: the stages take the group before the
-      // volume's host copy is turned into images (tens of ms on the CPU, 1 group in 8).
       events.on_group(l.header, l.placed);
-      for (const Snapshot& s : l.snapshots) deliver(s, events);
+      for (Snapshot& s : l.snapshots) copied_snapshots.push_back(std::move(s));
       landing.pop_front();
+      any = true;
+    }
+    while (!copied_snapshots.empty() && copied_snapshots.front().copied.done()) {
+      deliver(copied_snapshots.front(), events);
+      copied_snapshots.pop_front();
       any = true;
     }
     return any;
@@ -297,6 +313,10 @@ struct CudaLivePipeline::Impl {
       IOCT_CUDA_CHECK(cudaStreamWaitEvent(s, reads_done.get(), 0));
       reads_pending = false;
     }
+    if (snapshot_pending) {  // and the last volume's host copy
+      IOCT_CUDA_CHECK(cudaStreamWaitEvent(s, snapshot_read.get(), 0));
+      snapshot_pending = false;
+    }
     processor.enqueue_transform(header, buffers[buffer].raw.data(), buffers[buffer].copied.get());
     landing.emplace_back();
     Landing& l = landing.back();
@@ -333,6 +353,11 @@ struct CudaLivePipeline::Impl {
   cuda::Stream readback_stream;         // copy_bscans()
   cuda::Event reads_done;
   bool reads_pending = false;
+  cuda::Stream snapshot_stream;  // completed volumes' host copies
+  cuda::Event volume_placed;     // the copy waits for the volume's last placement
+  cuda::Event snapshot_read;     // the next group's writes wait for the copy
+  bool snapshot_pending = false;
+  std::deque<Snapshot> copied_snapshots;  // their groups reported, their copies under way
   std::uint64_t version = 0;
   std::optional<std::uint64_t> last_epoch;
 };
@@ -381,6 +406,7 @@ void CudaLivePipeline::drain(LiveEvents& events) {
     m.finish_copy(events, false);
   }
   IOCT_CUDA_CHECK(cudaStreamSynchronize(m.processor.stream()));
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(m.snapshot_stream.get()));
   m.retire(events);
 }
 
@@ -391,7 +417,7 @@ std::optional<VolumeInfo> CudaLivePipeline::seal_partial(const Volume*& volume) 
   Impl::DevicePixels pixels(m, nullptr, sealed, true);
   const std::optional<VolumeInfo> info = m.book.seal_partial(pixels);
   if (!info) return std::nullopt;
-  IOCT_CUDA_CHECK(cudaStreamSynchronize(m.processor.stream()));
+  IOCT_CUDA_CHECK(cudaEventSynchronize(sealed.snapshots.front().copied.get()));
   if (m.sealed) m.host_volumes.release(*m.sealed);
   m.sealed = sealed.snapshots.front().volume;  // kept until the next call
   volume = &m.host_volumes.volume(*m.sealed);
