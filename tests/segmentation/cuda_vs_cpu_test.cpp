@@ -12,6 +12,8 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <type_traits>
+#include <vector>
 
 #include "ioct/gpu/filters/volume_filter.hpp"
 #include "ioct/gpu/offline/heidelberg_vol.hpp"
@@ -84,11 +86,17 @@ void expect_same_surfaces(const Surfaces& cpu, const Surfaces& cuda, FloatAgreem
 void expect_same_memory(const VolumeMemory& cpu, const VolumeMemory& cuda, std::uint32_t bscans,
                         FloatAgreement& agreement) {
   const std::size_t n = static_cast<std::size_t>(bscans) * cpu.ascans;
-  const auto first_difference = [](const auto& a, const auto& b, std::size_t count) {
+  const auto text = [](auto value) {
+    if constexpr (std::is_enum_v<decltype(value)>) {
+      return std::to_string(static_cast<int>(value));
+    } else {
+      return std::to_string(value);
+    }
+  };
+  const auto first_difference = [&](const auto& a, const auto& b, std::size_t count) {
     for (std::size_t i = 0; i < count; ++i) {
       if (a[i] != b[i]) {
-        return "[" + std::to_string(i) + "]: cpu " + std::to_string(a[i]) + ", cuda " +
-               std::to_string(b[i]);
+        return "[" + std::to_string(i) + "]: cpu " + text(a[i]) + ", cuda " + text(b[i]);
       }
     }
     return std::string();
@@ -103,6 +111,17 @@ void expect_same_memory(const VolumeMemory& cpu, const VolumeMemory& cuda, std::
   compare_floats(part(cpu.rpe), part(cuda.rpe), agreement, "raw rpe");
   compare_floats(part(cpu.bm), part(cuda.bm), agreement, "raw bm");
   compare_floats(part(cpu.confidence), part(cuda.confidence), agreement, "raw confidence");
+  // What the sweeps remember (finishing.hpp).
+  ASSERT_EQ(cpu.clock.sweep, cuda.clock.sweep);
+  ASSERT_EQ(cpu.clock.last_first, cuda.clock.last_first);
+  ASSERT_EQ(first_difference(cpu.fits_sweep, cuda.fits_sweep, bscans), "") << "fits' sweeps";
+  ASSERT_EQ(first_difference(cpu.finished, cuda.finished, n), "") << "finished kinds";
+  ASSERT_EQ(first_difference(cpu.remembered_frame, cuda.remembered_frame, n), "") << "frames";
+  ASSERT_EQ(first_difference(cpu.remembered_measured, cuda.remembered_measured, n), "")
+      << "remembered sweeps";
+  compare_floats(part(cpu.remembered_ilm), part(cuda.remembered_ilm), agreement, "remembered ilm");
+  compare_floats(part(cpu.remembered_rpe), part(cuda.remembered_rpe), agreement, "remembered rpe");
+  compare_floats(part(cpu.remembered_bm), part(cuda.remembered_bm), agreement, "remembered bm");
 }
 #endif
 
@@ -111,33 +130,43 @@ void report(const char* name, const FloatAgreement& a) {
               a.values, a.different, static_cast<double>(a.max_difference));
 }
 
-// Segments `volume` group by group on both backends, comparing after every group.
-void compare_group_by_group(const Volume& volume, const VolumeSampling& sampling,
-                            std::uint32_t group, const char* name) {
+// Segments `volumes` one after the other (as the sweeps of a live volume) group by group on
+// both backends, comparing after every group.
+void compare_group_by_group(const std::vector<const Volume*>& volumes,
+                            const VolumeSampling& sampling, std::uint32_t group, const char* name) {
 #if IOCT_SEGMENTATION_HAVE_CUDA
   CpuSegmenter cpu({}, sampling, 2);
   CudaSegmenter cuda({}, sampling);
   Surfaces cpu_surfaces;
   Surfaces cuda_surfaces;
   FloatAgreement agreement;
-  for (std::uint32_t first = 0; first < volume.bscans(); first += group) {
-    const BscanSpan span{first, std::min(group, volume.bscans() - first)};
-    const BscanSpan a = cpu.segment_group(volume, span, cpu_surfaces);
-    const BscanSpan b = cuda.segment_group(volume, span, cuda_surfaces);
-    ASSERT_EQ(a, b);
-    SCOPED_TRACE("after group " + std::to_string(first));
-    expect_same_surfaces(cpu_surfaces, cuda_surfaces, agreement);
-    VolumeMemory cuda_memory;
-    cuda.download_memory(cuda_memory);
-    expect_same_memory(cpu.memory(), cuda_memory, span.end(), agreement);
+  for (std::size_t k = 0; k < volumes.size(); ++k) {
+    const Volume& volume = *volumes[k];
+    for (std::uint32_t first = 0; first < volume.bscans(); first += group) {
+      const BscanSpan span{first, std::min(group, volume.bscans() - first)};
+      const BscanSpan a = cpu.segment_group(volume, span, cpu_surfaces);
+      const BscanSpan b = cuda.segment_group(volume, span, cuda_surfaces);
+      ASSERT_EQ(a, b);
+      SCOPED_TRACE("volume " + std::to_string(k) + ", after group " + std::to_string(first));
+      expect_same_surfaces(cpu_surfaces, cuda_surfaces, agreement);
+      VolumeMemory cuda_memory;
+      cuda.download_memory(cuda_memory);
+      expect_same_memory(cpu.memory(), cuda_memory, k > 0 ? volume.bscans() : span.end(),
+                         agreement);
+    }
   }
   report(name, agreement);
 #else
-  (void)volume;
+  (void)volumes;
   (void)sampling;
   (void)group;
   (void)name;
 #endif
+}
+
+void compare_group_by_group(const Volume& volume, const VolumeSampling& sampling,
+                            std::uint32_t group, const char* name) {
+  compare_group_by_group(std::vector<const Volume*>{&volume}, sampling, group, name);
 }
 
 VolumeSampling raster_sampling(double axial_um) {
@@ -176,6 +205,30 @@ TEST_F(CudaVsCpu, SimulatedRetinaWithInstrumentsInGroupsOfEight) {
   spec.simulation.instruments.push_back(scraper);
   const seg_test::SimulatedVolume v = seg_test::make_simulated_volume(spec);
   compare_group_by_group(v.volume, raster_sampling(v.axial_um_per_px), 8, "instruments");
+}
+
+// Two volumes, the forceps moved over the fovea and the retina 0.01 of the depth deeper in the
+// second: its shadow carried from the first (finishing.hpp, carried_fit).
+TEST_F(CudaVsCpu, ShadowCarriedFromThePreviousVolumeInGroupsOfSixteen) {
+  seg_test::SimulatedVolumeSpec first = raster_spec();
+  sim::InstrumentConfig forceps;
+  forceps.pose.tip_x = -0.6f;
+  forceps.pose.tip_y = 0.1f;
+  forceps.pose.tip_depth_fraction = 0.45f;
+  forceps.pose.yaw_deg = 180.0f;
+  first.simulation.instruments.push_back(forceps);
+  seg_test::SimulatedVolumeSpec second = raster_spec();
+  second.simulation.seed = 2;
+  second.simulation.retina.rpe_depth_fraction += 0.01;
+  forceps.pose.tip_x = 0.06f;
+  forceps.pose.tip_y = -0.25f;
+  forceps.pose.yaw_deg = 90.0f;
+  forceps.pose.jaw_opening_deg = 30.0f;
+  second.simulation.instruments.push_back(forceps);
+  const seg_test::SimulatedVolume v1 = seg_test::make_simulated_volume(first);
+  const seg_test::SimulatedVolume v2 = seg_test::make_simulated_volume(second);
+  compare_group_by_group({&v1.volume, &v2.volume, &v2.volume}, raster_sampling(v2.axial_um_per_px),
+                         16, "carried");
 }
 
 TEST_F(CudaVsCpu, BlackSaturatedAndOddSizedVolumes) {

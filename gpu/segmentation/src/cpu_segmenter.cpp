@@ -95,6 +95,7 @@ BscanSpan CpuSegmenter::segment_group(const Volume& volume, BscanSpan group, Sur
     memory_.reset(volume.bscans(), volume.ascans(), volume.depth());
     surfaces.reset(volume.bscans(), volume.ascans(), volume.depth());
   }
+  detail::advance_sweep(memory_.clock, static_cast<int>(group.first));
   // Every coarse search of the group first: each fine search takes its neighbours' as a prior.
   pool_.run(group.count, [&](std::uint32_t i, unsigned worker) {
     coarse_bscan(volume, group.first + i, workspaces_[worker]);
@@ -118,18 +119,23 @@ BscanSpan CpuSegmenter::segment_group(const Volume& volume, BscanSpan group, Sur
                                         static_cast<float>(sampling_.bscan_spacing_um),
                                         params_.bridge_bscans,
                                         params_.smooth};
+  const detail::RememberedFits remembered = memory_.remembered();
   pool_.run(outputs.count, [&](std::uint32_t i, unsigned) {
     const std::uint32_t b = outputs.first + i;
     surfaces.verdict[b] = static_cast<BscanVerdict>(memory_.verdict[b]);
     for (std::uint32_t a = 0; a < volume.ascans(); ++a) {
       const detail::FinishedAscan f =
-          detail::finish_ascan(raw, settings, static_cast<int>(b), static_cast<int>(a));
+          detail::finish_ascan(raw, remembered, settings, static_cast<int>(b), static_cast<int>(a));
       const std::size_t k = surfaces.index(b, a);
       surfaces.ilm[k] = f.ilm;
       surfaces.rpe[k] = f.rpe;
       surfaces.bm[k] = f.bm;
       surfaces.confidence[k] = f.confidence;
       surfaces.state[k] = f.state;
+      memory_.finished_ilm[k] = f.ilm;
+      memory_.finished_rpe[k] = f.rpe;
+      memory_.finished_bm[k] = f.bm;
+      memory_.finished[k] = f.kind;
     }
   });
   return outputs;
@@ -240,11 +246,21 @@ void CpuSegmenter::fine_bscan(const Volume& volume, std::uint32_t bscan, Workspa
       detail::histogram_quantile(ilm_histogram.data(), static_cast<std::uint32_t>(ascans), 1, 2);
   const int typical_thickness = detail::histogram_quantile(
       thickness_histogram.data(), static_cast<std::uint32_t>(ascans), 1, 2);
+  const std::uint32_t fits_sweep = memory_.fits_sweep[bscan];
+  const bool remember = detail::first_search_in_sweep(fits_sweep, memory_.clock.sweep);
+  const detail::RememberSlots slots = memory_.remember_slots();
   int confident = 0;
   for (std::int32_t a = 0; a < p.ascans; ++a) {
     const detail::ColumnFit& fit = fits[a];
     const float confidence = detail::column_confidence(fit, typical_rpe, typical_ilm);
     confident += confidence >= 0.5f ? 1 : 0;
+    const std::size_t i = row + a;
+    if (remember) {
+      detail::remember_fit(
+          slots, static_cast<int>(i), fits_sweep, memory_.finished[i],
+          {memory_.ilm[i], memory_.rpe[i], memory_.bm[i]},
+          {memory_.finished_ilm[i], memory_.finished_rpe[i], memory_.finished_bm[i]});
+    }
     memory_.ilm[row + a] = fit.ilm;
     memory_.rpe[row + a] = fit.rpe;
     memory_.bm[row + a] = fit.bm;
@@ -255,6 +271,7 @@ void CpuSegmenter::fine_bscan(const Volume& volume, std::uint32_t bscan, Workspa
                              p.min_contrast, typical_thickness, p.min_thickness);
   memory_.verdict[bscan] =
       static_cast<std::uint8_t>(retina ? BscanVerdict::retina : BscanVerdict::no_retina);
+  memory_.fits_sweep[bscan] = memory_.clock.sweep;
 }
 
 }  // namespace ioct::gpu::segmentation

@@ -56,6 +56,7 @@ struct CoarseCostJob {
   const std::uint8_t* volume;
   std::uint32_t* histograms;  // [group][cost block][bins]
   std::int32_t* cost;         // [group][coarse column][cell]
+  detail::SweepClock* clock;  // advanced by the first block, read by the fits
   int first;
   SegmentationParams p;
 };
@@ -71,6 +72,9 @@ __global__ void coarse_cost_kernel(CoarseCostJob job) {
   const int first_pair = blockIdx.x * kPairsPerCostBlock;
   const int first_column = first_pair * kCoarsePair;
   const int columns = min(kPairsPerCostBlock * kCoarsePair, p.ascans - first_column);
+  if (blockIdx.x == 0 && blockIdx.y == 0 && threadIdx.x == 0) {
+    detail::advance_sweep(*job.clock, job.first);
+  }
   std::uint8_t* px = staged;
   std::uint8_t* levels =
       staged + static_cast<std::size_t>(kPairsPerCostBlock) * kCoarsePair * p.depth;
@@ -324,6 +328,16 @@ struct FitJob {
   float* confidence;
   std::uint8_t* verdict;    // [bscan]
   std::uint8_t* contrasts;  // scratch [group][ascan][3]: rpe, ilm, choroid
+  // Before the fits are replaced, the first search of a B-scan in a sweep remembers what its
+  // last finishing found, measured or carried (finishing.hpp, remember_fit); the verdicts then
+  // note the sweep of the new fits.
+  const detail::SweepClock* clock;
+  std::uint32_t* fits_sweep;  // [bscan]
+  const detail::FinishedKind* finished;
+  const float* finished_ilm;  // the surfaces
+  const float* finished_rpe;
+  const float* finished_bm;
+  detail::RememberSlots remembered;
   int first;
   SegmentationParams p;
 };
@@ -340,6 +354,13 @@ __global__ void fit_kernel(FitJob job) {
   const detail::ColumnFit fit =
       detail::fit_column(column, p.depth, job.ilm_px[group_row + a], job.rpe_px[group_row + a],
                          job.floors[b], p.ilm_level);
+  const std::uint32_t fits_sweep = job.fits_sweep[b];
+  if (detail::first_search_in_sweep(fits_sweep, job.clock->sweep)) {
+    const int i = static_cast<int>(row) + a;
+    detail::remember_fit(job.remembered, i, fits_sweep, job.finished[i],
+                         {job.ilm[i], job.rpe[i], job.bm[i]},
+                         {job.finished_ilm[i], job.finished_rpe[i], job.finished_bm[i]});
+  }
   job.ilm[row + a] = fit.ilm;
   job.rpe[row + a] = fit.rpe;
   job.bm[row + a] = fit.bm;
@@ -404,6 +425,7 @@ __global__ void verdict_kernel(FitJob job) {
                                p.min_contrast, typical[2], p.min_thickness);
     job.verdict[b] =
         static_cast<std::uint8_t>(retina ? BscanVerdict::retina : BscanVerdict::no_retina);
+    job.fits_sweep[b] = job.clock->sweep;
   }
 }
 
@@ -473,12 +495,14 @@ __global__ void band_cost_kernel(BandCostJob job) {
 
 struct FinishJob {
   detail::RawFits raw;
+  detail::RememberedFits remembered;
   detail::FinishSettings settings;
   float* ilm;
   float* rpe;
   float* bm;
   float* confidence;
   SurfaceState* state;
+  detail::FinishedKind* finished;
   BscanVerdict* verdict;
   int first;        // first output B-scan
   int group_first;  // the group's B-scans
@@ -498,13 +522,14 @@ __global__ void finish_kernel(FinishJob job) {
       detail::is_measured(job.raw, job.settings, b, a)) {
     return;
   }
-  const detail::FinishedAscan f = detail::finish_ascan(job.raw, job.settings, b, a);
+  const detail::FinishedAscan f = detail::finish_ascan(job.raw, job.remembered, job.settings, b, a);
   const std::size_t k = static_cast<std::size_t>(b) * job.raw.ascans + a;
   job.ilm[k] = f.ilm;
   job.rpe[k] = f.rpe;
   job.bm[k] = f.bm;
   job.confidence[k] = f.confidence;
   job.state[k] = f.state;
+  job.finished[k] = f.kind;
 }
 
 // The search kernels by step bound: [0] any bound, [k] a bound of k px (or cells).
@@ -533,6 +558,11 @@ struct CudaSegmenter::DeviceState {
   cuda::DeviceArray<std::uint8_t> coarse_valid, floors;
   cuda::DeviceArray<std::uint8_t> raw_verdict;  // BscanVerdict values, as the kernels write them
   cuda::DeviceArray<float> raw_ilm, raw_rpe, raw_bm, raw_confidence;
+  cuda::DeviceArray<detail::SweepClock> clock;  // one
+  cuda::DeviceArray<std::uint32_t> fits_sweep;  // [bscan]
+  cuda::DeviceArray<float> remembered_ilm, remembered_rpe, remembered_bm;
+  cuda::DeviceArray<std::uint32_t> remembered_frame, remembered_measured;
+  cuda::DeviceArray<detail::FinishedKind> finished;  // (the surfaces are the finished values)
   // Surfaces.
   cuda::DeviceArray<float> ilm, rpe, bm, confidence;
   cuda::DeviceArray<SurfaceState> state;
@@ -547,6 +577,21 @@ struct CudaSegmenter::DeviceState {
   // The groups' launches captured as CUDA graphs, by volume, group and stream.
   std::map<std::tuple<const void*, std::uint32_t, std::uint32_t, cudaStream_t>, cudaGraphExec_t>
       graphs;
+
+  // No sweep so far, nothing remembered (a zero SweepClock is its initial state; the rest is
+  // cleared as the CPU's memory is, for download_memory).
+  void forget_sweeps(cudaStream_t stream) {
+    const std::size_t n = static_cast<std::size_t>(bscans) * ascans;
+    IOCT_CUDA_CHECK(cudaMemsetAsync(clock.data(), 0, sizeof(detail::SweepClock), stream));
+    IOCT_CUDA_CHECK(cudaMemsetAsync(fits_sweep.data(), 0, bscans * sizeof(std::uint32_t), stream));
+    IOCT_CUDA_CHECK(cudaMemsetAsync(finished.data(), 0, n, stream));
+    for (auto* slots : {&remembered_ilm, &remembered_rpe, &remembered_bm}) {
+      IOCT_CUDA_CHECK(cudaMemsetAsync(slots->data(), 0, n * sizeof(float), stream));
+    }
+    for (auto* sweeps : {&remembered_frame, &remembered_measured}) {
+      IOCT_CUDA_CHECK(cudaMemsetAsync(sweeps->data(), 0, n * sizeof(std::uint32_t), stream));
+    }
+  }
 
   void destroy_graphs() noexcept {
     for (auto& [key, graph] : graphs) cudaGraphExecDestroy(graph);
@@ -629,6 +674,7 @@ void CudaSegmenter::forget() {
   if (d.bscans == 0) return;
   IOCT_CUDA_CHECK(cudaMemsetAsync(d.coarse_valid.data(), 0, d.bscans, stream_));
   IOCT_CUDA_CHECK(cudaMemsetAsync(d.raw_verdict.data(), 0, d.bscans, stream_));
+  d.forget_sweeps(stream_);
 }
 
 void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uint32_t depth) {
@@ -655,6 +701,14 @@ void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uin
   d.raw_bm = device_array<float>(n);
   d.raw_confidence = device_array<float>(n);
   d.raw_verdict = device_array<std::uint8_t>(bscans);
+  d.clock = device_array<detail::SweepClock>(1);
+  d.fits_sweep = device_array<std::uint32_t>(bscans);
+  d.remembered_ilm = device_array<float>(n);
+  d.remembered_rpe = device_array<float>(n);
+  d.remembered_bm = device_array<float>(n);
+  d.remembered_frame = device_array<std::uint32_t>(n);
+  d.remembered_measured = device_array<std::uint32_t>(n);
+  d.finished = device_array<detail::FinishedKind>(n);
   d.ilm = device_array<float>(n);
   d.rpe = device_array<float>(n);
   d.bm = device_array<float>(n);
@@ -688,6 +742,7 @@ void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uin
   d.bscans = bscans;
   d.ascans = ascans;
   d.depth = depth;
+  d.forget_sweeps(stream_);
 }
 
 namespace {
@@ -772,7 +827,8 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
   const int count = static_cast<int>(group.count);
   const int first = static_cast<int>(group.first);
   {
-    const CoarseCostJob job{device_volume, d.histograms.data(), d.coarse_cost.data(), first, p};
+    const CoarseCostJob job{
+        device_volume, d.histograms.data(), d.coarse_cost.data(), d.clock.data(), first, p};
     const dim3 grid(
         static_cast<unsigned>((p.coarse_columns + kPairsPerCostBlock - 1) / kPairsPerCostBlock),
         static_cast<unsigned>(count));
@@ -849,6 +905,14 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
     job.confidence = d.raw_confidence.data();
     job.verdict = d.raw_verdict.data();
     job.contrasts = d.contrasts.data();
+    job.clock = d.clock.data();
+    job.fits_sweep = d.fits_sweep.data();
+    job.finished = d.finished.data();
+    job.finished_ilm = d.ilm.data();
+    job.finished_rpe = d.rpe.data();
+    job.finished_bm = d.bm.data();
+    job.remembered = {d.remembered_ilm.data(), d.remembered_rpe.data(), d.remembered_bm.data(),
+                      d.remembered_frame.data(), d.remembered_measured.data()};
     job.first = first;
     job.p = p;
     const dim3 grid(static_cast<unsigned>((p.ascans + kFitThreads - 1) / kFitThreads),
@@ -866,6 +930,9 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
         detail::RawFits{d.raw_ilm.data(),          d.raw_rpe.data(),     d.raw_bm.data(),
                         d.raw_confidence.data(),   d.raw_verdict.data(), static_cast<int>(d.bscans),
                         static_cast<int>(d.ascans)};
+    job.remembered = {d.remembered_ilm.data(),      d.remembered_rpe.data(),
+                      d.remembered_bm.data(),       d.remembered_frame.data(),
+                      d.remembered_measured.data(), d.fits_sweep.data()};
     job.settings = detail::FinishSettings{p.min_confidence,
                                           p.smooth_tolerance_px,
                                           static_cast<float>(sampling_.ascan_spacing_um),
@@ -877,6 +944,7 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
     job.bm = d.bm.data();
     job.confidence = d.confidence.data();
     job.state = d.state.data();
+    job.finished = d.finished.data();
     job.verdict = d.verdict.data();
     job.first = static_cast<int>(outputs.first);
     job.group_first = first;
@@ -975,6 +1043,17 @@ void CudaSegmenter::download_memory(VolumeMemory& memory) {
   copy(memory.bm.data(), d.raw_bm.data(), n * sizeof(float));
   copy(memory.confidence.data(), d.raw_confidence.data(), n * sizeof(float));
   copy(memory.verdict.data(), d.raw_verdict.data(), d.bscans);
+  copy(memory.finished_ilm.data(), d.ilm.data(), n * sizeof(float));
+  copy(memory.finished_rpe.data(), d.rpe.data(), n * sizeof(float));
+  copy(memory.finished_bm.data(), d.bm.data(), n * sizeof(float));
+  copy(memory.finished.data(), d.finished.data(), n);
+  copy(&memory.clock, d.clock.data(), sizeof(detail::SweepClock));
+  copy(memory.fits_sweep.data(), d.fits_sweep.data(), d.bscans * sizeof(std::uint32_t));
+  copy(memory.remembered_ilm.data(), d.remembered_ilm.data(), n * sizeof(float));
+  copy(memory.remembered_rpe.data(), d.remembered_rpe.data(), n * sizeof(float));
+  copy(memory.remembered_bm.data(), d.remembered_bm.data(), n * sizeof(float));
+  copy(memory.remembered_frame.data(), d.remembered_frame.data(), n * sizeof(std::uint32_t));
+  copy(memory.remembered_measured.data(), d.remembered_measured.data(), n * sizeof(std::uint32_t));
   IOCT_CUDA_CHECK(cudaStreamSynchronize(stream_));
 }
 

@@ -16,10 +16,12 @@
 // and for every B-scan the group's results reach:
 //   5. measured A-scans smoothed over their 3 x 3 neighbourhood (across B-scans too); A-scans of
 //      low confidence (an instrument's shadow) bridged from the nearest measured A-scans along the
-//      B-scan and across B-scans, weighted by inverse lateral distance.
+//      B-scan and across B-scans, weighted by inverse lateral distance, or, where an earlier
+//      volume measured them, carried from it, moved by the retina's axial motion since.
 //
 // A segmenter keeps the intermediate results of the volume it last worked on (the neighbours'
-// coarse RPE, the unsmoothed fits), so groups of a live volume go in one after the other.
+// coarse RPE, the unsmoothed fits, the measured fits of earlier sweeps), so groups of a live
+// volume go in one after the other.
 #pragma once
 
 #include <cstdint>

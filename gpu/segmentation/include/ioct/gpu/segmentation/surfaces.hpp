@@ -11,8 +11,9 @@
 //
 // Each A-scan also carries a confidence in [0, 1] (how clear the evidence in its own column is)
 // and a state: measured (from the column's own evidence), bridged (evidence too weak, e.g. under
-// an instrument's shadow: interpolated from the measured A-scans around it) or none (no retina in
-// this B-scan: anterior segment, air, a blank or saturated image). Surfaces are NaN for none.
+// an instrument's shadow: interpolated from the measured A-scans around it, or carried from an
+// earlier volume that measured it) or none (no retina in this B-scan: anterior segment, air, a
+// blank or saturated image). Surfaces are NaN for none.
 #pragma once
 
 #include <cstddef>
@@ -25,7 +26,8 @@ namespace ioct::gpu::segmentation {
 enum class SurfaceState : std::uint8_t {
   none = 0,      // no retina found in this B-scan (or not segmented yet): surfaces NaN
   measured = 1,  // from the A-scan's own evidence
-  bridged = 2,   // evidence too weak (shadow, dropout): interpolated from measured neighbours
+  bridged = 2,   // evidence too weak (shadow, dropout): inferred from measured neighbours or an
+                 // earlier volume
 };
 
 // What one B-scan held after segmentation.

@@ -1,11 +1,13 @@
 // What a segmenter remembers of the volume it works on, between groups: per B-scan the coarse
 // RPE (the neighbours' prior) and the background level, and the unsmoothed fits that smoothing
-// and bridging read from the B-scans around.
+// and bridging read from the B-scans around; across sweeps over the volume, each A-scan's last
+// measured fits of an earlier sweep, which bridging carries into a shadow (finishing.hpp).
 #pragma once
 
 #include <cstdint>
 #include <vector>
 
+#include "ioct/gpu/segmentation/finishing.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
 
 namespace ioct::gpu::segmentation {
@@ -22,6 +24,28 @@ struct VolumeMemory {
   std::vector<float> bm;
   std::vector<float> confidence;
   std::vector<std::uint8_t> verdict;  // [bscan]: BscanVerdict
+  // What the last finishing gave each A-scan [bscan][ascan] (the surfaces, their kind).
+  std::vector<float> finished_ilm;
+  std::vector<float> finished_rpe;
+  std::vector<float> finished_bm;
+  std::vector<detail::FinishedKind> finished;
+  detail::SweepClock clock;
+  std::vector<std::uint32_t> fits_sweep;  // [bscan]: the sweep of its fits; 0: not searched
+  // Per A-scan, fits of an earlier sweep (detail::RememberSlots).
+  std::vector<float> remembered_ilm;
+  std::vector<float> remembered_rpe;
+  std::vector<float> remembered_bm;
+  std::vector<std::uint32_t> remembered_frame;
+  std::vector<std::uint32_t> remembered_measured;
+
+  detail::RememberSlots remember_slots() {
+    return {remembered_ilm.data(), remembered_rpe.data(), remembered_bm.data(),
+            remembered_frame.data(), remembered_measured.data()};
+  }
+  detail::RememberedFits remembered() const {
+    return {remembered_ilm.data(),   remembered_rpe.data(),      remembered_bm.data(),
+            remembered_frame.data(), remembered_measured.data(), fits_sweep.data()};
+  }
 
   bool fits(std::uint32_t b, std::uint32_t a, std::uint32_t d) const noexcept {
     return bscans == b && ascans == a && depth == d;
@@ -39,6 +63,17 @@ struct VolumeMemory {
     bm.assign(n, 0.0f);
     confidence.assign(n, 0.0f);
     verdict.assign(b, static_cast<std::uint8_t>(BscanVerdict::not_segmented));
+    finished_ilm.assign(n, 0.0f);
+    finished_rpe.assign(n, 0.0f);
+    finished_bm.assign(n, 0.0f);
+    finished.assign(n, detail::FinishedKind::none);
+    clock = {};
+    fits_sweep.assign(b, 0);
+    remembered_ilm.assign(n, 0.0f);
+    remembered_rpe.assign(n, 0.0f);
+    remembered_bm.assign(n, 0.0f);
+    remembered_frame.assign(n, 0);
+    remembered_measured.assign(n, 0);
   }
 };
 
