@@ -159,6 +159,7 @@ struct CudaLivePipeline::Impl {
     }
     void flush() {
       if (header_ == nullptr || end_ == 0) return;
+      m_.after_snapshot();
       target_.pixels = m_.volume.data();
       m_.processor.enqueue_pixels(*header_, first_, end_, target_);
       target_.position.fill(-1);
@@ -209,7 +210,16 @@ struct CudaLivePipeline::Impl {
 
   std::size_t bscan_bytes() const { return std::size_t{volume_ascans} * depth; }
 
+  // The volume is about to be written on the processing stream: after the last volume's host copy
+  // has read it (the transform before it overlaps the copy; only the writes wait).
+  void after_snapshot() {
+    if (!snapshot_pending) return;
+    IOCT_CUDA_CHECK(cudaStreamWaitEvent(processor.stream(), snapshot_read.get(), 0));
+    snapshot_pending = false;
+  }
+
   void zero_missing(const std::vector<bool>& placed) {
+    after_snapshot();
     const std::size_t stride = bscan_bytes();
     for (std::uint32_t p = 0; p < placed.size();) {
       if (placed[p]) {
@@ -226,8 +236,8 @@ struct CudaLivePipeline::Impl {
 
   // Copies the volume as it is now to a host volume, on a stream of its own: the group that
   // completed the volume lands (and goes to the stages) without waiting for the whole volume to
-  // cross the bus (45 MB, about 0.9 ms, at the default geometry); the next group's processing
-  // waits for the copy instead (process()), so no later group writes into what it reads.
+  // cross the bus (45 MB, about 0.9 ms, at the default geometry); the next writes into the volume
+  // wait for the copy instead (after_snapshot()), so nothing overwrites what it reads.
   void snapshot(const VolumeInfo& info, Landing& landing) {
     const std::uint32_t index = host_volumes.acquire(book.positions(), volume_ascans, depth);
     const std::span<std::uint8_t> pixels = host_volumes.volume(index).pixels();
@@ -312,10 +322,6 @@ struct CudaLivePipeline::Impl {
     if (reads_pending) {  // the volume is about to be written: readers first
       IOCT_CUDA_CHECK(cudaStreamWaitEvent(s, reads_done.get(), 0));
       reads_pending = false;
-    }
-    if (snapshot_pending) {  // and the last volume's host copy
-      IOCT_CUDA_CHECK(cudaStreamWaitEvent(s, snapshot_read.get(), 0));
-      snapshot_pending = false;
     }
     processor.enqueue_transform(header, buffers[buffer].raw.data(), buffers[buffer].copied.get());
     landing.emplace_back();
