@@ -26,12 +26,6 @@ using gpu::segmentation::Surfaces;
 using gpu::segmentation::SurfaceState;
 using gpu::segmentation::VolumeSampling;
 
-constexpr double kMaxMeanError = 1.0;
-constexpr double kMaxP99 = 3.0;
-// The RPE nowhere further off, shadowed A-scans next to an instrument included: a fit there is
-// either right or bridged from fits that are.
-constexpr double kMaxRpeError = 8.0;
-
 // 32 B-scans of 512 A-scans spaced like the default 128 x 512 raster of the +-3 mm field: a
 // quarter of its height, about the scan centre.
 SimulatedVolumeSpec raster_spec(float center_y = 0.0f) {

@@ -27,10 +27,6 @@ using gpu::segmentation::Surfaces;
 using gpu::segmentation::SurfaceState;
 using gpu::segmentation::VolumeSampling;
 
-// The accuracy test's limits (accuracy_test.cpp), over every A-scan, shadowed ones included.
-constexpr double kMaxMeanError = 1.0;
-constexpr double kMaxP99 = 3.0;
-constexpr double kMaxRpeError = 8.0;
 // Under the shadow, carried: what it reaches (ILM p99 1.65 px, max 1.99 px), with a margin.
 constexpr double kMaxShadowIlmP99 = 2.5;
 constexpr double kMaxShadowIlmError = 3.0;

@@ -9,6 +9,13 @@
 
 namespace ioct::seg_test {
 
+// What every simulated scene is held to, over every A-scan (px): the ILM and RPE mean and 99th
+// percentile errors, and the RPE nowhere further off, shadowed A-scans beside an instrument
+// included (a fit there is either right or bridged from fits that are).
+inline constexpr double kMaxMeanError = 1.0;
+inline constexpr double kMaxP99 = 3.0;
+inline constexpr double kMaxRpeError = 8.0;
+
 struct SurfaceErrors {
   std::size_t compared = 0;  // A-scans where both are finite
   std::size_t missing = 0;   // reference finite, surface NaN
