@@ -643,6 +643,7 @@ CudaSegmenter::CudaSegmenter(const SegmentationConfig& config, const VolumeSampl
     throw BackendUnavailable("backend cuda: " + problem);
   }
   IOCT_CUDA_CHECK(cudaStreamCreateWithFlags(&stream_, cudaStreamNonBlocking));
+  IOCT_CUDA_CHECK(cudaEventCreateWithFlags(&resets_done_, cudaEventDisableTiming));
   int device = 0;
   IOCT_CUDA_CHECK(cudaGetDevice(&device));
   int optin = 0;
@@ -666,7 +667,13 @@ CudaSegmenter::CudaSegmenter(const SegmentationConfig& config, const VolumeSampl
 CudaSegmenter::~CudaSegmenter() {
   if (state_) state_->destroy_graphs();
   state_.reset();
+  if (resets_done_ != nullptr) cudaEventDestroy(resets_done_);
   if (stream_ != nullptr) cudaStreamDestroy(stream_);
+}
+
+void CudaSegmenter::note_resets() {
+  IOCT_CUDA_CHECK(cudaEventRecord(resets_done_, stream_));
+  resets_pending_ = true;
 }
 
 void CudaSegmenter::forget() {
@@ -675,6 +682,7 @@ void CudaSegmenter::forget() {
   IOCT_CUDA_CHECK(cudaMemsetAsync(d.coarse_valid.data(), 0, d.bscans, stream_));
   IOCT_CUDA_CHECK(cudaMemsetAsync(d.raw_verdict.data(), 0, d.bscans, stream_));
   d.forget_sweeps(stream_);
+  note_resets();
 }
 
 void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uint32_t depth) {
@@ -743,6 +751,7 @@ void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uin
   d.ascans = ascans;
   d.depth = depth;
   d.forget_sweeps(stream_);
+  note_resets();
 }
 
 namespace {
@@ -1008,6 +1017,10 @@ BscanSpan CudaSegmenter::segment_group(VolumeRef volume, BscanSpan group, Surfac
     IOCT_CUDA_CHECK(cudaStreamSynchronize(volume.stream()));
   }
   prepare(dims.bscans, dims.ascans, dims.depth);
+  if (resets_pending_) {
+    IOCT_CUDA_CHECK(cudaStreamWaitEvent(volume.stream(), resets_done_, 0));
+    resets_pending_ = false;
+  }
   return enqueue_group(volume.device(), group, volume.stream());
 }
 

@@ -93,6 +93,11 @@ class CudaSegmenter final : public Segmenter {
   static void check_group_span(BscanSpan group, std::uint32_t bscans);
 
   std::unique_ptr<DeviceState> state_;
+  // The memory's resets (prepare, forget) run on stream_; a group on a caller's stream waits for
+  // them (segment_group), so it never runs before them.
+  cudaEvent_t resets_done_ = nullptr;
+  bool resets_pending_ = false;
+  void note_resets();
   const cudaEvent_t* stage_events_ = nullptr;
   bool use_graphs_ = true;
 };
