@@ -4,7 +4,6 @@
 #include <string>
 
 #include "ioct/gpu/instruments/cpu_instrument_detector.hpp"
-#include "ioct/gpu/instruments/tip_finder.hpp"
 #if IOCT_INSTRUMENTS_HAVE_CUDA
 #include "ioct/gpu/instruments/cuda_instrument_detector.hpp"
 #endif
@@ -36,7 +35,7 @@ void InstrumentDetector::detect_group(VolumeRef volume, BscanSpan group,
   if (group.count > 0) {
     classify(volume, group, make_column_params(config_, sampling_, dims.depth), findings);
   }
-  find_tips(findings, surfaces, config_, sampling_);
+  tip_finder_.find(findings, surfaces, config_, sampling_);
 }
 
 void InstrumentDetector::detect_volume(const Volume& volume, const segmentation::Surfaces& surfaces,

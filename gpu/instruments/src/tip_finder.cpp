@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <deque>
 #include <limits>
 #include <vector>
 
@@ -35,10 +36,20 @@ constexpr std::int64_t kSurfaceMarginAscans = 2;
 constexpr double kSideSamples = 8.0;
 constexpr std::int64_t kSideReach = 16;
 
-// The first of kinds[from, n) that is not clear (n if none). Most of a mask is clear: eight
-// A-scans are skipped at a time.
+// The first of kinds[from, n) that is not clear (n if none). Most of a mask is clear: 64, then
+// eight A-scans are skipped at a time.
 std::size_t next_not_clear(const ColumnKind* kinds, std::size_t from, std::size_t n) {
   static_assert(sizeof(ColumnKind) == 1 && static_cast<int>(ColumnKind::clear) == 0);
+  if (from < n && kinds[from] != ColumnKind::clear) return from;  // inside a tool's footprint
+  while (from + 64 <= n) {
+    std::array<std::uint64_t, 8> words{};
+    std::memcpy(words.data(), kinds + from, sizeof words);
+    if ((words[0] | words[1] | words[2] | words[3] | words[4] | words[5] | words[6] | words[7]) !=
+        0) {
+      break;
+    }
+    from += 64;
+  }
   while (from + 8 <= n) {
     std::uint64_t eight = 0;
     std::memcpy(&eight, kinds + from, sizeof eight);
@@ -50,13 +61,39 @@ std::size_t next_not_clear(const ColumnKind* kinds, std::size_t from, std::size_
 }
 
 // An A-scan of the mask: its index, B-scan and A-scan (kept beside the index: recovering them
-// from it takes a division, dearer than the rest of the work on an A-scan).
+// from it takes a division, dearer than the rest of the work on an A-scan), and where it lies en
+// face, um from the first voxel (worked out once, read by every pass over a footprint).
 struct Place {
   std::uint32_t k = 0, b = 0, a = 0;
+  double x = 0.0, y = 0.0;
 };
 
+// A-scan a of B-scan b (index k), the A-scans sx and the B-scans sy um apart.
+Place place_at(std::size_t k, std::uint32_t b, std::uint32_t a, double sx, double sy) {
+  return {static_cast<std::uint32_t>(k), b, a, static_cast<double>(a) * sx,
+          static_cast<double>(b) * sy};
+}
+
+// A region of the mask: its A-scans in the order it grew in, and how many are fully shadowed.
 struct Footprint {
   std::vector<Place> ascans;
+  std::size_t metal = 0;
+};
+
+// Footprints kept from call to call (their A-scans' buffers with them): `used` of them hold this
+// call's regions. A deque: a new one leaves those handed out where they are.
+struct FootprintPool {
+  std::deque<Footprint> all;
+  std::size_t used = 0;
+
+  Footprint& next() {
+    if (used == all.size()) all.emplace_back();
+    Footprint& fp = all[used++];
+    fp.ascans.clear();
+    fp.metal = 0;
+    return fp;
+  }
+  void drop_last() { --used; }
 };
 
 // The 8 neighbours of an A-scan, (B-scan, A-scan) offsets in the order a footprint grows in: its
@@ -89,16 +126,17 @@ int masked_neighbours(const InstrumentFindings& f, std::int64_t b, std::int64_t 
   return count;
 }
 
-// The 8-connected region of the mask around `start`, grown depth first; its A-scans are cleared
-// in `open` (the masked A-scans in no region yet) as they are reached. The stack holds (b, a) in
-// one word: a store per neighbour instead of three.
-Footprint region_of(const InstrumentFindings& f, Place start, ColumnKind* open,
-                    std::vector<std::uint64_t>& stack) {
-  Footprint fp;
+// The 8-connected region of the mask around `start`, grown depth first into `fp`; its A-scans are
+// cleared in `open` (the masked A-scans in no region yet) as they are reached, and the fully
+// shadowed ones counted. The stack holds (b, a) in one word: a store per neighbour instead of
+// three.
+void region_of(const InstrumentFindings& f, Place start, double sx, double sy, ColumnKind* open,
+               std::vector<std::uint64_t>& stack, Footprint& fp) {
   const std::int64_t ascans = f.ascans;
   const auto packed = [](std::int64_t b, std::int64_t a) {
     return static_cast<std::uint64_t>(b) << 32 | static_cast<std::uint64_t>(a);
   };
+  std::size_t metal = open[start.k] == ColumnKind::shadow ? 1 : 0;
   open[start.k] = ColumnKind::clear;
   stack.resize(std::max<std::size_t>(stack.size(), 64));
   std::uint64_t* pending = stack.data();
@@ -110,8 +148,8 @@ Footprint region_of(const InstrumentFindings& f, Place start, ColumnKind* open,
     const auto b = static_cast<std::int64_t>(ba >> 32),
                a = static_cast<std::int64_t>(ba & 0xffffffffu);
     const std::int64_t k = b * ascans + a;
-    fp.ascans.push_back({static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(b),
-                         static_cast<std::uint32_t>(a)});
+    fp.ascans.push_back(place_at(static_cast<std::size_t>(k), static_cast<std::uint32_t>(b),
+                                 static_cast<std::uint32_t>(a), sx, sy));
     if (capacity < top + kNeighbours.size()) {
       stack.resize(2 * capacity);
       pending = stack.data();
@@ -121,6 +159,7 @@ Footprint region_of(const InstrumentFindings& f, Place start, ColumnKind* open,
     const auto visit = [&](std::int64_t db, std::int64_t da) {
       ColumnKind& n = open[k + db * ascans + da];
       const bool reached = is_masked(n);
+      metal += n == ColumnKind::shadow ? 1 : 0;
       n = ColumnKind::clear;
       pending[top] = packed(b + db, a + da);
       top += reached ? 1 : 0;
@@ -141,39 +180,40 @@ Footprint region_of(const InstrumentFindings& f, Place start, ColumnKind* open,
       if (inside_mask(f, b + db, a + da)) visit(db, da);
     }
   }
-  return fp;
+  fp.metal = metal;
 }
 
-// The instruments' footprints, largest first; into `loose` the regions only partly shadowed
-// (each a membrane, a floater, or a paddle's part cut off from its tool: join_paddle_parts).
-std::vector<Footprint> footprints(const InstrumentFindings& f, std::uint32_t min_ascans,
-                                  std::vector<Footprint>& loose) {
-  std::vector<ColumnKind> open = f.mask;
-  std::vector<Footprint> out;
-  std::vector<std::uint64_t> stack;
+// The instruments' footprints (regions of the cleaned mask in `open`, which they leave clear),
+// largest first, into `tools`; into `loose` the regions only partly shadowed (each a membrane, a
+// floater, or a paddle's part cut off from its tool: join_paddle_parts). Both point into `pool`.
+void find_footprints(const InstrumentFindings& f, std::uint32_t min_ascans, double sx, double sy,
+                     ColumnKind* open, std::vector<std::uint64_t>& stack, FootprintPool& pool,
+                     std::vector<Footprint*>& tools, std::vector<const Footprint*>& loose) {
+  pool.used = 0;
+  tools.clear();
+  loose.clear();
   for (std::uint32_t b = 0; b < f.bscans; ++b) {
     const ColumnKind* row = &open[f.index(b, 0)];
     for (std::size_t a = next_not_clear(row, 0, f.ascans); a < f.ascans;
          a = next_not_clear(row, a + 1, f.ascans)) {
       const auto start_a = static_cast<std::uint32_t>(a);
-      Footprint fp = region_of(f, {static_cast<std::uint32_t>(f.index(b, start_a)), b, start_a},
-                               open.data(), stack);
+      Footprint& fp = pool.next();
+      region_of(f, {static_cast<std::uint32_t>(f.index(b, start_a)), b, start_a}, sx, sy, open,
+                stack, fp);
       // Every tool has metal (the scraper's paddle sits on a metal shaft): a footprint only
       // partly shadowed is a membrane or a floater lifted off the retina.
-      const auto metal = std::count_if(fp.ascans.begin(), fp.ascans.end(), [&](const Place& p) {
-        return f.mask[p.k] == ColumnKind::shadow;
-      });
-      if (fp.ascans.size() >= min_ascans && static_cast<std::size_t>(metal) >= min_ascans) {
-        out.push_back(std::move(fp));
-      } else if (metal == 0) {
-        loose.push_back(std::move(fp));
+      if (fp.ascans.size() >= min_ascans && fp.metal >= min_ascans) {
+        tools.push_back(&fp);
+      } else if (fp.metal == 0) {
+        loose.push_back(&fp);
+      } else {
+        pool.drop_last();
       }
     }
   }
-  std::stable_sort(out.begin(), out.end(), [](const Footprint& x, const Footprint& y) {
-    return x.ascans.size() > y.ascans.size();
+  std::stable_sort(tools.begin(), tools.end(), [](const Footprint* x, const Footprint* y) {
+    return x->ascans.size() > y->ascans.size();
   });
-  return out;
 }
 
 // A surface (ILM or RPE, px) at fractional (bscan, ascan) from the nearest unshadowed, measured
@@ -300,8 +340,8 @@ struct Axis {
   double sx = 1.0, sy = 1.0;
   double mx = 0.0, my = 0.0;
   double ux = 1.0, uy = 0.0;
-  double x(const Place& p) const { return static_cast<double>(p.a) * sx; }
-  double y(const Place& p) const { return static_cast<double>(p.b) * sy; }
+  double x(const Place& p) const { return p.x; }
+  double y(const Place& p) const { return p.y; }
   double along(const Place& p) const { return (x(p) - mx) * ux + (y(p) - my) * uy; }
   double across(const Place& p) const { return -(x(p) - mx) * uy + (y(p) - my) * ux; }
 };
@@ -359,6 +399,26 @@ Axis axis_of(const std::vector<Place>& cells, const InstrumentFindings& f, doubl
   return axis;
 }
 
+// Each cell's place along the axis (um), into `along`.
+void places_along(const std::vector<Place>& cells, const Axis& axis, std::vector<double>& along) {
+  const Axis a = axis;  // a local copy: the stores below cannot change it, it stays in registers
+  along.resize(cells.size());
+  double* out = along.data();
+  for (std::size_t i = 0; i < cells.size(); ++i) out[i] = a.along(cells[i]);
+}
+
+// The largest of `values` (-1e300 for none). Four running maxima: one would wait on its own last
+// result at every value.
+double largest(const std::vector<double>& values) {
+  std::array<double, 4> most = {-1e300, -1e300, -1e300, -1e300};
+  std::size_t i = 0;
+  for (; i + 4 <= values.size(); i += 4) {
+    for (std::size_t j = 0; j < 4; ++j) most[j] = std::max(most[j], values[i + j]);
+  }
+  for (; i < values.size(); ++i) most[0] = std::max(most[0], values[i]);
+  return std::max(std::max(most[0], most[1]), std::max(most[2], most[3]));
+}
+
 // The footprint's end: its A-scans within twice the largest radius of its extreme along the axis
 // (all the fit looks at); rim, one lateral sample; the tool's axis across the footprint's axis
 // (the mean offset of the end's last kAxisLengthUm).
@@ -367,36 +427,37 @@ struct End {
   std::vector<double> along;  // each cell's place along the axis (um)
   double s_max = -1e300, rim = 0.0, mid_across = 0.0;
   bool translucent = false;
+  std::vector<double> all_along;  // the footprint's every A-scan's (kept for the next call)
 };
 
-End end_of(const std::vector<Place>& cells, const InstrumentFindings& f, const Axis& axis,
-           double rim) {
-  End end;
+void end_of(const std::vector<Place>& cells, const InstrumentFindings& f, const Axis& axis,
+            double rim, End& end) {
+  end.cells.clear();
+  end.along.clear();
   end.rim = rim;
-  std::vector<double> along(cells.size());
+  std::vector<double>& along = end.all_along;
+  places_along(cells, axis, along);
+  const double s_max = largest(along);
+  end.s_max = s_max;
   for (std::size_t i = 0; i < cells.size(); ++i) {
-    along[i] = axis.along(cells[i]);
-    end.s_max = std::max(end.s_max, along[i]);
-  }
-  for (std::size_t i = 0; i < cells.size(); ++i) {
-    if (along[i] >= end.s_max - 2.0 * kMaxRadiusUm) {
+    if (along[i] >= s_max - 2.0 * kMaxRadiusUm) {
       end.cells.push_back(cells[i]);
       end.along.push_back(along[i]);
     }
   }
   std::size_t mid_count = 0, partial = 0, shadow = 0;
+  double mid_across = 0.0;
   for (std::size_t i = 0; i < end.cells.size(); ++i) {
-    if (end.along[i] >= end.s_max - kAxisLengthUm) {
-      end.mid_across += axis.across(end.cells[i]);
+    if (end.along[i] >= s_max - kAxisLengthUm) {
+      mid_across += axis.across(end.cells[i]);
       ++mid_count;
     }
-    if (end.along[i] >= end.s_max - 2.0 * rim) {
+    if (end.along[i] >= s_max - 2.0 * rim) {
       (f.mask[end.cells[i].k] == ColumnKind::partial ? partial : shadow) += 1;
     }
   }
-  end.mid_across /= static_cast<double>(mid_count);
+  end.mid_across = mid_across / static_cast<double>(mid_count);
   end.translucent = partial > shadow;
-  return end;
 }
 
 // A shadowed A-scan of the end: along and across (from the rim) the axis in um, its reflex in px.
@@ -406,8 +467,9 @@ struct Reflex {
 
 // Nearest the extreme first: a sphere sees only those in front of its centre, a prefix of this
 // list that grows with its radius.
-std::vector<Reflex> reflexes_of(const End& end, const InstrumentFindings& f, const Axis& axis) {
-  std::vector<Reflex> reflexes;
+void reflexes_of(const End& end, const InstrumentFindings& f, const Axis& axis,
+                 std::vector<Reflex>& reflexes) {
+  reflexes.clear();
   for (std::size_t i = 0; i < end.cells.size(); ++i) {
     const Place& c = end.cells[i];
     if (f.mask[c.k] == ColumnKind::shadow) {
@@ -416,7 +478,6 @@ std::vector<Reflex> reflexes_of(const End& end, const InstrumentFindings& f, con
   }
   std::sort(reflexes.begin(), reflexes.end(),
             [](const Reflex& x, const Reflex& y) { return x.s > y.s; });
-  return reflexes;
 }
 
 // How steeply the tool rises towards its shaft, behind a point of its axis: the tangent of its
@@ -431,7 +492,8 @@ constexpr std::size_t kMinRiseSlopes = 5;
 
 struct Rise {
   double first = 0.0, bin = 1.0;
-  std::vector<double> behind;  // [bin]: the tangent behind the bin's start
+  std::vector<double> behind;              // [bin]: the tangent behind the bin's start
+  std::vector<double> top, sorted_slopes;  // rise_of's own (kept for the next call)
   double at(double s) const {
     if (behind.empty() || s <= first) return 0.0;
     const auto i = static_cast<std::size_t>((s - first) / bin);
@@ -439,12 +501,13 @@ struct Rise {
   }
 };
 
-Rise rise_of(const std::vector<Reflex>& reflexes, const End& end, double um_per_px_medium) {
-  Rise rise;
+void rise_of(const std::vector<Reflex>& reflexes, const End& end, double um_per_px_medium,
+             Rise& rise) {
   rise.first = end.s_max - 2.0 * kMaxRadiusUm;
   rise.bin = end.rim;
   const auto bins = static_cast<std::size_t>(std::ceil((end.s_max - rise.first) / end.rim)) + 1;
-  std::vector<double> top(bins, std::numeric_limits<double>::infinity());
+  std::vector<double>& top = rise.top;
+  top.assign(bins, std::numeric_limits<double>::infinity());
   for (const Reflex& r : reflexes) {
     if (r.s < rise.first) continue;
     const auto i = std::min(bins - 1, static_cast<std::size_t>((r.s - rise.first) / end.rim));
@@ -454,19 +517,19 @@ Rise rise_of(const std::vector<Reflex>& reflexes, const End& end, double um_per_
       std::max<std::size_t>(1, static_cast<std::size_t>(kRiseBaseUm / end.rim));
   const double per_base = um_per_px_medium / (static_cast<double>(apart) * end.rim);
   rise.behind.assign(bins, 0.0);
-  std::vector<double> slopes, sorted;
+  // The slopes so far, kept sorted: each bin's median is a look-up.
+  std::vector<double>& sorted = rise.sorted_slopes;
+  sorted.clear();
   for (std::size_t i = apart; i < bins; ++i) {
     // Pairs ending before bin i.
     const std::size_t j = i - 1;
     if (j >= apart && std::isfinite(top[j]) && std::isfinite(top[j - apart])) {
-      slopes.push_back((top[j] - top[j - apart]) * per_base);
+      const double slope = (top[j] - top[j - apart]) * per_base;
+      sorted.insert(std::upper_bound(sorted.begin(), sorted.end(), slope), slope);
     }
-    if (slopes.size() < kMinRiseSlopes) continue;
-    sorted = slopes;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    if (sorted.size() < kMinRiseSlopes) continue;
     rise.behind[i] = std::max(0.0, sorted[sorted.size() / 2]);
   }
-  return rise;
 }
 
 // Mask rows [b_lo, b_hi], A-scans [a_lo, a_hi] of each.
@@ -490,9 +553,9 @@ struct SphereGrid {
   double r_lo, r_hi, r_step, e_lo, e_hi, e_step;
 };
 
-std::vector<Sphere> spheres_of(const End& end, const Axis& axis, const InstrumentFindings& f,
-                               double sx, double sy, const SphereGrid& grid) {
-  std::vector<Sphere> spheres;
+void spheres_of(const End& end, const Axis& axis, const InstrumentFindings& f, double sx, double sy,
+                const SphereGrid& grid, std::vector<Sphere>& spheres) {
+  spheres.clear();
   for (double r = grid.r_lo; r <= grid.r_hi; r += grid.r_step) {
     for (double e = grid.e_lo; e < grid.e_hi; e += grid.e_step) {
       Sphere s;
@@ -513,7 +576,6 @@ std::vector<Sphere> spheres_of(const End& end, const Axis& axis, const Instrumen
       spheres.push_back(s);
     }
   }
-  return spheres;
 }
 
 // The spheres' windows together.
@@ -542,8 +604,10 @@ struct Run {
 // The masked A-scans of any run of a row in O(1): per-row prefix counts over a window of the mask.
 class MaskedRuns {
  public:
-  MaskedRuns(const InstrumentFindings& f, const Window& window)
-      : window_(window), stride_(window.a_hi - window.a_lo + 2) {
+  // Over `window` of f's mask (the counts' buffer kept for the next window).
+  void reset(const InstrumentFindings& f, const Window& window) {
+    window_ = window;
+    stride_ = window.a_hi - window.a_lo + 2;
     if (window.empty()) return;
     prefix_.assign(static_cast<std::size_t>((window.b_hi - window.b_lo + 1) * stride_), 0);
     for (std::int64_t b = window.b_lo; b <= window.b_hi; ++b) {
@@ -566,7 +630,7 @@ class MaskedRuns {
 
  private:
   Window window_;
-  std::int64_t stride_;
+  std::int64_t stride_ = 0;
   std::vector<std::uint32_t> prefix_;
 };
 
@@ -647,13 +711,25 @@ class Disc {
   std::int64_t from_, to_, mid_ = 0;
 };
 
+// A row of the mask within reach of a sphere, ahead of its centre: its A-scans there.
+struct ReachedRow {
+  std::int64_t b = 0;
+  DiscRow row;
+  Run in_reach;
+};
+
 // The share of the A-scans in front of the sphere's centre, within reach, whose footprint
 // disagrees with the sphere's: masked outside its disc or clear inside it (1 without any).
+// Where that share cannot make the cost `give_up` or less (mismatch / kFootprintMismatch >=
+// give_up), the rows are left as soon as that is sure, and the share returned is the part found
+// by then: as sure not to win, since the share only grows with more rows. `rows`: a buffer.
 double footprint_mismatch(const Sphere& s, const Axis& axis, const MaskedRuns& masked, double sx,
-                          double sy) {
+                          double sy, double give_up, std::vector<ReachedRow>& rows) {
   const double reach2 = s.reach * s.reach, r2 = s.r * s.r;
   const Disc disc(s, axis, sx);
-  std::int64_t cells = 0, mismatches = 0;
+  // First the A-scans within reach (the share's denominator), then the disc's row by row.
+  rows.clear();
+  std::int64_t cells = 0;
   for (std::int64_t b = s.window.b_lo; b <= s.window.b_hi; ++b) {
     const double dy = static_cast<double>(b) * sy - s.cy;
     const double dy2 = dy * dy;
@@ -667,17 +743,29 @@ double footprint_mismatch(const Sphere& s, const Axis& axis, const MaskedRuns& m
     if (ahead.size() == 0) continue;
     const Run in_reach =
         disc.near(row, ahead, half_chord, [&](double d2) { return !(d2 > reach2); });
-    // d2 >= dy2: no A-scan of a row as far as r from the centre is inside.
-    const Run inside = dy2 >= r2 ? Run{}
-                                 : disc.near(row, in_reach, std::sqrt(r2 - dy2),
-                                             [&](double d2) { return d2 < r2; });
-    // The disc within reach's: its masked A-scans agree, the rest's disagree.
-    const std::int64_t masked_in_reach = masked.count(b, in_reach);
-    const std::int64_t masked_inside = masked.count(b, inside);
     cells += in_reach.size();
-    mismatches += (masked_in_reach - masked_inside) + (inside.size() - masked_inside);
+    rows.push_back({b, row, in_reach});
   }
-  return cells > 0 ? static_cast<double>(mismatches) / static_cast<double>(cells) : 1.0;
+  if (cells == 0) return 1.0;
+  const auto share = [&](std::int64_t mismatches) {
+    return static_cast<double>(mismatches) / static_cast<double>(cells);
+  };
+  std::int64_t mismatches = 0;
+  for (const ReachedRow& reached : rows) {
+    const DiscRow& row = reached.row;
+    // d2 >= dy2: no A-scan of a row as far as r from the centre is inside.
+    const Run inside = row.dy2 >= r2 ? Run{}
+                                     : disc.near(row, reached.in_reach, std::sqrt(r2 - row.dy2),
+                                                 [&](double d2) { return d2 < r2; });
+    // The disc within reach's: its masked A-scans agree, the rest's disagree.
+    const std::int64_t masked_in_reach = masked.count(reached.b, reached.in_reach);
+    const std::int64_t masked_inside = masked.count(reached.b, inside);
+    const std::int64_t row_mismatches =
+        (masked_in_reach - masked_inside) + (inside.size() - masked_inside);
+    mismatches += row_mismatches;
+    if (row_mismatches > 0 && share(mismatches) / kFootprintMismatch >= give_up) break;
+  }
+  return share(mismatches);
 }
 
 // The depths of the sphere's centre its reflexes give: z = zc - (the capsule's top above its axis
@@ -729,24 +817,39 @@ struct Fit {
   double radius = 0.0, center_px = 0.0, cost = 1e300, cs = 0.0;
 };
 
+// What the end's fit works in, kept from call to call.
+struct FitBuffers {
+  End end;
+  std::vector<Reflex> reflexes;
+  Rise rise;
+  std::vector<Sphere> spheres;
+  MaskedRuns masked;
+  std::vector<ReachedRow> reached_rows;
+};
+
 // The rounded end (a capsule's cap, the shape of every metal tool's end): a sphere of radius r
 // whose rim is the footprint's extreme (up to a sample beyond its last A-scan). In front of its
 // centre every reflex lies on the capsule's top (centre_depths). Tried for every r and extreme
 // (coarse, then fine), the one whose reflexes agree best on the centre's depth zc and whose disc
 // matches the footprint best wins (the smallest r of equal costs).
 Fit fit_end(const End& end, const Axis& axis, const InstrumentFindings& f, double sx, double sy,
-            double um_per_px_medium) {
+            double um_per_px_medium, FitBuffers& buffers) {
   Fit best;
-  const std::vector<Reflex> reflexes = reflexes_of(end, f, axis);
+  std::vector<Reflex>& reflexes = buffers.reflexes;
+  reflexes_of(end, f, axis, reflexes);
   if (reflexes.size() < kMinEndReflexes) return best;  // no sphere sees enough
-  const Rise rise = rise_of(reflexes, end, um_per_px_medium);
+  Rise& rise = buffers.rise;
+  rise_of(reflexes, end, um_per_px_medium, rise);
   const auto search = [&](const SphereGrid& grid) {
-    const std::vector<Sphere> spheres = spheres_of(end, axis, f, sx, sy, grid);
-    const MaskedRuns masked(f, covering(spheres));
+    std::vector<Sphere>& spheres = buffers.spheres;
+    spheres_of(end, axis, f, sx, sy, grid, spheres);
+    MaskedRuns& masked = buffers.masked;
+    masked.reset(f, covering(spheres));
     for (const Sphere& s : spheres) {
       // The footprint's share of the cost is a floor to it: a sphere that cannot beat the best
       // so far is not worth its reflexes' square roots.
-      const double mismatch = footprint_mismatch(s, axis, masked, sx, sy);
+      const double mismatch =
+          footprint_mismatch(s, axis, masked, sx, sy, best.cost, buffers.reached_rows);
       if (mismatch / kFootprintMismatch >= best.cost) continue;
       const CentreDepths depths =
           centre_depths(reflexes, s, Pitch(rise.at(s.cs)), um_per_px_medium);
@@ -791,9 +894,11 @@ struct EndTip {
 // A rounded metal end (tip_finder.hpp, 3.), or a translucent end at its rim at the depth of the
 // tool's middle there.
 EndTip tip_of_end(const std::vector<Place>& cells, const InstrumentFindings& f, const Axis& axis,
-                  double sx, double sy, double um_per_px_medium) {
-  const End end = end_of(cells, f, axis, std::min(sx, sy));
-  const Fit fit = end.translucent ? Fit{} : fit_end(end, axis, f, sx, sy, um_per_px_medium);
+                  double sx, double sy, double um_per_px_medium, FitBuffers& buffers) {
+  End& end = buffers.end;
+  end_of(cells, f, axis, std::min(sx, sy), end);
+  const Fit fit =
+      end.translucent ? Fit{} : fit_end(end, axis, f, sx, sy, um_per_px_medium, buffers);
   const bool fitted = fit.cost < 1e300;
   const double tip_s = fitted ? fit.cs : end.s_max + 0.5 * end.rim;
   EndTip tip;
@@ -811,14 +916,25 @@ EndTip tip_of_end(const std::vector<Place>& cells, const InstrumentFindings& f, 
 constexpr double kProngLengthUm = 300.0;
 constexpr std::size_t kMinProngAscans = 12;
 
-std::vector<std::vector<Place>> prongs_of(const std::vector<Place>& cells, const Axis& axis) {
-  std::vector<double> along(cells.size());
-  double s_max = -1e300;
-  for (std::size_t i = 0; i < cells.size(); ++i) {
-    along[i] = axis.along(cells[i]);
-    s_max = std::max(s_max, along[i]);
-  }
-  std::vector<std::size_t> near;
+// An end's prongs (their A-scans' buffers kept from call to call: `count` of them are this
+// call's), and what prongs_of works in.
+struct Prongs {
+  std::vector<std::vector<Place>> all;
+  std::size_t count = 0;
+  std::vector<double> along;
+  std::vector<std::size_t> near, index_of, stack;
+  std::vector<std::uint8_t> grid;
+
+  const std::vector<Place>& operator[](std::size_t i) const { return all[i]; }
+};
+
+void prongs_of(const std::vector<Place>& cells, const Axis& axis, Prongs& prongs) {
+  prongs.count = 0;
+  std::vector<double>& along = prongs.along;
+  places_along(cells, axis, along);
+  const double s_max = largest(along);
+  std::vector<std::size_t>& near = prongs.near;
+  near.clear();
   std::uint32_t b_lo = ~0u, b_hi = 0, a_lo = ~0u, a_hi = 0;
   for (std::size_t i = 0; i < cells.size(); ++i) {
     if (along[i] < s_max - kProngLengthUm) continue;
@@ -828,22 +944,25 @@ std::vector<std::vector<Place>> prongs_of(const std::vector<Place>& cells, const
     a_lo = std::min(a_lo, cells[i].a);
     a_hi = std::max(a_hi, cells[i].a);
   }
-  std::vector<std::vector<Place>> prongs;
-  if (near.empty()) return prongs;
+  if (near.empty()) return;
   // Labels over the parts' bounding box: 0 none, 1 unvisited, 2 visited.
   const std::size_t width = a_hi - a_lo + 1, height = b_hi - b_lo + 1;
-  std::vector<std::uint8_t> grid(width * height, 0);
-  std::vector<std::size_t> index_of(width * height, 0);
+  std::vector<std::uint8_t>& grid = prongs.grid;
+  grid.assign(width * height, 0);
+  std::vector<std::size_t>& index_of = prongs.index_of;
+  index_of.resize(width * height);
   for (const std::size_t i : near) {
     const std::size_t g = (cells[i].b - b_lo) * width + (cells[i].a - a_lo);
     grid[g] = 1;
     index_of[g] = i;
   }
-  std::vector<std::size_t> stack;
+  std::vector<std::size_t>& stack = prongs.stack;
   for (const std::size_t seed : near) {
     const std::size_t g0 = (cells[seed].b - b_lo) * width + (cells[seed].a - a_lo);
     if (grid[g0] != 1) continue;
-    std::vector<Place> prong;
+    if (prongs.count == prongs.all.size()) prongs.all.emplace_back();
+    std::vector<Place>& prong = prongs.all[prongs.count];
+    prong.clear();
     double prong_max = -1e300;
     grid[g0] = 2;
     stack.assign(1, g0);
@@ -868,10 +987,9 @@ std::vector<std::vector<Place>> prongs_of(const std::vector<Place>& cells, const
       }
     }
     if (prong.size() >= kMinProngAscans && prong_max >= s_max - 0.5 * kProngLengthUm) {
-      prongs.push_back(std::move(prong));
+      ++prongs.count;
     }
   }
-  return prongs;
 }
 
 // Classified as partly shadowed by the column code (not grown onto the paddle: extend_paddle).
@@ -880,9 +998,10 @@ bool classified_partial(const InstrumentFindings& f, const Place& c) {
 }
 
 // Half the paddle's height in an A-scan (px, from its front surface to its middle): the median
-// over its classified A-scans; 0 without any.
-double median_half_height(const std::vector<Place>& cells, const InstrumentFindings& f) {
-  std::vector<double> half_heights;
+// over its classified A-scans; 0 without any. `half_heights`: a buffer for them.
+double median_half_height(const std::vector<Place>& cells, const InstrumentFindings& f,
+                          std::vector<double>& half_heights) {
+  half_heights.clear();
   for (const Place& c : cells) {
     if (classified_partial(f, c)) half_heights.push_back(f.reflex_px[c.k] - f.front_px[c.k]);
   }
@@ -949,7 +1068,7 @@ constexpr double kMinPaddleRise = 0.1;
 
 EndTip tip_of_paddle(const std::vector<Place>& cells, const InstrumentFindings& f,
                      const Axis& principal, double sx, double sy, double um_per_px_medium,
-                     Axis& axis) {
+                     Axis& axis, std::vector<double>& scratch) {
   axis = principal;
   const Plane plane = paddle_plane(cells, f, principal);
   const double g = std::hypot(plane.gx, plane.gy);
@@ -969,7 +1088,7 @@ EndTip tip_of_paddle(const std::vector<Place>& cells, const InstrumentFindings& 
   }
   // The footprint ends at the leading face's top edge, which lies h sin p ahead of the face's
   // middle (h: half the paddle's thickness, its half height in an A-scan times cos p).
-  const double half_height = median_half_height(cells, f);
+  const double half_height = median_half_height(cells, f, scratch);
   double ahead = 0.0;
   if (pitched && half_height > 0.0) {
     const double tan_p = g * um_per_px_medium;
@@ -995,7 +1114,8 @@ constexpr double kPaddleOnIlmPx = 3.0;
 // How far ahead of a paddle's classified part it is looked for (um along its axis).
 constexpr double kPaddleReachUm = 300.0;
 
-void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, const Axis& principal) {
+void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, const Axis& principal,
+                   std::vector<Place>& pending, std::vector<double>& scratch) {
   if (s.bscans != f.bscans || s.ascans != f.ascans) return;
   const Plane plane = paddle_plane(fp.ascans, f, principal);
   const double g = std::hypot(plane.gx, plane.gy);
@@ -1007,7 +1127,7 @@ void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, cons
     return s.state[k] == SurfaceState::measured && std::isfinite(s.ilm[k]) ? double{s.ilm[k]}
                                                                            : std::nan("");
   };
-  const double height = median_half_height(fp.ascans, f);
+  const double height = median_half_height(fp.ascans, f, scratch);
   if (!(height > 0.0)) return;
   // Within the paddle's width and kPaddleReachUm ahead of its classified part: further on, the
   // front's plane meets the retina ahead of the paddle.
@@ -1022,23 +1142,22 @@ void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, cons
     const std::size_t k = f.index(static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a));
     if (f.mask[k] != ColumnKind::clear) return false;
     const double ilm = ilm_at(k);
-    const Place p{static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(b),
-                  static_cast<std::uint32_t>(a)};
+    const Place p =
+        place_at(k, static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a), axis.sx, axis.sy);
     const double across = axis.across(p);
     return std::isfinite(ilm) && axis.along(p) <= s_max + kPaddleReachUm && across >= lo &&
            across <= hi &&
            std::abs(plane.at(axis.x(p), axis.y(p)) - ilm - height) <= kPaddleOnIlmPx;
   };
-  std::vector<Place> pending = fp.ascans;
+  pending = fp.ascans;
   while (!pending.empty()) {
     const Place c = pending.back();
     pending.pop_back();
     for (const auto& [db, da] : kNeighbours) {
       const std::int64_t b = std::int64_t{c.b} + db, a = std::int64_t{c.a} + da;
       if (!inside_mask(f, b, a) || !on_paddle(b, a)) continue;
-      const Place p{static_cast<std::uint32_t>(
-                        f.index(static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a))),
-                    static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a)};
+      const auto pb = static_cast<std::uint32_t>(b), pa = static_cast<std::uint32_t>(a);
+      const Place p = place_at(f.index(pb, pa), pb, pa, axis.sx, axis.sy);
       f.mask[p.k] = ColumnKind::partial;
       f.reflex_px[p.k] = static_cast<float>(plane.at(axis.x(p), axis.y(p)));
       fp.ascans.push_back(p);
@@ -1071,12 +1190,13 @@ Axis steepest_axis(const std::vector<Place>& cells, const InstrumentFindings& f,
 // width, from kPaddleReachUm behind the footprint's extreme up to the face's), their reflexes on
 // the plane: the segmented ILM there may be the paddle's, not to be taken for the retina's.
 
-void join_paddle_parts(Footprint& fp, const std::vector<Footprint>& loose, InstrumentFindings& f,
-                       const Surfaces& surfaces, const Axis& principal) {
+void join_paddle_parts(Footprint& fp, const std::vector<const Footprint*>& loose,
+                       InstrumentFindings& f, const Surfaces& surfaces, const Axis& principal,
+                       std::vector<double>& scratch) {
   if (surfaces.bscans != f.bscans || surfaces.ascans != f.ascans) return;
   const Plane plane = paddle_plane(fp.ascans, f, principal);
   const double g = std::hypot(plane.gx, plane.gy);
-  const double half_height = median_half_height(fp.ascans, f);
+  const double half_height = median_half_height(fp.ascans, f, scratch);
   if (!plane.valid || !(g > 0.0) || !(half_height > 0.0)) return;
   Axis axis = principal;
   axis.ux = plane.gx / g;
@@ -1089,8 +1209,8 @@ void join_paddle_parts(Footprint& fp, const std::vector<Footprint>& loose, Instr
     hi = std::max(hi, axis.across(c));
   }
   double face_max = -1e300;
-  for (const Footprint& part : loose) {
-    const bool on_face = std::all_of(part.ascans.begin(), part.ascans.end(), [&](const Place& c) {
+  for (const Footprint* part : loose) {
+    const bool on_face = std::all_of(part->ascans.begin(), part->ascans.end(), [&](const Place& c) {
       const double s = axis.along(c), across = axis.across(c);
       const double above = plane.at(axis.x(c), axis.y(c)) - f.reflex_px[c.k];
       // Above the segmented ILM: not speckle inside the retina, which the plane meets further on.
@@ -1101,7 +1221,7 @@ void join_paddle_parts(Footprint& fp, const std::vector<Footprint>& loose, Instr
              above >= -kPaddleOnIlmPx && above <= half_height + kPaddleOnIlmPx;
     });
     if (!on_face) continue;
-    for (const Place& c : part.ascans) {
+    for (const Place& c : part->ascans) {
       f.mask[c.k] = ColumnKind::partial;
       fp.ascans.push_back(c);
       face_max = std::max(face_max, axis.along(c));
@@ -1117,7 +1237,7 @@ void join_paddle_parts(Footprint& fp, const std::vector<Footprint>& loose, Instr
   }
   for (std::uint32_t b = b_lo; b <= b_hi; ++b) {
     for (std::uint32_t a = a_lo; a <= a_hi; ++a) {
-      const Place c{static_cast<std::uint32_t>(f.index(b, a)), b, a};
+      const Place c = place_at(f.index(b, a), b, a, axis.sx, axis.sy);
       const double s = axis.along(c), across = axis.across(c);
       if (f.mask[c.k] != ColumnKind::clear || s < s_max - kPaddleReachUm || s > face_max ||
           across < lo || across > hi) {
@@ -1149,61 +1269,73 @@ InstrumentTip finish_tip(const Footprint& fp, const EndTip& end, const Axis& axi
 
 // A footprint, its principal axis and its end along that axis.
 struct Tool {
-  Footprint fp;
+  Footprint* fp = nullptr;
   Axis principal;
   End whole;
 };
 
+// What tip_of works in, kept from call to call.
+struct TipBuffers {
+  Prongs prongs, bisector_prongs;
+  End steepest_end;
+  std::vector<Place> near;
+  FitBuffers fit;
+  std::vector<double> scratch;
+};
+
 InstrumentTip tip_of(const Tool& tool, const InstrumentFindings& f, const InstrumentConfig& config,
-                     const VolumeSampling& sampling) {
+                     const VolumeSampling& sampling, TipBuffers& buffers) {
   const double sx = sampling.ascan_spacing_um, sy = sampling.bscan_spacing_um;
   const double um_per_px_medium = sampling.axial_um_per_px / config.medium_group_index;
-  const Footprint& fp = tool.fp;
+  const Footprint& fp = *tool.fp;
   const Axis& principal = tool.principal;
   const End& whole = tool.whole;
   Axis axis = principal;
   EndTip end;
   if (whole.translucent) {
-    end = tip_of_paddle(fp.ascans, f, principal, sx, sy, um_per_px_medium, axis);
+    end = tip_of_paddle(fp.ascans, f, principal, sx, sy, um_per_px_medium, axis, buffers.scratch);
     return finish_tip(fp, end, axis, sampling);
   }
-  std::vector<std::vector<Place>> prongs = prongs_of(whole.cells, principal);
+  const Prongs* prongs = &buffers.prongs;
+  prongs_of(whole.cells, principal, buffers.prongs);
   Axis bisector = principal;
-  if (prongs.size() < 2) {
+  if (prongs->count < 2) {
     // Open jaws whose shaft is out of the field make a V as wide as it is long: its principal
     // axis may run across it. Both jaws deepen towards their ends: the reflexes' steepest
     // direction is the V's bisector.
     const Axis steepest = steepest_axis(fp.ascans, f, principal);
     if (steepest.ux != principal.ux || steepest.uy != principal.uy) {
-      std::vector<std::vector<Place>> found =
-          prongs_of(end_of(fp.ascans, f, steepest, std::min(sx, sy)).cells, steepest);
-      if (found.size() >= 2) {
-        prongs = std::move(found);
+      end_of(fp.ascans, f, steepest, std::min(sx, sy), buffers.steepest_end);
+      prongs_of(buffers.steepest_end.cells, steepest, buffers.bisector_prongs);
+      if (buffers.bisector_prongs.count >= 2) {
+        prongs = &buffers.bisector_prongs;
         bisector = steepest;
       }
     }
   }
-  if (prongs.size() >= 2) {
+  if (prongs->count >= 2) {
     // An open forceps: the tip is the middle of its jaws' ends (instrument_truth.hpp).
-    for (const std::vector<Place>& prong : prongs) {
+    for (std::size_t i = 0; i < prongs->count; ++i) {
+      const std::vector<Place>& prong = (*prongs)[i];
       Axis own = axis_of(prong, f, sx, sy);
       if (own.ux * bisector.ux + own.uy * bisector.uy < 0.0) {
         own.ux = -own.ux;
         own.uy = -own.uy;
       }
-      const EndTip t = tip_of_end(prong, f, own, sx, sy, um_per_px_medium);
+      const EndTip t = tip_of_end(prong, f, own, sx, sy, um_per_px_medium, buffers.fit);
       end.x += t.x;
       end.y += t.y;
       end.depth_px += t.depth_px;
     }
-    const auto n = static_cast<double>(prongs.size());
+    const auto n = static_cast<double>(prongs->count);
     end.x /= n;
     end.y /= n;
     end.depth_px /= n;
   } else {
     // The footprint's principal axis leans towards a wider shaft that the field's border cuts:
     // the axis of the end's last kAxisLengthUm, in the same sense, follows the tip's part.
-    std::vector<Place> near;
+    std::vector<Place>& near = buffers.near;
+    near.clear();
     for (std::size_t i = 0; i < whole.cells.size(); ++i) {
       if (whole.along[i] >= whole.s_max - kAxisLengthUm) near.push_back(whole.cells[i]);
     }
@@ -1214,22 +1346,21 @@ InstrumentTip tip_of(const Tool& tool, const InstrumentFindings& f, const Instru
         axis.uy = -axis.uy;
       }
     }
-    end = tip_of_end(fp.ascans, f, axis, sx, sy, um_per_px_medium);
+    end = tip_of_end(fp.ascans, f, axis, sx, sy, um_per_px_medium, buffers.fit);
   }
   return finish_tip(fp, end, axis, sampling);
 }
 
-// A-scans classified as masked with at least kMinMaskedNeighbours of their 8 neighbours so too.
-// Only the masked ones are looked at (most of a mask is clear).
-void clean_mask(InstrumentFindings& f) {
-  std::fill(f.mask.begin(), f.mask.end(), ColumnKind::clear);
+// Into `open` (all clear): the A-scans classified as masked with at least kMinMaskedNeighbours
+// of their 8 neighbours so too. Only the masked ones are looked at (most of a mask is clear).
+void clean_mask(const InstrumentFindings& f, ColumnKind* open) {
   for (std::uint32_t b = 0; b < f.bscans; ++b) {
     const ColumnKind* row = &f.columns[f.index(b, 0)];
     for (std::size_t a = next_not_clear(row, 0, f.ascans); a < f.ascans;
          a = next_not_clear(row, a + 1, f.ascans)) {
       if (masked_neighbours(f, b, static_cast<std::int64_t>(a)) >=
           InstrumentFindings::kMinMaskedNeighbours) {
-        f.mask[f.index(b, static_cast<std::uint32_t>(a))] = row[a];
+        open[f.index(b, static_cast<std::uint32_t>(a))] = row[a];
       }
     }
   }
@@ -1237,38 +1368,59 @@ void clean_mask(InstrumentFindings& f) {
 
 }  // namespace
 
-void find_tips(InstrumentFindings& findings, const Surfaces& surfaces,
-               const InstrumentConfig& config, const VolumeSampling& sampling) {
-  clean_mask(findings);
+struct TipFinder::Buffers {
+  // The cleaned mask's A-scans in no footprint yet: all clear between calls (the footprints'
+  // search clears every one it reaches, and it reaches all).
+  std::vector<ColumnKind> open;
+  std::vector<std::uint64_t> stack;
+  FootprintPool footprints;
+  std::vector<Footprint*> found;
+  std::vector<const Footprint*> loose;
+  std::vector<Tool> tools;
+  std::vector<Place> pending;
+  TipBuffers tip;
+};
+
+TipFinder::TipFinder() : buffers_(std::make_unique<Buffers>()) {}
+TipFinder::~TipFinder() = default;
+TipFinder::TipFinder(TipFinder&&) noexcept = default;
+TipFinder& TipFinder::operator=(TipFinder&&) noexcept = default;
+
+void TipFinder::find(InstrumentFindings& findings, const Surfaces& surfaces,
+                     const InstrumentConfig& config, const VolumeSampling& sampling) {
+  Buffers& w = *buffers_;
   findings.tips.clear();
   findings.nearest = -1;
   findings.warning = false;
-  std::vector<Footprint> loose;
-  std::vector<Footprint> found = footprints(findings, config.min_ascans, loose);
+  if (w.open.size() != findings.size()) w.open.assign(findings.size(), ColumnKind::clear);
+  clean_mask(findings, w.open.data());
+  std::vector<Footprint*>& found = w.found;
+  const double sx = sampling.ascan_spacing_um, sy = sampling.bscan_spacing_um;
+  find_footprints(findings, config.min_ascans, sx, sy, w.open.data(), w.stack, w.footprints, found,
+                  w.loose);
   // The mask keeps the instruments' A-scans only (not a membrane's, a floater's, speckle's).
   std::fill(findings.mask.begin(), findings.mask.end(), ColumnKind::clear);
-  for (const Footprint& fp : found) {
-    for (const Place& p : fp.ascans) findings.mask[p.k] = findings.columns[p.k];
+  for (const Footprint* fp : found) {
+    for (const Place& p : fp->ascans) findings.mask[p.k] = findings.columns[p.k];
   }
   if (found.size() > InstrumentFindings::kMaxInstruments) {
     found.resize(InstrumentFindings::kMaxInstruments);
   }
-  const double sx = sampling.ascan_spacing_um, sy = sampling.bscan_spacing_um;
-  std::vector<Tool> tools;
-  tools.reserve(found.size());
-  for (Footprint& fp : found) {
-    Tool tool;
+  std::vector<Tool>& tools = w.tools;
+  tools.resize(found.size());
+  for (std::size_t i = 0; i < found.size(); ++i) {
+    Footprint& fp = *found[i];
+    Tool& tool = tools[i];
+    tool.fp = &fp;
     tool.principal = axis_of(fp.ascans, findings, sx, sy);
-    tool.whole = end_of(fp.ascans, findings, tool.principal, std::min(sx, sy));
+    end_of(fp.ascans, findings, tool.principal, std::min(sx, sy), tool.whole);
     if (tool.whole.translucent) {
-      extend_paddle(fp, findings, surfaces, tool.principal);
-      join_paddle_parts(fp, loose, findings, surfaces, tool.principal);
+      extend_paddle(fp, findings, surfaces, tool.principal, w.pending, w.tip.scratch);
+      join_paddle_parts(fp, w.loose, findings, surfaces, tool.principal, w.tip.scratch);
     }
-    tool.fp = std::move(fp);
-    tools.push_back(std::move(tool));
   }
   for (const Tool& tool : tools) {
-    InstrumentTip tip = tip_of(tool, findings, config, sampling);
+    InstrumentTip tip = tip_of(tool, findings, config, sampling, w.tip);
     const SurfaceAt at = surfaces_at(findings, surfaces, tip.bscan, tip.ascan, sampling);
     tip.source = at.source;
     tip.ilm_px = at.ilm;
@@ -1290,6 +1442,11 @@ void find_tips(InstrumentFindings& findings, const Surfaces& surfaces,
   const InstrumentTip* nearest = findings.nearest_tip();
   findings.warning = nearest != nullptr && std::isfinite(nearest->to_rpe_um) &&
                      nearest->to_rpe_um <= config.warn_rpe_um;
+}
+
+void find_tips(InstrumentFindings& findings, const Surfaces& surfaces,
+               const InstrumentConfig& config, const VolumeSampling& sampling) {
+  TipFinder().find(findings, surfaces, config, sampling);
 }
 
 }  // namespace ioct::gpu::instruments

@@ -13,6 +13,7 @@
 #include "ioct/gpu/cuda/backend.hpp"  // Backend, BackendUnavailable
 #include "ioct/gpu/instruments/instrument_config.hpp"
 #include "ioct/gpu/instruments/instrument_findings.hpp"
+#include "ioct/gpu/instruments/tip_finder.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"  // BscanSpan
 #include "ioct/gpu/segmentation/surfaces.hpp"
 #include "ioct/gpu/volume/volume.hpp"
@@ -57,6 +58,7 @@ class InstrumentDetector {
  private:
   InstrumentConfig config_;
   VolumeSampling sampling_;
+  TipFinder tip_finder_;  // its buffers serve every group
 };
 
 // Validates both. Backend::automatic takes CUDA where the build and the machine have it;

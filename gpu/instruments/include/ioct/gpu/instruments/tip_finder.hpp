@@ -32,15 +32,35 @@
 //    (inferred); or from the A-scan itself when it is clear of the mask and measured (measured).
 #pragma once
 
+#include <memory>
+
 #include "ioct/gpu/instruments/instrument_config.hpp"
 #include "ioct/gpu/instruments/instrument_findings.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
 
 namespace ioct::gpu::instruments {
 
-// Fills findings.tips, nearest and warning from findings.mask, reflex_px and front_px (and grows
-// the mask onto a paddle lying on the retina, from the surfaces' ILM). `surfaces` of other
-// dimensions than the mask (or empty) give tips without distances.
+// The steps above, with the buffers they work in kept from call to call: after the first call on
+// a volume's dimensions and tools, a call allocates nothing (it runs after every group).
+class TipFinder {
+ public:
+  TipFinder();
+  ~TipFinder();
+  TipFinder(TipFinder&&) noexcept;
+  TipFinder& operator=(TipFinder&&) noexcept;
+
+  // Fills findings.tips, nearest and warning from findings.columns, reflex_px and front_px (and
+  // findings.mask; grows the mask onto a paddle lying on the retina, from the surfaces' ILM).
+  // `surfaces` of other dimensions than the mask (or empty) give tips without distances.
+  void find(InstrumentFindings& findings, const segmentation::Surfaces& surfaces,
+            const InstrumentConfig& config, const VolumeSampling& sampling);
+
+ private:
+  struct Buffers;
+  std::unique_ptr<Buffers> buffers_;
+};
+
+// TipFinder::find with buffers of its own (one call).
 void find_tips(InstrumentFindings& findings, const segmentation::Surfaces& surfaces,
                const InstrumentConfig& config, const VolumeSampling& sampling);
 
