@@ -41,21 +41,20 @@ constexpr std::int64_t kSideReach = 16;
 std::size_t next_not_clear(const ColumnKind* kinds, std::size_t from, std::size_t n) {
   static_assert(sizeof(ColumnKind) == 1 && static_cast<int>(ColumnKind::clear) == 0);
   if (from < n && kinds[from] != ColumnKind::clear) return from;  // inside a tool's footprint
+  // Eight A-scans as one word, loaded straight into a register.
+  const auto eight = [kinds](std::size_t at) {
+    std::uint64_t word = 0;
+    std::memcpy(&word, kinds + at, sizeof word);
+    return word;
+  };
   while (from + 64 <= n) {
-    std::array<std::uint64_t, 8> words{};
-    std::memcpy(words.data(), kinds + from, sizeof words);
-    if ((words[0] | words[1] | words[2] | words[3] | words[4] | words[5] | words[6] | words[7]) !=
-        0) {
+    if ((eight(from) | eight(from + 8) | eight(from + 16) | eight(from + 24) | eight(from + 32) |
+         eight(from + 40) | eight(from + 48) | eight(from + 56)) != 0) {
       break;
     }
     from += 64;
   }
-  while (from + 8 <= n) {
-    std::uint64_t eight = 0;
-    std::memcpy(&eight, kinds + from, sizeof eight);
-    if (eight != 0) break;
-    from += 8;
-  }
+  while (from + 8 <= n && eight(from) == 0) from += 8;
   while (from < n && kinds[from] == ColumnKind::clear) ++from;
   return from;
 }
@@ -66,18 +65,23 @@ std::size_t next_not_clear(const ColumnKind* kinds, std::size_t from, std::size_
 struct Place {
   std::uint32_t k = 0, b = 0, a = 0;
   double x = 0.0, y = 0.0;
-};
 
-// A-scan a of B-scan b (index k), the A-scans sx and the B-scans sy um apart.
-Place place_at(std::size_t k, std::uint32_t b, std::uint32_t a, double sx, double sy) {
-  return {static_cast<std::uint32_t>(k), b, a, static_cast<double>(a) * sx,
-          static_cast<double>(b) * sy};
-}
+  Place() = default;
+  // A-scan a of B-scan b (index k), the A-scans sx and the B-scans sy um apart. A constructor, so
+  // that emplace_back builds it in place (a copy of one built on the stack waits for its parts).
+  Place(std::size_t index, std::uint32_t bscan, std::uint32_t ascan, double sx, double sy)
+      : k(static_cast<std::uint32_t>(index)),
+        b(bscan),
+        a(ascan),
+        x(static_cast<double>(ascan) * sx),
+        y(static_cast<double>(bscan) * sy) {}
+};
 
 // A region of the mask: its A-scans in the order it grew in, and how many are fully shadowed.
 struct Footprint {
   std::vector<Place> ascans;
   std::size_t metal = 0;
+  std::size_t found = 0;  // the how-manieth kept region (they are found in the mask's order)
 };
 
 // Footprints kept from call to call (their A-scans' buffers with them): `used` of them hold this
@@ -88,9 +92,10 @@ struct FootprintPool {
 
   Footprint& next() {
     if (used == all.size()) all.emplace_back();
-    Footprint& fp = all[used++];
+    Footprint& fp = all[used];
     fp.ascans.clear();
     fp.metal = 0;
+    fp.found = used++;
     return fp;
   }
   void drop_last() { --used; }
@@ -127,16 +132,16 @@ int masked_neighbours(const InstrumentFindings& f, std::int64_t b, std::int64_t 
 }
 
 // The 8-connected region of the mask around `start`, grown depth first into `fp`; its A-scans are
-// cleared in `open` (the masked A-scans in no region yet) as they are reached, and the fully
-// shadowed ones counted. The stack holds (b, a) in one word: a store per neighbour instead of
-// three.
+// cleared in `open` (the masked A-scans in no region yet, as classified) as they are reached, and
+// the fully shadowed ones counted. The stack holds (b, a) in one word: a store per neighbour
+// instead of three.
 void region_of(const InstrumentFindings& f, Place start, double sx, double sy, ColumnKind* open,
                std::vector<std::uint64_t>& stack, Footprint& fp) {
   const std::int64_t ascans = f.ascans;
   const auto packed = [](std::int64_t b, std::int64_t a) {
     return static_cast<std::uint64_t>(b) << 32 | static_cast<std::uint64_t>(a);
   };
-  std::size_t metal = open[start.k] == ColumnKind::shadow ? 1 : 0;
+  std::size_t metal = 0;
   open[start.k] = ColumnKind::clear;
   stack.resize(std::max<std::size_t>(stack.size(), 64));
   std::uint64_t* pending = stack.data();
@@ -148,8 +153,10 @@ void region_of(const InstrumentFindings& f, Place start, double sx, double sy, C
     const auto b = static_cast<std::int64_t>(ba >> 32),
                a = static_cast<std::int64_t>(ba & 0xffffffffu);
     const std::int64_t k = b * ascans + a;
-    fp.ascans.push_back(place_at(static_cast<std::size_t>(k), static_cast<std::uint32_t>(b),
-                                 static_cast<std::uint32_t>(a), sx, sy));
+    fp.ascans.emplace_back(static_cast<std::size_t>(k), static_cast<std::uint32_t>(b),
+                           static_cast<std::uint32_t>(a), sx, sy);
+    // Its kind in the cleaned mask is its classification (open's is cleared by now).
+    metal += f.columns[static_cast<std::size_t>(k)] == ColumnKind::shadow ? 1 : 0;
     if (capacity < top + kNeighbours.size()) {
       stack.resize(2 * capacity);
       pending = stack.data();
@@ -159,7 +166,6 @@ void region_of(const InstrumentFindings& f, Place start, double sx, double sy, C
     const auto visit = [&](std::int64_t db, std::int64_t da) {
       ColumnKind& n = open[k + db * ascans + da];
       const bool reached = is_masked(n);
-      metal += n == ColumnKind::shadow ? 1 : 0;
       n = ColumnKind::clear;
       pending[top] = packed(b + db, a + da);
       top += reached ? 1 : 0;
@@ -198,8 +204,7 @@ void find_footprints(const InstrumentFindings& f, std::uint32_t min_ascans, doub
          a = next_not_clear(row, a + 1, f.ascans)) {
       const auto start_a = static_cast<std::uint32_t>(a);
       Footprint& fp = pool.next();
-      region_of(f, {static_cast<std::uint32_t>(f.index(b, start_a)), b, start_a}, sx, sy, open,
-                stack, fp);
+      region_of(f, Place(f.index(b, start_a), b, start_a, sx, sy), sx, sy, open, stack, fp);
       // Every tool has metal (the scraper's paddle sits on a metal shaft): a footprint only
       // partly shadowed is a membrane or a floater lifted off the retina.
       if (fp.ascans.size() >= min_ascans && fp.metal >= min_ascans) {
@@ -211,8 +216,11 @@ void find_footprints(const InstrumentFindings& f, std::uint32_t min_ascans, doub
       }
     }
   }
-  std::stable_sort(tools.begin(), tools.end(), [](const Footprint* x, const Footprint* y) {
-    return x->ascans.size() > y->ascans.size();
+  // Largest first, in the order found where as large (a stable sort's order; std::stable_sort
+  // would allocate its buffer on every call).
+  std::sort(tools.begin(), tools.end(), [](const Footprint* x, const Footprint* y) {
+    return x->ascans.size() != y->ascans.size() ? x->ascans.size() > y->ascans.size()
+                                                : x->found < y->found;
   });
 }
 
@@ -373,13 +381,14 @@ Axis axis_of(const std::vector<Place>& cells, const InstrumentFindings& f, doubl
   Axis axis;
   axis.sx = sx;
   axis.sy = sy;
+  double mx = 0.0, my = 0.0;  // in registers, not in the axis
   for (const Place& c : cells) {
-    axis.mx += axis.x(c);
-    axis.my += axis.y(c);
+    mx += axis.x(c);
+    my += axis.y(c);
   }
   const double n = static_cast<double>(cells.size());
-  axis.mx /= n;
-  axis.my /= n;
+  axis.mx = mx / n;
+  axis.my = my / n;
   double cxx = 0.0, cxy = 0.0, cyy = 0.0;
   for (const Place& c : cells) {
     const double dx = axis.x(c) - axis.mx;
@@ -410,13 +419,18 @@ void places_along(const std::vector<Place>& cells, const Axis& axis, std::vector
 // The largest of `values` (-1e300 for none). Four running maxima: one would wait on its own last
 // result at every value.
 double largest(const std::vector<double>& values) {
-  std::array<double, 4> most = {-1e300, -1e300, -1e300, -1e300};
+  double m0 = -1e300, m1 = -1e300, m2 = -1e300, m3 = -1e300;
+  const double* v = values.data();
+  const std::size_t n = values.size();
   std::size_t i = 0;
-  for (; i + 4 <= values.size(); i += 4) {
-    for (std::size_t j = 0; j < 4; ++j) most[j] = std::max(most[j], values[i + j]);
+  for (; i + 4 <= n; i += 4) {
+    m0 = std::max(m0, v[i]);
+    m1 = std::max(m1, v[i + 1]);
+    m2 = std::max(m2, v[i + 2]);
+    m3 = std::max(m3, v[i + 3]);
   }
-  for (; i < values.size(); ++i) most[0] = std::max(most[0], values[i]);
-  return std::max(std::max(most[0], most[1]), std::max(most[2], most[3]));
+  for (; i < n; ++i) m0 = std::max(m0, v[i]);
+  return std::max(std::max(m0, m1), std::max(m2, m3));
 }
 
 // The footprint's end: its A-scans within twice the largest radius of its extreme along the axis
@@ -432,28 +446,40 @@ struct End {
 
 void end_of(const std::vector<Place>& cells, const InstrumentFindings& f, const Axis& axis,
             double rim, End& end) {
-  end.cells.clear();
-  end.along.clear();
   end.rim = rim;
   std::vector<double>& along = end.all_along;
   places_along(cells, axis, along);
   const double s_max = largest(along);
   end.s_max = s_max;
-  for (std::size_t i = 0; i < cells.size(); ++i) {
-    if (along[i] >= s_max - 2.0 * kMaxRadiusUm) {
-      end.cells.push_back(cells[i]);
-      end.along.push_back(along[i]);
-    }
+  // Counted, then copied into place (sized once: no push_back per A-scan).
+  const double from = s_max - 2.0 * kMaxRadiusUm;
+  const std::size_t n = cells.size();
+  const double* const s = along.data();
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < n; ++i) kept += s[i] >= from ? 1 : 0;
+  end.cells.resize(kept);
+  end.along.resize(kept);
+  Place* const end_cells = end.cells.data();
+  double* const end_along = end.along.data();
+  const Place* const cell = cells.data();
+  for (std::size_t i = 0, j = 0; i < n; ++i) {
+    if (s[i] < from) continue;
+    end_cells[j] = cell[i];
+    end_along[j] = s[i];
+    ++j;
   }
   std::size_t mid_count = 0, partial = 0, shadow = 0;
   double mid_across = 0.0;
-  for (std::size_t i = 0; i < end.cells.size(); ++i) {
-    if (end.along[i] >= s_max - kAxisLengthUm) {
-      mid_across += axis.across(end.cells[i]);
+  const std::size_t end_n = end.cells.size();
+  const Place* const end_cell = end.cells.data();
+  const double* const end_s = end.along.data();
+  for (std::size_t i = 0; i < end_n; ++i) {
+    if (end_s[i] >= s_max - kAxisLengthUm) {
+      mid_across += axis.across(end_cell[i]);
       ++mid_count;
     }
-    if (end.along[i] >= s_max - 2.0 * rim) {
-      (f.mask[end.cells[i].k] == ColumnKind::partial ? partial : shadow) += 1;
+    if (end_s[i] >= s_max - 2.0 * rim) {
+      (f.mask[end_cell[i].k] == ColumnKind::partial ? partial : shadow) += 1;
     }
   }
   end.mid_across = mid_across / static_cast<double>(mid_count);
@@ -711,25 +737,56 @@ class Disc {
   std::int64_t from_, to_, mid_ = 0;
 };
 
-// A row of the mask within reach of a sphere, ahead of its centre: its A-scans there.
-struct ReachedRow {
-  std::int64_t b = 0;
-  DiscRow row;
-  Run in_reach;
-};
+// At least as many A-scans as footprint_mismatch counts within reach ahead of the sphere's
+// centre, without its tests at every run's ends: per row within reach, the integers of the real
+// interval where the reach about the centre (the row's chord is no longer), the half-plane ahead
+// and the window meet, widened by far more than the tests' rounding (a millionth of the um
+// involved).
+double cells_in_reach_at_most(const Sphere& s, const Axis& axis, double sx, double sy) {
+  const double reach2 = s.reach * s.reach;
+  const double slack = 1e-6 * (1.0 + std::abs(s.cx) + s.reach);  // um
+  const double window_lo = static_cast<double>(s.window.a_lo) * sx - slack;
+  const double window_hi = static_cast<double>(s.window.a_hi) * sx + slack;
+  // A half-plane edge nearly along the row bounds nothing worth its rounding.
+  const bool edge_bounds = std::abs(axis.ux) >= 1e-3;
+  const double along_per_ux = edge_bounds ? axis.uy / axis.ux : 0.0;
+  const double per_sx = 1.0 / sx;
+  double total = 0.0;
+  for (std::int64_t b = s.window.b_lo; b <= s.window.b_hi; ++b) {
+    const double dy = static_cast<double>(b) * sy - s.cy;
+    const double dy2 = dy * dy;
+    if (dy2 > reach2) continue;
+    // The chord's half is at most the reach: its square root would cost more than it saves.
+    double lo = std::max(window_lo, s.cx - s.reach - slack);
+    double hi = std::min(window_hi, s.cx + s.reach + slack);
+    if (edge_bounds) {
+      const double edge = s.cx - dy * along_per_ux;
+      if (axis.ux > 0.0) {
+        lo = std::max(lo, edge - slack);
+      } else {
+        hi = std::min(hi, edge + slack);
+      }
+    }
+    // The integers of [lo, hi] / sx: at most (hi - lo) / sx + 1.
+    total += std::max(0.0, (hi - lo) * per_sx + 1.0);
+  }
+  return total * (1.0 + 1e-9) + 1e-6;  // and the rounding of 1 / sx and of the sum
+}
 
 // The share of the A-scans in front of the sphere's centre, within reach, whose footprint
 // disagrees with the sphere's: masked outside its disc or clear inside it (1 without any).
-// Where that share cannot make the cost `give_up` or less (mismatch / kFootprintMismatch >=
-// give_up), the rows are left as soon as that is sure, and the share returned is the part found
-// by then: as sure not to win, since the share only grows with more rows. `rows`: a buffer.
+// Where that share cannot make the cost `give_up` or less (share / kFootprintMismatch >=
+// give_up), the rows are left as soon as that is sure, and a part of the share is returned: the
+// mismatches found by then over at least as many A-scans as there are (cells_in_reach_at_most),
+// as sure to lose, since the share is larger.
 double footprint_mismatch(const Sphere& s, const Axis& axis, const MaskedRuns& masked, double sx,
-                          double sy, double give_up, std::vector<ReachedRow>& rows) {
+                          double sy, double give_up) {
   const double reach2 = s.reach * s.reach, r2 = s.r * s.r;
   const Disc disc(s, axis, sx);
-  // First the A-scans within reach (the share's denominator), then the disc's row by row.
-  rows.clear();
-  std::int64_t cells = 0;
+  // A share is at most 1: above 1 / kFootprintMismatch no sphere is given up.
+  const double cells_at_most =
+      give_up <= 1.0 / kFootprintMismatch ? cells_in_reach_at_most(s, axis, sx, sy) : 0.0;
+  std::int64_t cells = 0, mismatches = 0;
   for (std::int64_t b = s.window.b_lo; b <= s.window.b_hi; ++b) {
     const double dy = static_cast<double>(b) * sy - s.cy;
     const double dy2 = dy * dy;
@@ -743,29 +800,23 @@ double footprint_mismatch(const Sphere& s, const Axis& axis, const MaskedRuns& m
     if (ahead.size() == 0) continue;
     const Run in_reach =
         disc.near(row, ahead, half_chord, [&](double d2) { return !(d2 > reach2); });
-    cells += in_reach.size();
-    rows.push_back({b, row, in_reach});
-  }
-  if (cells == 0) return 1.0;
-  const auto share = [&](std::int64_t mismatches) {
-    return static_cast<double>(mismatches) / static_cast<double>(cells);
-  };
-  std::int64_t mismatches = 0;
-  for (const ReachedRow& reached : rows) {
-    const DiscRow& row = reached.row;
     // d2 >= dy2: no A-scan of a row as far as r from the centre is inside.
-    const Run inside = row.dy2 >= r2 ? Run{}
-                                     : disc.near(row, reached.in_reach, std::sqrt(r2 - row.dy2),
-                                                 [&](double d2) { return d2 < r2; });
+    const Run inside = dy2 >= r2 ? Run{}
+                                 : disc.near(row, in_reach, std::sqrt(r2 - dy2),
+                                             [&](double d2) { return d2 < r2; });
     // The disc within reach's: its masked A-scans agree, the rest's disagree.
-    const std::int64_t masked_in_reach = masked.count(reached.b, reached.in_reach);
-    const std::int64_t masked_inside = masked.count(reached.b, inside);
+    const std::int64_t masked_in_reach = masked.count(b, in_reach);
+    const std::int64_t masked_inside = masked.count(b, inside);
     const std::int64_t row_mismatches =
         (masked_in_reach - masked_inside) + (inside.size() - masked_inside);
+    cells += in_reach.size();
     mismatches += row_mismatches;
-    if (row_mismatches > 0 && share(mismatches) / kFootprintMismatch >= give_up) break;
+    if (row_mismatches > 0 && cells_at_most > 0.0) {
+      const double share_at_least = static_cast<double>(mismatches) / cells_at_most;
+      if (share_at_least / kFootprintMismatch >= give_up) return share_at_least;
+    }
   }
-  return share(mismatches);
+  return cells > 0 ? static_cast<double>(mismatches) / static_cast<double>(cells) : 1.0;
 }
 
 // The depths of the sphere's centre its reflexes give: z = zc - (the capsule's top above its axis
@@ -824,7 +875,6 @@ struct FitBuffers {
   Rise rise;
   std::vector<Sphere> spheres;
   MaskedRuns masked;
-  std::vector<ReachedRow> reached_rows;
 };
 
 // The rounded end (a capsule's cap, the shape of every metal tool's end): a sphere of radius r
@@ -848,8 +898,7 @@ Fit fit_end(const End& end, const Axis& axis, const InstrumentFindings& f, doubl
     for (const Sphere& s : spheres) {
       // The footprint's share of the cost is a floor to it: a sphere that cannot beat the best
       // so far is not worth its reflexes' square roots.
-      const double mismatch =
-          footprint_mismatch(s, axis, masked, sx, sy, best.cost, buffers.reached_rows);
+      const double mismatch = footprint_mismatch(s, axis, masked, sx, sy, best.cost);
       if (mismatch / kFootprintMismatch >= best.cost) continue;
       const CentreDepths depths =
           centre_depths(reflexes, s, Pitch(rise.at(s.cs)), um_per_px_medium);
@@ -1023,14 +1072,18 @@ template <class Take>
 Plane reflex_plane(const std::vector<Place>& cells, const InstrumentFindings& f, const Axis& axis,
                    Take&& take) {
   Plane plane;
-  double n = 0.0;
+  // The sums in locals (registers), not in the plane (memory): each add waits on the last.
+  double n = 0.0, x0 = 0.0, y0 = 0.0, z0 = 0.0;
   for (const Place& c : cells) {
     if (!take(c)) continue;
     n += 1.0;
-    plane.x0 += axis.x(c);
-    plane.y0 += axis.y(c);
-    plane.z0 += f.reflex_px[c.k];
+    x0 += axis.x(c);
+    y0 += axis.y(c);
+    z0 += f.reflex_px[c.k];
   }
+  plane.x0 = x0;
+  plane.y0 = y0;
+  plane.z0 = z0;
   if (n < 3.0) return plane;
   plane.x0 /= n;
   plane.y0 /= n;
@@ -1143,7 +1196,7 @@ void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, cons
     if (f.mask[k] != ColumnKind::clear) return false;
     const double ilm = ilm_at(k);
     const Place p =
-        place_at(k, static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a), axis.sx, axis.sy);
+        Place(k, static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a), axis.sx, axis.sy);
     const double across = axis.across(p);
     return std::isfinite(ilm) && axis.along(p) <= s_max + kPaddleReachUm && across >= lo &&
            across <= hi &&
@@ -1157,7 +1210,7 @@ void extend_paddle(Footprint& fp, InstrumentFindings& f, const Surfaces& s, cons
       const std::int64_t b = std::int64_t{c.b} + db, a = std::int64_t{c.a} + da;
       if (!inside_mask(f, b, a) || !on_paddle(b, a)) continue;
       const auto pb = static_cast<std::uint32_t>(b), pa = static_cast<std::uint32_t>(a);
-      const Place p = place_at(f.index(pb, pa), pb, pa, axis.sx, axis.sy);
+      const Place p = Place(f.index(pb, pa), pb, pa, axis.sx, axis.sy);
       f.mask[p.k] = ColumnKind::partial;
       f.reflex_px[p.k] = static_cast<float>(plane.at(axis.x(p), axis.y(p)));
       fp.ascans.push_back(p);
@@ -1237,7 +1290,7 @@ void join_paddle_parts(Footprint& fp, const std::vector<const Footprint*>& loose
   }
   for (std::uint32_t b = b_lo; b <= b_hi; ++b) {
     for (std::uint32_t a = a_lo; a <= a_hi; ++a) {
-      const Place c = place_at(f.index(b, a), b, a, axis.sx, axis.sy);
+      const Place c = Place(f.index(b, a), b, a, axis.sx, axis.sy);
       const double s = axis.along(c), across = axis.across(c);
       if (f.mask[c.k] != ColumnKind::clear || s < s_max - kPaddleReachUm || s > face_max ||
           across < lo || across > hi) {
@@ -1352,7 +1405,7 @@ InstrumentTip tip_of(const Tool& tool, const InstrumentFindings& f, const Instru
 }
 
 // Into `open` (all clear): the A-scans classified as masked with at least kMinMaskedNeighbours
-// of their 8 neighbours so too. Only the masked ones are looked at (most of a mask is clear).
+// of their 8 neighbours so too. Only the classified ones are looked at (most of a mask is clear).
 void clean_mask(const InstrumentFindings& f, ColumnKind* open) {
   for (std::uint32_t b = 0; b < f.bscans; ++b) {
     const ColumnKind* row = &f.columns[f.index(b, 0)];
