@@ -970,18 +970,17 @@ constexpr std::size_t kMinProngAscans = 12;
 struct Prongs {
   std::vector<std::vector<Place>> all;
   std::size_t count = 0;
-  std::vector<double> along;
   std::vector<std::size_t> near, index_of, stack;
   std::vector<std::uint8_t> grid;
 
   const std::vector<Place>& operator[](std::size_t i) const { return all[i]; }
 };
 
-void prongs_of(const std::vector<Place>& cells, const Axis& axis, Prongs& prongs) {
+// Of `cells`, whose places along the axis are `along` and extreme s_max (worked out by the caller:
+// an end has them already).
+void prongs_of(const std::vector<Place>& cells, const std::vector<double>& along, double s_max,
+               Prongs& prongs) {
   prongs.count = 0;
-  std::vector<double>& along = prongs.along;
-  places_along(cells, axis, along);
-  const double s_max = largest(along);
   std::vector<std::size_t>& near = prongs.near;
   near.clear();
   std::uint32_t b_lo = ~0u, b_hi = 0, a_lo = ~0u, a_hi = 0;
@@ -1330,7 +1329,7 @@ struct Tool {
 // What tip_of works in, kept from call to call.
 struct TipBuffers {
   Prongs prongs, bisector_prongs;
-  End steepest_end;
+  std::vector<double> steepest_along;
   std::vector<Place> near;
   FitBuffers fit;
   std::vector<double> scratch;
@@ -1350,7 +1349,7 @@ InstrumentTip tip_of(const Tool& tool, const InstrumentFindings& f, const Instru
     return finish_tip(fp, end, axis, sampling);
   }
   const Prongs* prongs = &buffers.prongs;
-  prongs_of(whole.cells, principal, buffers.prongs);
+  prongs_of(whole.cells, whole.along, whole.s_max, buffers.prongs);
   Axis bisector = principal;
   if (prongs->count < 2) {
     // Open jaws whose shaft is out of the field make a V as wide as it is long: its principal
@@ -1358,8 +1357,9 @@ InstrumentTip tip_of(const Tool& tool, const InstrumentFindings& f, const Instru
     // direction is the V's bisector.
     const Axis steepest = steepest_axis(fp.ascans, f, principal);
     if (steepest.ux != principal.ux || steepest.uy != principal.uy) {
-      end_of(fp.ascans, f, steepest, std::min(sx, sy), buffers.steepest_end);
-      prongs_of(buffers.steepest_end.cells, steepest, buffers.bisector_prongs);
+      std::vector<double>& along = buffers.steepest_along;
+      places_along(fp.ascans, steepest, along);
+      prongs_of(fp.ascans, along, largest(along), buffers.bisector_prongs);
       if (buffers.bisector_prongs.count >= 2) {
         prongs = &buffers.bisector_prongs;
         bisector = steepest;
