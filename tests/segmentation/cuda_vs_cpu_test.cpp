@@ -115,9 +115,10 @@ void expect_same_memory(const VolumeMemory& cpu, const VolumeMemory& cuda, std::
   ASSERT_EQ(cpu.clock.sweep, cuda.clock.sweep);
   ASSERT_EQ(cpu.clock.last_first, cuda.clock.last_first);
   ASSERT_EQ(first_difference(cpu.fits_sweep, cuda.fits_sweep, bscans), "") << "fits' sweeps";
-  ASSERT_EQ(first_difference(cpu.finished, cuda.finished, n), "") << "finished kinds";
-  ASSERT_EQ(first_difference(cpu.remembered_frame, cuda.remembered_frame, n), "") << "frames";
-  ASSERT_EQ(first_difference(cpu.remembered_measured, cuda.remembered_measured, n), "")
+  ASSERT_EQ(first_difference(cpu.finished_kind, cuda.finished_kind, n), "") << "finished kinds";
+  ASSERT_EQ(first_difference(cpu.remembered_frame_sweep, cuda.remembered_frame_sweep, n), "")
+      << "frames";
+  ASSERT_EQ(first_difference(cpu.remembered_measured_sweep, cuda.remembered_measured_sweep, n), "")
       << "remembered sweeps";
   compare_floats(part(cpu.remembered_ilm), part(cuda.remembered_ilm), agreement, "remembered ilm");
   compare_floats(part(cpu.remembered_rpe), part(cuda.remembered_rpe), agreement, "remembered rpe");

@@ -135,7 +135,7 @@ BscanSpan CpuSegmenter::segment_group(const Volume& volume, BscanSpan group, Sur
       memory_.finished_ilm[k] = f.ilm;
       memory_.finished_rpe[k] = f.rpe;
       memory_.finished_bm[k] = f.bm;
-      memory_.finished[k] = f.kind;
+      memory_.finished_kind[k] = f.kind;
     }
   });
   return outputs;
@@ -257,7 +257,7 @@ void CpuSegmenter::fine_bscan(const Volume& volume, std::uint32_t bscan, Workspa
     const std::size_t i = row + a;
     if (remember) {
       detail::remember_fit(
-          slots, static_cast<int>(i), fits_sweep, memory_.finished[i],
+          slots, static_cast<int>(i), fits_sweep, memory_.finished_kind[i],
           {memory_.ilm[i], memory_.rpe[i], memory_.bm[i]},
           {memory_.finished_ilm[i], memory_.finished_rpe[i], memory_.finished_bm[i]});
     }

@@ -333,7 +333,7 @@ struct FitJob {
   // note the sweep of the new fits.
   const detail::SweepClock* clock;
   std::uint32_t* fits_sweep;  // [bscan]
-  const detail::FinishedKind* finished;
+  const detail::FinishedKind* finished_kind;
   const float* finished_ilm;  // the surfaces
   const float* finished_rpe;
   const float* finished_bm;
@@ -357,7 +357,7 @@ __global__ void fit_kernel(FitJob job) {
   const std::uint32_t fits_sweep = job.fits_sweep[b];
   if (detail::first_search_in_sweep(fits_sweep, job.clock->sweep)) {
     const int i = static_cast<int>(row) + a;
-    detail::remember_fit(job.remembered, i, fits_sweep, job.finished[i],
+    detail::remember_fit(job.remembered, i, fits_sweep, job.finished_kind[i],
                          {job.ilm[i], job.rpe[i], job.bm[i]},
                          {job.finished_ilm[i], job.finished_rpe[i], job.finished_bm[i]});
   }
@@ -502,7 +502,7 @@ struct FinishJob {
   float* bm;
   float* confidence;
   SurfaceState* state;
-  detail::FinishedKind* finished;
+  detail::FinishedKind* finished_kind;
   BscanVerdict* verdict;
   int first;        // first output B-scan
   int group_first;  // the group's B-scans
@@ -529,7 +529,7 @@ __global__ void finish_kernel(FinishJob job) {
   job.bm[k] = f.bm;
   job.confidence[k] = f.confidence;
   job.state[k] = f.state;
-  job.finished[k] = f.kind;
+  job.finished_kind[k] = f.kind;
 }
 
 // The search kernels by step bound: [0] any bound, [k] a bound of k px (or cells).
@@ -561,8 +561,8 @@ struct CudaSegmenter::DeviceState {
   cuda::DeviceArray<detail::SweepClock> clock;  // one
   cuda::DeviceArray<std::uint32_t> fits_sweep;  // [bscan]
   cuda::DeviceArray<float> remembered_ilm, remembered_rpe, remembered_bm;
-  cuda::DeviceArray<std::uint32_t> remembered_frame, remembered_measured;
-  cuda::DeviceArray<detail::FinishedKind> finished;  // (the surfaces are the finished values)
+  cuda::DeviceArray<std::uint32_t> remembered_frame_sweep, remembered_measured_sweep;
+  cuda::DeviceArray<detail::FinishedKind> finished_kind;  // (the surfaces are the finished values)
   // Surfaces.
   cuda::DeviceArray<float> ilm, rpe, bm, confidence;
   cuda::DeviceArray<SurfaceState> state;
@@ -584,11 +584,11 @@ struct CudaSegmenter::DeviceState {
     const std::size_t n = static_cast<std::size_t>(bscans) * ascans;
     IOCT_CUDA_CHECK(cudaMemsetAsync(clock.data(), 0, sizeof(detail::SweepClock), stream));
     IOCT_CUDA_CHECK(cudaMemsetAsync(fits_sweep.data(), 0, bscans * sizeof(std::uint32_t), stream));
-    IOCT_CUDA_CHECK(cudaMemsetAsync(finished.data(), 0, n, stream));
+    IOCT_CUDA_CHECK(cudaMemsetAsync(finished_kind.data(), 0, n, stream));
     for (auto* slots : {&remembered_ilm, &remembered_rpe, &remembered_bm}) {
       IOCT_CUDA_CHECK(cudaMemsetAsync(slots->data(), 0, n * sizeof(float), stream));
     }
-    for (auto* sweeps : {&remembered_frame, &remembered_measured}) {
+    for (auto* sweeps : {&remembered_frame_sweep, &remembered_measured_sweep}) {
       IOCT_CUDA_CHECK(cudaMemsetAsync(sweeps->data(), 0, n * sizeof(std::uint32_t), stream));
     }
   }
@@ -714,9 +714,9 @@ void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uin
   d.remembered_ilm = device_array<float>(n);
   d.remembered_rpe = device_array<float>(n);
   d.remembered_bm = device_array<float>(n);
-  d.remembered_frame = device_array<std::uint32_t>(n);
-  d.remembered_measured = device_array<std::uint32_t>(n);
-  d.finished = device_array<detail::FinishedKind>(n);
+  d.remembered_frame_sweep = device_array<std::uint32_t>(n);
+  d.remembered_measured_sweep = device_array<std::uint32_t>(n);
+  d.finished_kind = device_array<detail::FinishedKind>(n);
   d.ilm = device_array<float>(n);
   d.rpe = device_array<float>(n);
   d.bm = device_array<float>(n);
@@ -916,12 +916,12 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
     job.contrasts = d.contrasts.data();
     job.clock = d.clock.data();
     job.fits_sweep = d.fits_sweep.data();
-    job.finished = d.finished.data();
+    job.finished_kind = d.finished_kind.data();
     job.finished_ilm = d.ilm.data();
     job.finished_rpe = d.rpe.data();
     job.finished_bm = d.bm.data();
     job.remembered = {d.remembered_ilm.data(), d.remembered_rpe.data(), d.remembered_bm.data(),
-                      d.remembered_frame.data(), d.remembered_measured.data()};
+                      d.remembered_frame_sweep.data(), d.remembered_measured_sweep.data()};
     job.first = first;
     job.p = p;
     const dim3 grid(static_cast<unsigned>((p.ascans + kFitThreads - 1) / kFitThreads),
@@ -939,9 +939,12 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
         detail::RawFits{d.raw_ilm.data(),          d.raw_rpe.data(),     d.raw_bm.data(),
                         d.raw_confidence.data(),   d.raw_verdict.data(), static_cast<int>(d.bscans),
                         static_cast<int>(d.ascans)};
-    job.remembered = {d.remembered_ilm.data(),      d.remembered_rpe.data(),
-                      d.remembered_bm.data(),       d.remembered_frame.data(),
-                      d.remembered_measured.data(), d.fits_sweep.data()};
+    job.remembered = {d.remembered_ilm.data(),
+                      d.remembered_rpe.data(),
+                      d.remembered_bm.data(),
+                      d.remembered_frame_sweep.data(),
+                      d.remembered_measured_sweep.data(),
+                      d.fits_sweep.data()};
     job.settings = detail::FinishSettings{p.min_confidence,
                                           p.smooth_tolerance_px,
                                           static_cast<float>(sampling_.ascan_spacing_um),
@@ -953,7 +956,7 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
     job.bm = d.bm.data();
     job.confidence = d.confidence.data();
     job.state = d.state.data();
-    job.finished = d.finished.data();
+    job.finished_kind = d.finished_kind.data();
     job.verdict = d.verdict.data();
     job.first = static_cast<int>(outputs.first);
     job.group_first = first;
@@ -1059,14 +1062,16 @@ void CudaSegmenter::download_memory(VolumeMemory& memory) {
   copy(memory.finished_ilm.data(), d.ilm.data(), n * sizeof(float));
   copy(memory.finished_rpe.data(), d.rpe.data(), n * sizeof(float));
   copy(memory.finished_bm.data(), d.bm.data(), n * sizeof(float));
-  copy(memory.finished.data(), d.finished.data(), n);
+  copy(memory.finished_kind.data(), d.finished_kind.data(), n);
   copy(&memory.clock, d.clock.data(), sizeof(detail::SweepClock));
   copy(memory.fits_sweep.data(), d.fits_sweep.data(), d.bscans * sizeof(std::uint32_t));
   copy(memory.remembered_ilm.data(), d.remembered_ilm.data(), n * sizeof(float));
   copy(memory.remembered_rpe.data(), d.remembered_rpe.data(), n * sizeof(float));
   copy(memory.remembered_bm.data(), d.remembered_bm.data(), n * sizeof(float));
-  copy(memory.remembered_frame.data(), d.remembered_frame.data(), n * sizeof(std::uint32_t));
-  copy(memory.remembered_measured.data(), d.remembered_measured.data(), n * sizeof(std::uint32_t));
+  copy(memory.remembered_frame_sweep.data(), d.remembered_frame_sweep.data(),
+       n * sizeof(std::uint32_t));
+  copy(memory.remembered_measured_sweep.data(), d.remembered_measured_sweep.data(),
+       n * sizeof(std::uint32_t));
   IOCT_CUDA_CHECK(cudaStreamSynchronize(stream_));
 }
 

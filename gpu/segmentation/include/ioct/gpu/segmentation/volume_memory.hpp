@@ -28,23 +28,27 @@ struct VolumeMemory {
   std::vector<float> finished_ilm;
   std::vector<float> finished_rpe;
   std::vector<float> finished_bm;
-  std::vector<detail::FinishedKind> finished;
+  std::vector<detail::FinishedKind> finished_kind;
   detail::SweepClock clock;
   std::vector<std::uint32_t> fits_sweep;  // [bscan]: the sweep of its fits; 0: not searched
   // Per A-scan, fits of an earlier sweep (detail::RememberSlots).
   std::vector<float> remembered_ilm;
   std::vector<float> remembered_rpe;
   std::vector<float> remembered_bm;
-  std::vector<std::uint32_t> remembered_frame;
-  std::vector<std::uint32_t> remembered_measured;
+  std::vector<std::uint32_t> remembered_frame_sweep;
+  std::vector<std::uint32_t> remembered_measured_sweep;
 
   detail::RememberSlots remember_slots() {
     return {remembered_ilm.data(), remembered_rpe.data(), remembered_bm.data(),
-            remembered_frame.data(), remembered_measured.data()};
+            remembered_frame_sweep.data(), remembered_measured_sweep.data()};
   }
   detail::RememberedFits remembered() const {
-    return {remembered_ilm.data(),   remembered_rpe.data(),      remembered_bm.data(),
-            remembered_frame.data(), remembered_measured.data(), fits_sweep.data()};
+    return {remembered_ilm.data(),
+            remembered_rpe.data(),
+            remembered_bm.data(),
+            remembered_frame_sweep.data(),
+            remembered_measured_sweep.data(),
+            fits_sweep.data()};
   }
 
   bool fits(std::uint32_t b, std::uint32_t a, std::uint32_t d) const noexcept {
@@ -66,14 +70,14 @@ struct VolumeMemory {
     finished_ilm.assign(n, 0.0f);
     finished_rpe.assign(n, 0.0f);
     finished_bm.assign(n, 0.0f);
-    finished.assign(n, detail::FinishedKind::none);
+    finished_kind.assign(n, detail::FinishedKind::none);
     clock = {};
     fits_sweep.assign(b, 0);
     remembered_ilm.assign(n, 0.0f);
     remembered_rpe.assign(n, 0.0f);
     remembered_bm.assign(n, 0.0f);
-    remembered_frame.assign(n, 0);
-    remembered_measured.assign(n, 0);
+    remembered_frame_sweep.assign(n, 0);
+    remembered_measured_sweep.assign(n, 0);
   }
 };
 
