@@ -2,7 +2,7 @@
 // the retina unshadowed in one volume bridges an instrument's shadow in the next with those
 // measured fits, moved by the retina's axial motion in between, where the neighbours' bridges
 // cut across the surface's shape. A first volume, segment_volume and a memory older than
-// kCarrySweeps sweeps carry nothing. The figures are printed ("[ figures ]").
+// kCarryCycles cycles carry nothing. The figures are printed ("[ figures ]").
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -100,9 +100,9 @@ class Carry : public ::testing::Test {
 std::vector<SimulatedVolume>* Carry::volumes_ = nullptr;
 VolumeSampling Carry::sampling_;
 
-// One sweep as the live pipeline segments it: groups of 16 B-scans, each widened by the volume
+// One cycle as the live pipeline segments it: groups of 16 B-scans, each widened by the volume
 // filters' reach of one B-scan either side (so the B-scans between groups are searched twice).
-void live_sweep(CpuSegmenter& segmenter, const gpu::Volume& volume, Surfaces& surfaces) {
+void live_cycle(CpuSegmenter& segmenter, const gpu::Volume& volume, Surfaces& surfaces) {
   for (std::uint32_t first = 0; first < volume.bscans(); first += 16) {
     const std::uint32_t from = first > 0 ? first - 1 : 0;
     const std::uint32_t to = std::min(volume.bscans(), first + 17);
@@ -170,31 +170,31 @@ TEST_F(Carry, ShadowOverAMacularHoleTakesThePreviousVolumesSurfacesMovedWithTheR
   // forceps still there, the retina moved again) the same fits moved on by the new motion.
   const auto live = segmenter();
   Surfaces surfaces;
-  live_sweep(*live, volume(0).volume, surfaces);
-  live_sweep(*live, volume(1).volume, surfaces);
+  live_cycle(*live, volume(0).volume, surfaces);
+  live_cycle(*live, volume(1).volume, surfaces);
   EXPECT_EQ(bridged(surfaces), shadow) << "carried A-scans stay bridged (inferred)";
   expect_accurate("carried, second volume", surfaces, volume(1), shadow);
-  live_sweep(*live, volume(2).volume, surfaces);
+  live_cycle(*live, volume(2).volume, surfaces);
   expect_accurate("carried, third volume", surfaces, volume(2), bridged(surfaces));
 }
 
 TEST_F(Carry, FirstVolumeSegmentVolumeAndForgetCarryNothing) {
   Surfaces fresh;
-  live_sweep(*segmenter(), volume(1).volume, fresh);
+  live_cycle(*segmenter(), volume(1).volume, fresh);
 
   const auto live = segmenter();
   Surfaces surfaces;
-  live_sweep(*live, volume(0).volume, surfaces);
-  live_sweep(*live, volume(1).volume, surfaces);
+  live_cycle(*live, volume(0).volume, surfaces);
+  live_cycle(*live, volume(1).volume, surfaces);
   const std::size_t carried = differing_ascans(surfaces, fresh);
   std::printf("[ figures  ] A-scans carried from the first volume: %zu\n", carried);
   EXPECT_GT(carried, 500u);
 
   live->forget();
-  live_sweep(*live, volume(1).volume, surfaces);
+  live_cycle(*live, volume(1).volume, surfaces);
   EXPECT_TRUE(same_surfaces(surfaces, fresh)) << "after forget()";
 
-  live_sweep(*live, volume(0).volume, surfaces);
+  live_cycle(*live, volume(0).volume, surfaces);
   Surfaces whole;
   live->segment_volume(volume(1).volume, whole);
   Surfaces whole_fresh;
@@ -203,7 +203,7 @@ TEST_F(Carry, FirstVolumeSegmentVolumeAndForgetCarryNothing) {
 }
 
 TEST_F(Carry, MemoryOlderThanTheBoundIsDropped) {
-  // Whole-volume groups: every sweep of the same volume gives the same fits.
+  // Whole-volume groups: every cycle of the same volume gives the same fits.
   const gpu::Volume& moved = volume(1).volume;
   const BscanSpan all{0, moved.bscans()};
   Surfaces fresh;
@@ -212,12 +212,12 @@ TEST_F(Carry, MemoryOlderThanTheBoundIsDropped) {
   const auto live = segmenter();
   Surfaces surfaces;
   live->segment_group(volume(0).volume, all, surfaces);
-  for (std::uint32_t age = 1; age <= gpu::segmentation::detail::kCarrySweeps; ++age) {
+  for (std::uint32_t age = 1; age <= gpu::segmentation::detail::kCarryCycles; ++age) {
     live->segment_group(moved, all, surfaces);
     EXPECT_GT(differing_ascans(surfaces, fresh), 500u) << "carried at age " << age;
   }
   live->segment_group(moved, all, surfaces);
-  EXPECT_TRUE(same_surfaces(surfaces, fresh)) << "dropped after kCarrySweeps";
+  EXPECT_TRUE(same_surfaces(surfaces, fresh)) << "dropped after kCarryCycles";
 }
 
 }  // namespace

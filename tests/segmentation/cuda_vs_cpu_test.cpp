@@ -111,15 +111,15 @@ void expect_same_memory(const VolumeMemory& cpu, const VolumeMemory& cuda, std::
   compare_floats(part(cpu.rpe), part(cuda.rpe), agreement, "raw rpe");
   compare_floats(part(cpu.bm), part(cuda.bm), agreement, "raw bm");
   compare_floats(part(cpu.confidence), part(cuda.confidence), agreement, "raw confidence");
-  // What the sweeps remember (finishing.hpp).
-  ASSERT_EQ(cpu.clock.sweep, cuda.clock.sweep);
+  // What the cycles remember (finishing.hpp).
+  ASSERT_EQ(cpu.clock.cycle, cuda.clock.cycle);
   ASSERT_EQ(cpu.clock.last_first, cuda.clock.last_first);
-  ASSERT_EQ(first_difference(cpu.fits_sweep, cuda.fits_sweep, bscans), "") << "fits' sweeps";
+  ASSERT_EQ(first_difference(cpu.fits_cycle, cuda.fits_cycle, bscans), "") << "fits' cycles";
   ASSERT_EQ(first_difference(cpu.finished_kind, cuda.finished_kind, n), "") << "finished kinds";
-  ASSERT_EQ(first_difference(cpu.remembered_frame_sweep, cuda.remembered_frame_sweep, n), "")
+  ASSERT_EQ(first_difference(cpu.remembered_frame_cycle, cuda.remembered_frame_cycle, n), "")
       << "frames";
-  ASSERT_EQ(first_difference(cpu.remembered_measured_sweep, cuda.remembered_measured_sweep, n), "")
-      << "remembered sweeps";
+  ASSERT_EQ(first_difference(cpu.remembered_measured_cycle, cuda.remembered_measured_cycle, n), "")
+      << "remembered cycles";
   compare_floats(part(cpu.remembered_ilm), part(cuda.remembered_ilm), agreement, "remembered ilm");
   compare_floats(part(cpu.remembered_rpe), part(cuda.remembered_rpe), agreement, "remembered rpe");
   compare_floats(part(cpu.remembered_bm), part(cuda.remembered_bm), agreement, "remembered bm");
@@ -131,9 +131,9 @@ void report(const char* name, const FloatAgreement& a) {
               a.values, a.different, static_cast<double>(a.max_difference));
 }
 
-// Segments `volumes` one after the other (as the sweeps of a live volume) group by group on
+// Segments `volumes` one after the other (as the cycles of a live volume) group by group on
 // both backends, comparing after every group; each group widened by `halo` B-scans on each side
-// (the live stages widen theirs by the filters' reach, so B-scans are searched twice a sweep).
+// (the live stages widen theirs by the filters' reach, so B-scans are searched twice a cycle).
 void compare_group_by_group(const std::vector<const Volume*>& volumes,
                             const VolumeSampling& sampling, std::uint32_t group, const char* name,
                             std::uint32_t halo = 0) {

@@ -95,7 +95,7 @@ BscanSpan CpuSegmenter::segment_group(const Volume& volume, BscanSpan group, Sur
     memory_.reset(volume.bscans(), volume.ascans(), volume.depth());
     surfaces.reset(volume.bscans(), volume.ascans(), volume.depth());
   }
-  detail::advance_sweep(memory_.clock, static_cast<int>(group.first));
+  detail::advance_cycle(memory_.clock, static_cast<int>(group.first));
   // Every coarse search of the group first: each fine search takes its neighbours' as a prior.
   pool_.run(group.count, [&](std::uint32_t i, unsigned worker) {
     coarse_bscan(volume, group.first + i, workspaces_[worker]);
@@ -246,8 +246,8 @@ void CpuSegmenter::fine_bscan(const Volume& volume, std::uint32_t bscan, Workspa
       detail::histogram_quantile(ilm_histogram.data(), static_cast<std::uint32_t>(ascans), 1, 2);
   const int typical_thickness = detail::histogram_quantile(
       thickness_histogram.data(), static_cast<std::uint32_t>(ascans), 1, 2);
-  const std::uint32_t fits_sweep = memory_.fits_sweep[bscan];
-  const bool remember = detail::first_search_in_sweep(fits_sweep, memory_.clock.sweep);
+  const std::uint32_t fits_cycle = memory_.fits_cycle[bscan];
+  const bool remember = detail::first_search_in_cycle(fits_cycle, memory_.clock.cycle);
   const detail::RememberSlots slots = memory_.remember_slots();
   int confident = 0;
   for (std::int32_t a = 0; a < p.ascans; ++a) {
@@ -257,7 +257,7 @@ void CpuSegmenter::fine_bscan(const Volume& volume, std::uint32_t bscan, Workspa
     const std::size_t i = row + a;
     if (remember) {
       detail::remember_fit(
-          slots, static_cast<int>(i), fits_sweep, memory_.finished_kind[i],
+          slots, static_cast<int>(i), fits_cycle, memory_.finished_kind[i],
           {memory_.ilm[i], memory_.rpe[i], memory_.bm[i]},
           {memory_.finished_ilm[i], memory_.finished_rpe[i], memory_.finished_bm[i]});
     }
@@ -271,7 +271,7 @@ void CpuSegmenter::fine_bscan(const Volume& volume, std::uint32_t bscan, Workspa
                              p.min_contrast, typical_thickness, p.min_thickness);
   memory_.verdict[bscan] =
       static_cast<std::uint8_t>(retina ? BscanVerdict::retina : BscanVerdict::no_retina);
-  memory_.fits_sweep[bscan] = memory_.clock.sweep;
+  memory_.fits_cycle[bscan] = memory_.clock.cycle;
 }
 
 }  // namespace ioct::gpu::segmentation

@@ -56,7 +56,7 @@ struct CoarseCostJob {
   const std::uint8_t* volume;
   std::uint32_t* histograms;  // [group][cost block][bins]
   std::int32_t* cost;         // [group][coarse column][cell]
-  detail::SweepClock* clock;  // advanced by the first block, read by the fits
+  detail::CycleClock* clock;  // advanced by the first block, read by the fits
   int first;
   SegmentationParams p;
 };
@@ -73,7 +73,7 @@ __global__ void coarse_cost_kernel(CoarseCostJob job) {
   const int first_column = first_pair * kCoarsePair;
   const int columns = min(kPairsPerCostBlock * kCoarsePair, p.ascans - first_column);
   if (blockIdx.x == 0 && blockIdx.y == 0 && threadIdx.x == 0) {
-    detail::advance_sweep(*job.clock, job.first);
+    detail::advance_cycle(*job.clock, job.first);
   }
   std::uint8_t* px = staged;
   std::uint8_t* levels =
@@ -328,11 +328,11 @@ struct FitJob {
   float* confidence;
   std::uint8_t* verdict;    // [bscan]
   std::uint8_t* contrasts;  // scratch [group][ascan][3]: rpe, ilm, choroid
-  // Before the fits are replaced, the first search of a B-scan in a sweep remembers what its
+  // Before the fits are replaced, the first search of a B-scan in a cycle remembers what its
   // last finishing found, measured or carried (finishing.hpp, remember_fit); the verdicts then
-  // note the sweep of the new fits.
-  const detail::SweepClock* clock;
-  std::uint32_t* fits_sweep;  // [bscan]
+  // note the cycle of the new fits.
+  const detail::CycleClock* clock;
+  std::uint32_t* fits_cycle;  // [bscan]
   const detail::FinishedKind* finished_kind;
   const float* finished_ilm;  // the surfaces
   const float* finished_rpe;
@@ -354,10 +354,10 @@ __global__ void fit_kernel(FitJob job) {
   const detail::ColumnFit fit =
       detail::fit_column(column, p.depth, job.ilm_px[group_row + a], job.rpe_px[group_row + a],
                          job.floors[b], p.ilm_level);
-  const std::uint32_t fits_sweep = job.fits_sweep[b];
-  if (detail::first_search_in_sweep(fits_sweep, job.clock->sweep)) {
+  const std::uint32_t fits_cycle = job.fits_cycle[b];
+  if (detail::first_search_in_cycle(fits_cycle, job.clock->cycle)) {
     const int i = static_cast<int>(row) + a;
-    detail::remember_fit(job.remembered, i, fits_sweep, job.finished_kind[i],
+    detail::remember_fit(job.remembered, i, fits_cycle, job.finished_kind[i],
                          {job.ilm[i], job.rpe[i], job.bm[i]},
                          {job.finished_ilm[i], job.finished_rpe[i], job.finished_bm[i]});
   }
@@ -425,7 +425,7 @@ __global__ void verdict_kernel(FitJob job) {
                                p.min_contrast, typical[2], p.min_thickness);
     job.verdict[b] =
         static_cast<std::uint8_t>(retina ? BscanVerdict::retina : BscanVerdict::no_retina);
-    job.fits_sweep[b] = job.clock->sweep;
+    job.fits_cycle[b] = job.clock->cycle;
   }
 }
 
@@ -558,10 +558,10 @@ struct CudaSegmenter::DeviceState {
   cuda::DeviceArray<std::uint8_t> coarse_valid, floors;
   cuda::DeviceArray<std::uint8_t> raw_verdict;  // BscanVerdict values, as the kernels write them
   cuda::DeviceArray<float> raw_ilm, raw_rpe, raw_bm, raw_confidence;
-  cuda::DeviceArray<detail::SweepClock> clock;  // one
-  cuda::DeviceArray<std::uint32_t> fits_sweep;  // [bscan]
+  cuda::DeviceArray<detail::CycleClock> clock;  // one
+  cuda::DeviceArray<std::uint32_t> fits_cycle;  // [bscan]
   cuda::DeviceArray<float> remembered_ilm, remembered_rpe, remembered_bm;
-  cuda::DeviceArray<std::uint32_t> remembered_frame_sweep, remembered_measured_sweep;
+  cuda::DeviceArray<std::uint32_t> remembered_frame_cycle, remembered_measured_cycle;
   cuda::DeviceArray<detail::FinishedKind> finished_kind;  // (the surfaces are the finished values)
   // Surfaces.
   cuda::DeviceArray<float> ilm, rpe, bm, confidence;
@@ -578,18 +578,18 @@ struct CudaSegmenter::DeviceState {
   std::map<std::tuple<const void*, std::uint32_t, std::uint32_t, cudaStream_t>, cudaGraphExec_t>
       graphs;
 
-  // No sweep so far, nothing remembered (a zero SweepClock is its initial state; the rest is
+  // No cycle so far, nothing remembered (a zero CycleClock is its initial state; the rest is
   // cleared as the CPU's memory is, for download_memory).
-  void forget_sweeps(cudaStream_t stream) {
+  void forget_cycles(cudaStream_t stream) {
     const std::size_t n = static_cast<std::size_t>(bscans) * ascans;
-    IOCT_CUDA_CHECK(cudaMemsetAsync(clock.data(), 0, sizeof(detail::SweepClock), stream));
-    IOCT_CUDA_CHECK(cudaMemsetAsync(fits_sweep.data(), 0, bscans * sizeof(std::uint32_t), stream));
+    IOCT_CUDA_CHECK(cudaMemsetAsync(clock.data(), 0, sizeof(detail::CycleClock), stream));
+    IOCT_CUDA_CHECK(cudaMemsetAsync(fits_cycle.data(), 0, bscans * sizeof(std::uint32_t), stream));
     IOCT_CUDA_CHECK(cudaMemsetAsync(finished_kind.data(), 0, n, stream));
     for (auto* slots : {&remembered_ilm, &remembered_rpe, &remembered_bm}) {
       IOCT_CUDA_CHECK(cudaMemsetAsync(slots->data(), 0, n * sizeof(float), stream));
     }
-    for (auto* sweeps : {&remembered_frame_sweep, &remembered_measured_sweep}) {
-      IOCT_CUDA_CHECK(cudaMemsetAsync(sweeps->data(), 0, n * sizeof(std::uint32_t), stream));
+    for (auto* cycles : {&remembered_frame_cycle, &remembered_measured_cycle}) {
+      IOCT_CUDA_CHECK(cudaMemsetAsync(cycles->data(), 0, n * sizeof(std::uint32_t), stream));
     }
   }
 
@@ -681,7 +681,7 @@ void CudaSegmenter::forget() {
   if (d.bscans == 0) return;
   IOCT_CUDA_CHECK(cudaMemsetAsync(d.coarse_valid.data(), 0, d.bscans, stream_));
   IOCT_CUDA_CHECK(cudaMemsetAsync(d.raw_verdict.data(), 0, d.bscans, stream_));
-  d.forget_sweeps(stream_);
+  d.forget_cycles(stream_);
   note_resets();
 }
 
@@ -709,13 +709,13 @@ void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uin
   d.raw_bm = device_array<float>(n);
   d.raw_confidence = device_array<float>(n);
   d.raw_verdict = device_array<std::uint8_t>(bscans);
-  d.clock = device_array<detail::SweepClock>(1);
-  d.fits_sweep = device_array<std::uint32_t>(bscans);
+  d.clock = device_array<detail::CycleClock>(1);
+  d.fits_cycle = device_array<std::uint32_t>(bscans);
   d.remembered_ilm = device_array<float>(n);
   d.remembered_rpe = device_array<float>(n);
   d.remembered_bm = device_array<float>(n);
-  d.remembered_frame_sweep = device_array<std::uint32_t>(n);
-  d.remembered_measured_sweep = device_array<std::uint32_t>(n);
+  d.remembered_frame_cycle = device_array<std::uint32_t>(n);
+  d.remembered_measured_cycle = device_array<std::uint32_t>(n);
   d.finished_kind = device_array<detail::FinishedKind>(n);
   d.ilm = device_array<float>(n);
   d.rpe = device_array<float>(n);
@@ -750,7 +750,7 @@ void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uin
   d.bscans = bscans;
   d.ascans = ascans;
   d.depth = depth;
-  d.forget_sweeps(stream_);
+  d.forget_cycles(stream_);
   note_resets();
 }
 
@@ -915,13 +915,13 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
     job.verdict = d.raw_verdict.data();
     job.contrasts = d.contrasts.data();
     job.clock = d.clock.data();
-    job.fits_sweep = d.fits_sweep.data();
+    job.fits_cycle = d.fits_cycle.data();
     job.finished_kind = d.finished_kind.data();
     job.finished_ilm = d.ilm.data();
     job.finished_rpe = d.rpe.data();
     job.finished_bm = d.bm.data();
     job.remembered = {d.remembered_ilm.data(), d.remembered_rpe.data(), d.remembered_bm.data(),
-                      d.remembered_frame_sweep.data(), d.remembered_measured_sweep.data()};
+                      d.remembered_frame_cycle.data(), d.remembered_measured_cycle.data()};
     job.first = first;
     job.p = p;
     const dim3 grid(static_cast<unsigned>((p.ascans + kFitThreads - 1) / kFitThreads),
@@ -942,9 +942,9 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
     job.remembered = {d.remembered_ilm.data(),
                       d.remembered_rpe.data(),
                       d.remembered_bm.data(),
-                      d.remembered_frame_sweep.data(),
-                      d.remembered_measured_sweep.data(),
-                      d.fits_sweep.data()};
+                      d.remembered_frame_cycle.data(),
+                      d.remembered_measured_cycle.data(),
+                      d.fits_cycle.data()};
     job.settings = detail::FinishSettings{p.min_confidence,
                                           p.smooth_tolerance_px,
                                           static_cast<float>(sampling_.ascan_spacing_um),
@@ -1063,14 +1063,14 @@ void CudaSegmenter::download_memory(VolumeMemory& memory) {
   copy(memory.finished_rpe.data(), d.rpe.data(), n * sizeof(float));
   copy(memory.finished_bm.data(), d.bm.data(), n * sizeof(float));
   copy(memory.finished_kind.data(), d.finished_kind.data(), n);
-  copy(&memory.clock, d.clock.data(), sizeof(detail::SweepClock));
-  copy(memory.fits_sweep.data(), d.fits_sweep.data(), d.bscans * sizeof(std::uint32_t));
+  copy(&memory.clock, d.clock.data(), sizeof(detail::CycleClock));
+  copy(memory.fits_cycle.data(), d.fits_cycle.data(), d.bscans * sizeof(std::uint32_t));
   copy(memory.remembered_ilm.data(), d.remembered_ilm.data(), n * sizeof(float));
   copy(memory.remembered_rpe.data(), d.remembered_rpe.data(), n * sizeof(float));
   copy(memory.remembered_bm.data(), d.remembered_bm.data(), n * sizeof(float));
-  copy(memory.remembered_frame_sweep.data(), d.remembered_frame_sweep.data(),
+  copy(memory.remembered_frame_cycle.data(), d.remembered_frame_cycle.data(),
        n * sizeof(std::uint32_t));
-  copy(memory.remembered_measured_sweep.data(), d.remembered_measured_sweep.data(),
+  copy(memory.remembered_measured_cycle.data(), d.remembered_measured_cycle.data(),
        n * sizeof(std::uint32_t));
   IOCT_CUDA_CHECK(cudaStreamSynchronize(stream_));
 }

@@ -7,8 +7,8 @@
 // B-scan: both halves of the B-scan at once, one thread per state, the step choices in shared
 // memory, joined in the middle and traced back from there), the ILM band costs, the ILM search,
 // the RPE band costs, the RPE search, the sub-px fits (remembering, in a B-scan's first search of
-// a sweep, what they replace: finishing.hpp) with each B-scan's typical contrasts and verdict (one
-// block per B-scan), and the finishing of every affected A-scan. The sweep clock lives on the
+// a cycle, what they replace: finishing.hpp) with each B-scan's typical contrasts and verdict (one
+// block per B-scan), and the finishing of every affected A-scan. The cycle clock lives on the
 // device (advanced by the coarse costs' first block), so a captured graph needs no host input.
 #pragma once
 

@@ -17,9 +17,9 @@
 // confidence, since the search along a B-scan must come out of the shadow continuously; its
 // neighbours across, outside the shadow, see the RPE where it is. Such a fit is bridged instead.
 //
-// A low-confidence A-scan that an earlier sweep over the volume measured (the previous volume,
+// A low-confidence A-scan that an earlier cycle over the volume measured (the previous volume,
 // before the instrument moved over it) takes that fit instead of the bridges, moved by the
-// retina's axial motion since then (`carried_fit`): see "Carried from earlier sweeps" below.
+// retina's axial motion since then (`carried_fit`): see "Carried from earlier cycles" below.
 #pragma once
 
 #include <cmath>
@@ -54,7 +54,7 @@ struct FinishSettings {
 inline constexpr int kSlopeBaselineAscans = 24;
 inline constexpr int kSlopeBaselineBscans = 4;
 
-// How an A-scan was last finished, which decides what its B-scan's next sweep remembers of it.
+// How an A-scan was last finished, which decides what its B-scan's next cycle remembers of it.
 enum class FinishedKind : std::uint8_t { none = 0, measured = 1, bridged = 2, carried = 3 };
 
 // One A-scan's surfaces.
@@ -210,31 +210,31 @@ IOCT_HD DirectionBridge bridge_direction(const RawFits& raw, const FinishSetting
 }
 
 // ---------------------------------------------------------------------------------------------
-// Carried from earlier sweeps. Neighbours alone bridge a shadow by interpolation, which cuts
+// Carried from earlier cycles. Neighbours alone bridge a shadow by interpolation, which cuts
 // across whatever the surface does beneath it (a foveal pit under a wide instrument). The same
 // A-scan was often measured in an earlier volume, before the instrument moved over it: that fit
-// is remembered (the first search of a B-scan in a new sweep keeps what its last finishing found,
+// is remembered (the first search of a B-scan in a new cycle keeps what its last finishing found,
 // `remember_fit`) and carried, shifted by the retina's axial motion since then, measured by the
 // A-scans beside it that were measured then and are now. Still bridged (inferred) for the
 // surfaces' users; the CUDA kernels call these same functions.
 
-// Which sweep over the volume a group belongs to: a group that starts at or before the previous
-// group's first B-scan starts a new sweep. (Live groups' spans overlap by the filters' reach, so
-// a B-scan may be searched twice in one sweep; their first B-scans rise within a volume.)
-struct SweepClock {
-  std::uint32_t sweep = 0;      // 0: no group since the memory was reset
+// Which cycle over the volume a group belongs to: a group that starts at or before the previous
+// group's first B-scan starts a new cycle. (Live groups' spans overlap by the filters' reach, so
+// a B-scan may be searched twice in one cycle; their first B-scans rise within a volume.)
+struct CycleClock {
+  std::uint32_t cycle = 0;      // 0: no group since the memory was reset
   std::int32_t last_first = 0;  // all zero: the initial state (the device memsets it)
 };
 
-IOCT_HD void advance_sweep(SweepClock& clock, int first) {
-  if (clock.sweep == 0 || first <= clock.last_first) ++clock.sweep;
+IOCT_HD void advance_cycle(CycleClock& clock, int first) {
+  if (clock.cycle == 0 || first <= clock.last_first) ++clock.cycle;
   clock.last_first = first;
 }
 
-// A remembered fit is carried for this many sweeps after the one that measured it, no longer:
+// A remembered fit is carried for this many cycles after the one that measured it, no longer:
 // the motion correction follows the retina axially only, and an instrument that stays put
 // leaves its shadow to the neighbours' bridges after that.
-inline constexpr std::uint32_t kCarrySweeps = 4;
+inline constexpr std::uint32_t kCarryCycles = 4;
 // Measured A-scans each side whose (now - then) differences give the axial motion, nearest first;
 // a side with fewer gives none.
 inline constexpr int kMotionSamples = 5;
@@ -246,9 +246,9 @@ inline constexpr float kMotionAgreementPx = 3.0f;
 // frame is gone there (bounds the walk of an A-scan whose own frame nothing else shares).
 inline constexpr int kMotionSearchOthers = 4 * kMotionSamples;
 
-// Where the fit stage keeps what it remembers of earlier sweeps, [bscan][ascan]: each A-scan's
-// surfaces in the frame of one sweep (the retina's axial position then), the sweep whose frame
-// that is, and the sweep that measured them (0: nothing remembered).
+// Where the fit stage keeps what it remembers of earlier cycles, [bscan][ascan]: each A-scan's
+// surfaces in the frame of one cycle (the retina's axial position then), the cycle whose frame
+// that is, and the cycle that measured them (0: nothing remembered).
 struct RememberSlots {
   float* ilm = nullptr;
   float* rpe = nullptr;
@@ -257,21 +257,21 @@ struct RememberSlots {
   std::uint32_t* measured = nullptr;
 };
 
-// Whether the search of a B-scan whose fits are from sweep `fits_sweep` is its first in `sweep`:
+// Whether the search of a B-scan whose fits are from cycle `fits_cycle` is its first in `cycle`:
 // then, before its fits are replaced, what its last finishing found is remembered.
-IOCT_HD bool first_search_in_sweep(std::uint32_t fits_sweep, std::uint32_t sweep) {
-  return fits_sweep != 0 && fits_sweep != sweep;
+IOCT_HD bool first_search_in_cycle(std::uint32_t fits_cycle, std::uint32_t cycle) {
+  return fits_cycle != 0 && fits_cycle != cycle;
 }
 
-// Remembers A-scan i of a B-scan whose fits (`fit`, about to be replaced) are from sweep
-// `fits_sweep`, as its last finishing left it: a measured fit as it is; a carried one (the
-// `finished` surfaces) still as measured when it was, moved into this sweep's frame, so that the
-// next sweep corrects it by the motion since this one, which its neighbours measured fits of now
+// Remembers A-scan i of a B-scan whose fits (`fit`, about to be replaced) are from cycle
+// `fits_cycle`, as its last finishing left it: a measured fit as it is; a carried one (the
+// `finished` surfaces) still as measured when it was, moved into this cycle's frame, so that the
+// next cycle corrects it by the motion since this one, which its neighbours measured fits of now
 // show. A bridged one leaves what was remembered.
-IOCT_HD void remember_fit(const RememberSlots& slots, int i, std::uint32_t fits_sweep,
+IOCT_HD void remember_fit(const RememberSlots& slots, int i, std::uint32_t fits_cycle,
                           FinishedKind kind, Triple fit, Triple finished) {
   if (kind == FinishedKind::measured) {
-    slots.measured[i] = fits_sweep;
+    slots.measured[i] = fits_cycle;
   } else if (kind == FinishedKind::carried) {
     fit = finished;
   } else {
@@ -280,7 +280,7 @@ IOCT_HD void remember_fit(const RememberSlots& slots, int i, std::uint32_t fits_
   slots.ilm[i] = fit.ilm;
   slots.rpe[i] = fit.rpe;
   slots.bm[i] = fit.bm;
-  slots.frame[i] = fits_sweep;
+  slots.frame[i] = fits_cycle;
 }
 
 // The remembered fits as finishing reads them.
@@ -290,14 +290,14 @@ struct RememberedFits {
   const float* bm = nullptr;
   const std::uint32_t* frame = nullptr;       // [bscan][ascan]
   const std::uint32_t* measured = nullptr;    // [bscan][ascan]
-  const std::uint32_t* fits_sweep = nullptr;  // [bscan]: the sweep of the B-scan's current fits
+  const std::uint32_t* fits_cycle = nullptr;  // [bscan]: the cycle of the B-scan's current fits
 };
 
-// Whether A-scan i of B-scan b remembers a fit measured at most kCarrySweeps sweeps before b's
+// Whether A-scan i of B-scan b remembers a fit measured at most kCarryCycles cycles before b's
 // current fits.
 IOCT_HD bool remembers(const RememberedFits& m, int b, int i) {
   const std::uint32_t then = m.measured[i];
-  return then != 0 && m.fits_sweep[b] - then <= kCarrySweeps;
+  return then != 0 && m.fits_cycle[b] - then <= kCarryCycles;
 }
 
 // Inserts x into the ascending values[0, n).
@@ -314,7 +314,7 @@ IOCT_HD float median_sorted(const float* values, int n) {
   return (n & 1) != 0 ? values[n / 2] : 0.5f * (values[n / 2 - 1] + values[n / 2]);
 }
 
-// The retina's axial motion since sweep `frame` on one side of (b, a) in its B-scan: the median
+// The retina's axial motion since cycle `frame` on one side of (b, a) in its B-scan: the median
 // of (now - then) over the nearest kMotionSamples A-scans measured now and measured in `frame`,
 // per surface (one shift for all, the mean of the ILM's and RPE's, measured worse for the ILM:
 // shadow ILM mean 0.83 against 0.76 px in Carry.*).

@@ -20,7 +20,7 @@
 //      volume measured them, carried from it, moved by the retina's axial motion since.
 //
 // A segmenter keeps the intermediate results of the volume it last worked on (the neighbours'
-// coarse RPE, the unsmoothed fits, the measured fits of earlier sweeps), so groups of a live
+// coarse RPE, the unsmoothed fits, the measured fits of earlier cycles), so groups of a live
 // volume go in one after the other.
 #pragma once
 

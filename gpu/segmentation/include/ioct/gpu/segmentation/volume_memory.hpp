@@ -1,7 +1,7 @@
 // What a segmenter remembers of the volume it works on, between groups: per B-scan the coarse
 // RPE (the neighbours' prior) and the background level, and the unsmoothed fits that smoothing
-// and bridging read from the B-scans around; across sweeps over the volume, each A-scan's last
-// measured fits of an earlier sweep, which bridging carries into a shadow (finishing.hpp).
+// and bridging read from the B-scans around; across cycles over the volume, each A-scan's last
+// measured fits of an earlier cycle, which bridging carries into a shadow (finishing.hpp).
 #pragma once
 
 #include <cstdint>
@@ -29,26 +29,26 @@ struct VolumeMemory {
   std::vector<float> finished_rpe;
   std::vector<float> finished_bm;
   std::vector<detail::FinishedKind> finished_kind;
-  detail::SweepClock clock;
-  std::vector<std::uint32_t> fits_sweep;  // [bscan]: the sweep of its fits; 0: not searched
-  // Per A-scan, fits of an earlier sweep (detail::RememberSlots).
+  detail::CycleClock clock;
+  std::vector<std::uint32_t> fits_cycle;  // [bscan]: the cycle of its fits; 0: not searched
+  // Per A-scan, fits of an earlier cycle (detail::RememberSlots).
   std::vector<float> remembered_ilm;
   std::vector<float> remembered_rpe;
   std::vector<float> remembered_bm;
-  std::vector<std::uint32_t> remembered_frame_sweep;
-  std::vector<std::uint32_t> remembered_measured_sweep;
+  std::vector<std::uint32_t> remembered_frame_cycle;
+  std::vector<std::uint32_t> remembered_measured_cycle;
 
   detail::RememberSlots remember_slots() {
     return {remembered_ilm.data(), remembered_rpe.data(), remembered_bm.data(),
-            remembered_frame_sweep.data(), remembered_measured_sweep.data()};
+            remembered_frame_cycle.data(), remembered_measured_cycle.data()};
   }
   detail::RememberedFits remembered() const {
     return {remembered_ilm.data(),
             remembered_rpe.data(),
             remembered_bm.data(),
-            remembered_frame_sweep.data(),
-            remembered_measured_sweep.data(),
-            fits_sweep.data()};
+            remembered_frame_cycle.data(),
+            remembered_measured_cycle.data(),
+            fits_cycle.data()};
   }
 
   bool fits(std::uint32_t b, std::uint32_t a, std::uint32_t d) const noexcept {
@@ -72,12 +72,12 @@ struct VolumeMemory {
     finished_bm.assign(n, 0.0f);
     finished_kind.assign(n, detail::FinishedKind::none);
     clock = {};
-    fits_sweep.assign(b, 0);
+    fits_cycle.assign(b, 0);
     remembered_ilm.assign(n, 0.0f);
     remembered_rpe.assign(n, 0.0f);
     remembered_bm.assign(n, 0.0f);
-    remembered_frame_sweep.assign(n, 0);
-    remembered_measured_sweep.assign(n, 0);
+    remembered_frame_cycle.assign(n, 0);
+    remembered_measured_cycle.assign(n, 0);
   }
 };
 
