@@ -24,7 +24,6 @@ using gpu::segmentation::BscanVerdict;
 using gpu::segmentation::Segmenter;
 using gpu::segmentation::Surfaces;
 using gpu::segmentation::SurfaceState;
-using gpu::segmentation::VolumeSampling;
 
 // 32 B-scans of 512 A-scans spaced like the default 128 x 512 raster of the +-3 mm field: a
 // quarter of its height, about the scan centre.
@@ -35,15 +34,6 @@ SimulatedVolumeSpec raster_spec(float center_y = 0.0f) {
   spec.simulation.scan.extent_y = 0.25f;
   spec.simulation.scan.center_y = center_y;
   return spec;
-}
-
-VolumeSampling sampling_of(const SimulatedVolumeSpec& spec, const SimulatedVolume& v) {
-  const double field_um = 2000.0 * spec.simulation.field_half_width_mm();
-  VolumeSampling s;
-  s.axial_um_per_px = v.axial_um_per_px;
-  s.ascan_spacing_um = field_um * spec.simulation.scan.extent_x / (spec.ascans - 1);
-  s.bscan_spacing_um = field_um * spec.simulation.scan.extent_y / (spec.bscans - 1);
-  return s;
 }
 
 struct Segmented {

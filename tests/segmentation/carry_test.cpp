@@ -57,15 +57,6 @@ sim::InstrumentConfig forceps(float x, float y, float yaw, float jaws) {
   return t;
 }
 
-VolumeSampling sampling_of(const SimulatedVolumeSpec& spec, const SimulatedVolume& v) {
-  const double field_um = 2000.0 * spec.simulation.field_half_width_mm();
-  VolumeSampling s;
-  s.axial_um_per_px = v.axial_um_per_px;
-  s.ascan_spacing_um = field_um * spec.simulation.scan.extent_x / (spec.ascans - 1);
-  s.bscan_spacing_um = field_um * spec.simulation.scan.extent_y / (spec.bscans - 1);
-  return s;
-}
-
 // The forceps moves from the periphery (closed, its shaft leaving the field temporally) to the
 // macular hole (open, its shaft across the B-scans: their neighbours across are all shadowed,
 // and along each B-scan the shadow spans the hole's cuff); between the volumes the retina moves

@@ -84,4 +84,14 @@ SimulatedVolume make_simulated_volume(const SimulatedVolumeSpec& spec) {
   return result;
 }
 
+gpu::segmentation::VolumeSampling sampling_of(const SimulatedVolumeSpec& spec,
+                                              const SimulatedVolume& volume) {
+  const double field_um = 2000.0 * spec.simulation.field_half_width_mm();
+  gpu::segmentation::VolumeSampling s;
+  s.axial_um_per_px = volume.axial_um_per_px;
+  s.ascan_spacing_um = field_um * spec.simulation.scan.extent_x / (spec.ascans - 1);
+  s.bscan_spacing_um = field_um * spec.simulation.scan.extent_y / (spec.bscans - 1);
+  return s;
+}
+
 }  // namespace ioct::seg_test

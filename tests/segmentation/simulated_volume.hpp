@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "ioct/gpu/segmentation/segmentation_config.hpp"
 #include "ioct/gpu/volume/volume.hpp"
 #include "ioct/sim/simulation_config.hpp"
 
@@ -31,5 +32,10 @@ struct SimulatedVolume {
 
 // Throws what the simulator or the chain throw for a bad spec.
 SimulatedVolume make_simulated_volume(const SimulatedVolumeSpec& spec);
+
+// The sampling the segmenter is given for such a volume: its depth px and the scan's lateral
+// spacing of A-scans and B-scans over the simulated field.
+gpu::segmentation::VolumeSampling sampling_of(const SimulatedVolumeSpec& spec,
+                                              const SimulatedVolume& volume);
 
 }  // namespace ioct::seg_test
