@@ -28,7 +28,7 @@ unsigned encode_threads() {
 
 }  // namespace
 
-FramePublisher::FramePublisher(const shm::FrameRingConfig& ring, int nice, double spin_window_s)
+FramePublisher::FramePublisher(const shm::FrameRingConfig& ring, int nice)
     : name_(ring.name),
       writer_(ring),
       encode_pool_(encode_threads()),
@@ -36,7 +36,6 @@ FramePublisher::FramePublisher(const shm::FrameRingConfig& ring, int nice, doubl
       bscan_encoder_(90, kEncodeBands, encode_pool_),
       tip_bscans_encoder_(90, kEncodeBands, encode_pool_),
       nice_(nice) {
-  set_spin_window(spin_window_s);
   status_.source_state = static_cast<std::uint64_t>(shm::SourceState::waiting);
   {
     std::lock_guard lock(mutex_);

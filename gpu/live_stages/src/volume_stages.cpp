@@ -123,8 +123,9 @@ VolumeStages::VolumeStages(VolumeStagesConfig config)
     shm::FrameRingConfig ring;
     ring.name = config_.frame_ring;
     ring.group = config_.frame_group;
-    // Asleep only until the stages know whether a GPU renders (make_backends).
-    publisher_ = std::make_unique<FramePublisher>(ring, config_.nice, 0.0);
+    // Its encoding thread waits asleep until the stages know whether a GPU renders
+    // (make_backends).
+    publisher_ = std::make_unique<FramePublisher>(ring, config_.nice);
   }
   thread_ = std::thread([this] { work(); });
 }

@@ -39,11 +39,11 @@ class FramePublisher {
  public:
   // Creates the frame ring (shm::RingError when another live writer holds the name) and starts
   // the heartbeat and the encoding thread, the latter at `nice` (the stages' own, 0-19: encoding
-  // is the stages' work, below the processing). The encoding thread waits awake within
-  // `spin_window_s` of when the next frame is due (forecast from the last ones; 0: asleep only).
-  explicit FramePublisher(const shm::FrameRingConfig& ring, int nice = 0,
-                          double spin_window_s = 0.0);
-  // Changes that window (0: asleep only) for the frames after this: the stages set it once they
+  // is the stages' work, below the processing). The encoding thread waits asleep until
+  // set_spin_window says otherwise.
+  explicit FramePublisher(const shm::FrameRingConfig& ring, int nice = 0);
+  // From the next frame on, the encoding thread waits awake within `spin_window_s` of when the
+  // next frame is due (forecast from the last ones; 0: asleep only): the stages set it once they
   // know whether a GPU renders.
   void set_spin_window(double spin_window_s) noexcept;
   ~FramePublisher();  // close()
