@@ -83,12 +83,6 @@ Graph random_graph(std::mt19937& rng, std::int32_t columns, std::int32_t states,
   return g;
 }
 
-template <int kStep>
-std::int32_t call_fixed(const std::int32_t* previous, int states, int s, int shift, int penalty,
-                        int* step) {
-  return detail::best_step_of<kStep>(previous, states, s, shift, kStep, penalty, step);
-}
-
 TEST(PathSearch, FindsTheShortestPathOfTheClassicGraph) {
   const unsigned seed = std::random_device{}();
   SCOPED_TRACE("seed " + std::to_string(seed));
@@ -162,28 +156,57 @@ TEST(PathSearch, BestStepPrefersTheSmallestStepAmongEqualTotals) {
   EXPECT_EQ(step, -1);
 }
 
-TEST(PathSearch, FixedBoundStepsGiveWhatTheRuntimeBoundGives) {
-  // The CUDA kernels use best_step_of<k> (every candidate read first), the CPU best_step.
-  std::mt19937 rng(5);
-  std::uniform_int_distribution<std::int32_t> total(-300, 300);
-  std::vector<std::int32_t> previous(40);
-  const auto check = [&](auto fixed, int max_step) {
-    for (int trial = 0; trial < 200; ++trial) {
-      for (std::int32_t& t : previous) t = rng() % 7 == 0 ? detail::kUnreachable : total(rng) / 8;
-      const int s = static_cast<int>(rng() % 40);
-      const int shift = static_cast<int>(rng() % (2 * max_step + 1)) - max_step;
-      const int penalty = static_cast<int>(rng() % 9);
-      int a = 0;
-      int b = 0;
-      ASSERT_EQ(fixed(previous.data(), 40, s, shift, penalty, &a),
-                detail::best_step(previous.data(), 40, s, shift, max_step, penalty, &b));
-      ASSERT_EQ(a, b);
+// The CUDA kernels step over keys in padded rows (best_step_key), the CPU over totals (best_step):
+// the same total, the same step, for totals up to the largest a search can reach, unreachable
+// states, ties, and shifts that put every candidate outside the band.
+template <int kStep>
+void expect_keyed_steps_equal(std::mt19937& rng) {
+  SCOPED_TRACE("step bound " + std::to_string(kStep));
+  constexpr int kStates = 40;
+  constexpr int kPad = detail::kStepKeyPad;
+  // The largest totals a half of a search reaches (column_math.hpp's static_asserts).
+  constexpr std::int32_t kLargest =
+      static_cast<std::int32_t>(kMaxAscans / 2 + 1) * detail::kOutsideCost;
+  std::vector<std::int32_t> totals(kStates);
+  std::vector<std::int32_t> keys(kStates + 2 * kPad, detail::kUnreachableKey);
+  for (int trial = 0; trial < 2000; ++trial) {
+    // Few distinct values in some trials (ties), the whole range in others.
+    const std::int32_t spread = trial % 3 == 0 ? 4 : kLargest;
+    std::uniform_int_distribution<std::int32_t> total(-spread, spread);
+    for (int s = 0; s < kStates; ++s) {
+      totals[s] = rng() % 7 == 0 ? detail::kUnreachable : total(rng);
+      keys[kPad + s] = detail::step_key_of(totals[s]);
     }
-  };
-  check([](auto... v) { return call_fixed<1>(v...); }, 1);
-  check([](auto... v) { return call_fixed<3>(v...); }, 3);
-  check([](auto... v) { return call_fixed<6>(v...); }, 6);
-  check([](auto... v) { return call_fixed<8>(v...); }, 8);
+    const int s = static_cast<int>(rng() % kStates);
+    const int shift =
+        std::uniform_int_distribution<int>(-kStates - 3 * kStep, kStates + 3 * kStep)(rng);
+    const int penalty = std::uniform_int_distribution<int>(0, 2 * 255)(rng);
+    const std::int32_t cost =
+        std::uniform_int_distribution<std::int32_t>(-5000, detail::kOutsideCost)(rng);
+    int keyed_step = 99;
+    int step = 99;
+    const std::int32_t key = detail::best_step_key<kStep>(
+        keys.data() + kPad, detail::step_key_base<kStep>(kStates, s, shift), penalty, &keyed_step);
+    const std::int32_t best =
+        detail::best_step(totals.data(), kStates, s, shift, kStep, penalty, &step);
+    ASSERT_EQ(detail::total_of_step_key(key), best)
+        << "trial " << trial << ", state " << s << ", shift " << shift << ", penalty " << penalty;
+    ASSERT_EQ(keyed_step, step) << "trial " << trial;
+    ASSERT_EQ(detail::total_of_step_key(detail::add_cost_key(key, cost)),
+              detail::add_cost(best, cost))
+        << "trial " << trial;
+  }
+}
+
+TEST(PathSearch, KeyedStepsGiveWhatTheTotalsGive) {
+  const unsigned seed = std::random_device{}();
+  SCOPED_TRACE("seed " + std::to_string(seed));
+  std::mt19937 rng(seed);
+  expect_keyed_steps_equal<1>(rng);
+  expect_keyed_steps_equal<2>(rng);
+  expect_keyed_steps_equal<3>(rng);
+  expect_keyed_steps_equal<6>(rng);
+  expect_keyed_steps_equal<8>(rng);
 }
 
 }  // namespace

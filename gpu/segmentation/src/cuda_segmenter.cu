@@ -186,9 +186,14 @@ __global__ void __launch_bounds__(1024) path_kernel(PathJob job) {
   const int b = job.first + g;
   const int S = job.states;
   const int N = job.columns;
-  // Shared memory: rows [2 halves][2 buffers][S] int32, origins [N] int32, keys [32] u64, steps.
+  // With the step bound fixed, the rows hold keys with unreachable padding (column_math.hpp,
+  // best_step_key); else plain totals.
+  constexpr bool kKeys = kFixedStep > 0;
+  constexpr int kPad = kKeys ? detail::kStepKeyPad : 0;
+  const int R = S + 2 * kPad;  // a row's length
+  // Shared memory: rows [2 halves][2 buffers][R] int32, origins [N] int32, keys [32] u64, steps.
   std::int32_t* rows = reinterpret_cast<std::int32_t*>(shared);
-  std::int32_t* origin = rows + 4 * S;
+  std::int32_t* origin = rows + 4 * R;
   unsigned long long* keys = reinterpret_cast<unsigned long long*>(origin + N + (N & 1));
   std::int8_t* steps = job.shared_steps ? reinterpret_cast<std::int8_t*>(keys + 32)
                                         : job.global_steps + static_cast<std::size_t>(g) * N * S;
@@ -201,8 +206,8 @@ __global__ void __launch_bounds__(1024) path_kernel(PathJob job) {
   const int half = threadIdx.x / job.half_threads;  // 0: from the left, 1: from the right
   const int s = threadIdx.x % job.half_threads;
   const bool active = s < S;
-  std::int32_t* buffer0 = rows + half * 2 * S;  // this half's two rows
-  std::int32_t* buffer1 = buffer0 + S;
+  std::int32_t* buffer0 = rows + half * 2 * R + kPad;  // state 0 of this half's two rows
+  std::int32_t* buffer1 = buffer0 + R;
   const int middle = N / 2;
   const int iterations = max(middle, N - 1 - middle);
   // The column a half works on at iteration i (1-based), or -1 when it is done.
@@ -211,38 +216,49 @@ __global__ void __launch_bounds__(1024) path_kernel(PathJob job) {
     const int a = N - 1 - i;
     return a >= middle ? a : -1;
   };
-  if (active) buffer0[s] = load_cost(cost, N, S, half == 0 ? 0 : N - 1, s);
+  if constexpr (kKeys) {
+    for (int i = threadIdx.x; i < 4 * 2 * kPad; i += blockDim.x) {
+      const int pad = i % (2 * kPad);  // [0, kPad) before a row's states, the rest after them
+      rows[(i / (2 * kPad)) * R + (pad < kPad ? pad : S + pad)] = detail::kUnreachableKey;
+    }
+  }
+  const auto to_row = [](std::int32_t total) { return kKeys ? detail::step_key_of(total) : total; };
+  if (active) buffer0[s] = to_row(load_cost(cost, N, S, half == 0 ? 0 : N - 1, s));
   __syncthreads();
 
   std::int32_t* previous = buffer0;  // this half's totals so far
   std::int32_t* next = buffer1;
-  for (int base = 1; base <= iterations; base += kChunk) {
+  for (int first = 1; first <= iterations; first += kChunk) {
     // The chunk's costs and band shifts, loaded together: one wait for memory per chunk, none
     // between the barriers of its steps.
     std::int32_t costs[kChunk];
     int shifts[kChunk];
 #pragma unroll
     for (int k = 0; k < kChunk; ++k) {
-      const int a = column_at(base + k);
+      const int a = column_at(first + k);
       costs[k] = active && a >= 0 ? load_cost(cost, N, S, a, s) : 0;
     }
 #pragma unroll
     for (int k = 0; k < kChunk; ++k) {
-      const int a = column_at(base + k);
+      const int a = column_at(first + k);
       shifts[k] = a >= 0 ? origin[a] - origin[half == 0 ? a - 1 : a + 1] : 0;
     }
 #pragma unroll
     for (int k = 0; k < kChunk; ++k) {
-      const int i = base + k;
+      const int i = first + k;
       if (i <= iterations) {  // the same for every thread: the barrier below is reached by all
         const int a = column_at(i);
         if (active && a >= 0) {
           int step = 0;
-          // (A tree of minima over packed 64-bit keys instead of best_step_of's chain of
-          // comparisons measured slower on an H100: see docs/segmentation.md.)
-          const std::int32_t best = detail::best_step_of<kFixedStep>(
-              previous, S, s, shifts[k], job.max_step, job.penalty, &step);
-          next[s] = detail::add_cost(best, costs[k]);
+          if constexpr (kKeys) {
+            const int from = detail::step_key_base<kFixedStep>(S, s, shifts[k]);
+            next[s] = detail::add_cost_key(
+                detail::best_step_key<kFixedStep>(previous, from, job.penalty, &step), costs[k]);
+          } else {
+            const std::int32_t best =
+                detail::best_step(previous, S, s, shifts[k], job.max_step, job.penalty, &step);
+            next[s] = detail::add_cost(best, costs[k]);
+          }
           // The step into column a from the left is kept at a; from the right, at a + 1 (so the
           // middle column's two steps do not share a place).
           steps[static_cast<std::size_t>(half == 0 ? a : a + 1) * S + s] =
@@ -263,11 +279,14 @@ __global__ void __launch_bounds__(1024) path_kernel(PathJob job) {
   // equals (keys order by total, then state).
   const int forward_rows = middle;
   const int backward_rows = N - 1 - middle;
-  const std::int32_t* forward = rows + ((forward_rows & 1) != 0 ? S : 0);
-  const std::int32_t* backward = rows + 2 * S + ((backward_rows & 1) != 0 ? S : 0);
+  const std::int32_t* forward = rows + ((forward_rows & 1) != 0 ? R : 0) + kPad;
+  const std::int32_t* backward = rows + 2 * R + ((backward_rows & 1) != 0 ? R : 0) + kPad;
+  const auto from_row = [](std::int32_t v) { return kKeys ? detail::total_of_step_key(v) : v; };
   unsigned long long key = ~0ull;
-  if (half == 0 && active && forward[s] < kUnreachable && backward[s] < kUnreachable) {
-    const std::int32_t total = forward[s] + backward[s] - load_cost(cost, N, S, middle, s);
+  const std::int32_t forward_total = active ? from_row(forward[s]) : kUnreachable;
+  const std::int32_t backward_total = active ? from_row(backward[s]) : kUnreachable;
+  if (half == 0 && forward_total < kUnreachable && backward_total < kUnreachable) {
+    const std::int32_t total = forward_total + backward_total - load_cost(cost, N, S, middle, s);
     key = (static_cast<unsigned long long>(static_cast<std::uint32_t>(total) ^ 0x80000000u) << 32) |
           static_cast<unsigned long long>(s);
   }
@@ -536,7 +555,7 @@ __global__ void finish_kernel(FinishJob job) {
 void (*const kPathKernels[])(PathJob) = {path_kernel<0>, path_kernel<1>, path_kernel<2>,
                                          path_kernel<3>, path_kernel<4>, path_kernel<5>,
                                          path_kernel<6>, path_kernel<7>, path_kernel<8>};
-constexpr int kFixedSteps = 8;
+constexpr int kFixedSteps = detail::kMaxKeyedStep;
 
 // Why this build's kernels cannot run on the current device, or cudaSuccess.
 cudaError_t probe_kernels() {
@@ -611,8 +630,8 @@ int round_up_warp(int n) {
 }
 
 // Shared memory of a search: rows, origins (padded to 8 bytes), 32 keys, and the steps if they fit.
-std::size_t path_shared_bytes(int columns, int states, bool steps) {
-  std::size_t bytes = 4 * static_cast<std::size_t>(states) * sizeof(std::int32_t) +
+std::size_t path_shared_bytes(int columns, int states, int row_pad, bool steps) {
+  std::size_t bytes = 4 * static_cast<std::size_t>(states + 2 * row_pad) * sizeof(std::int32_t) +
                       static_cast<std::size_t>(columns + (columns & 1)) * sizeof(std::int32_t) +
                       32 * sizeof(unsigned long long);
   if (steps) bytes += static_cast<std::size_t>(columns) * states;
@@ -659,8 +678,8 @@ CudaSegmenter::CudaSegmenter(const SegmentationConfig& config, const VolumeSampl
     dynamic_limit = std::min(dynamic_limit, static_cast<std::size_t>(dynamic));
   }
   state_ = std::make_unique<DeviceState>();
-  // The steps go to shared memory when they fit beside the rows and origins (at most 4 x 256 +
-  // 4096 int32 and 32 keys: 20.8 kB).
+  // The steps go to shared memory when they fit beside the rows and origins (at most 4 x (256 +
+  // 2 x kStepKeyPad) + 4096 int32 and 32 keys: 20.8 kB).
   state_->max_steps_shared = std::min<std::size_t>(dynamic_limit - 21 * 1024, kSharedStepsLimit);
 }
 
@@ -761,8 +780,10 @@ void launch_path(const PathJob& job, int count, std::size_t max_steps_shared, cu
   const std::size_t steps = static_cast<std::size_t>(j.columns) * j.states;
   j.shared_steps = steps <= max_steps_shared;
   j.half_threads = round_up_warp(j.states);
-  const std::size_t shared = path_shared_bytes(j.columns, j.states, j.shared_steps);
-  const auto kernel = kPathKernels[j.max_step <= kFixedSteps ? j.max_step : 0];
+  const int fixed_step = j.max_step <= kFixedSteps ? j.max_step : 0;
+  const int row_pad = fixed_step > 0 ? detail::kStepKeyPad : 0;
+  const std::size_t shared = path_shared_bytes(j.columns, j.states, row_pad, j.shared_steps);
+  const auto kernel = kPathKernels[fixed_step];
   kernel<<<count, 2 * j.half_threads, shared, stream>>>(j);
   cuda::check_launch("path_kernel");
 }

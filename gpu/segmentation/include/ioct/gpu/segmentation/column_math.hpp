@@ -148,69 +148,122 @@ IOCT_HD std::int32_t ilm_band_origin(std::int32_t coarse_cell, std::int32_t band
   return coarse_cell * kCoarseCellPx + kCoarseCellPx / 2 + 4 - band;
 }
 
+// The i-th step tried: 0, -1, +1, -2, +2, ... (this depth minus the neighbour's).
+IOCT_HD int tried_step(int i) {
+  return (i & 1) != 0 ? -((i + 1) >> 1) : (i >> 1);
+}
+
 // One state of one step of the search along a B-scan. `previous` holds the neighbouring A-scan's
 // path totals over `states` states; this A-scan's band starts `shift` px deeper than the
 // neighbour's. Returns the best total reaching state `s` from it (kUnreachable if none) and the
-// step taken (this depth minus the neighbour's), trying steps in the order 0, -1, +1, -2, +2, ...
-// so that ties go the same way everywhere.
-//
-// kFixedStep > 0 fixes the bound at compile time: every candidate is read before any is compared
-// (the GPU issues the reads together); 0 takes it from `max_step`. Both give the same result.
-template <int kFixedStep>
-IOCT_HD std::int32_t best_step_of(const std::int32_t* previous, int states, int s, int shift,
-                                  int max_step, int penalty, int* step) {
-  constexpr int kCandidates = kFixedStep > 0 ? 2 * kFixedStep + 1 : 1;
-  const int candidates = kFixedStep > 0 ? kCandidates : 2 * max_step + 1;
+// step taken, trying steps in tried_step's order so that ties go the same way everywhere.
+IOCT_HD std::int32_t best_step(const std::int32_t* previous, int states, int s, int shift,
+                               int max_step, int penalty, int* step) {
   std::int32_t best = kUnreachable;
   int chosen = 0;
-  if constexpr (kFixedStep > 0) {
-    std::int32_t totals[kCandidates];
-#if defined(__CUDA_ARCH__)
-#pragma unroll
-#endif
-    for (int i = 0; i < kCandidates; ++i) {
-      const int j = (i & 1) != 0 ? -((i + 1) >> 1) : (i >> 1);
-      const int from = s + shift - j;
-      totals[i] = from >= 0 && from < states ? previous[from] : kUnreachable;
-    }
-#if defined(__CUDA_ARCH__)
-#pragma unroll
-#endif
-    for (int i = 0; i < kCandidates; ++i) {
-      const int j = (i & 1) != 0 ? -((i + 1) >> 1) : (i >> 1);
-      if (totals[i] >= kUnreachable) continue;
-      const std::int32_t candidate = totals[i] + penalty * abs_int(j);
-      if (candidate < best) {
-        best = candidate;
-        chosen = j;
-      }
-    }
-  } else {
-    for (int i = 0; i < candidates; ++i) {
-      const int j = (i & 1) != 0 ? -((i + 1) >> 1) : (i >> 1);
-      const int from = s + shift - j;
-      if (from < 0 || from >= states) continue;
-      const std::int32_t total = previous[from];
-      if (total >= kUnreachable) continue;
-      const std::int32_t candidate = total + penalty * abs_int(j);
-      if (candidate < best) {
-        best = candidate;
-        chosen = j;
-      }
+  for (int i = 0; i < 2 * max_step + 1; ++i) {
+    const int j = tried_step(i);
+    const int from = s + shift - j;
+    if (from < 0 || from >= states) continue;
+    const std::int32_t total = previous[from];
+    if (total >= kUnreachable) continue;
+    const std::int32_t candidate = total + penalty * abs_int(j);
+    if (candidate < best) {
+      best = candidate;
+      chosen = j;
     }
   }
   *step = chosen;
   return best;
 }
 
-IOCT_HD std::int32_t best_step(const std::int32_t* previous, int states, int s, int shift,
-                               int max_step, int penalty, int* step) {
-  return best_step_of<0>(previous, states, s, shift, max_step, penalty, step);
-}
-
 // A path total plus a state's cost, staying at kUnreachable.
 IOCT_HD std::int32_t add_cost(std::int32_t total, std::int32_t cost) {
   return total >= kUnreachable ? kUnreachable : total + cost;
+}
+
+// The same step over keys (the GPU's, for a bound fixed at compile time): a key is a path total
+// times kStepKeyScale, and a candidate's key adds its step's penalty (times the scale) and its
+// place in the order of tried steps. One minimum over the candidates' keys is then the least total
+// and, among equals, the first tried: best_step's choice, found by a tree of add-min operations
+// (one instruction each on Hopper) instead of a chain of comparisons.
+//
+// A row of keys has kStepKeyPad unreachable keys on each side, so a step reads its candidates
+// without a test of each: see step_key_base.
+inline constexpr std::int32_t kStepKeyScale = 32;  // > the candidates of kMaxKeyedStep
+inline constexpr int kMaxKeyedStep = 8;
+inline constexpr int kStepKeyPad = 2 * kMaxKeyedStep + 1;
+inline constexpr std::int32_t kUnreachableKey = 0x7f000000;
+// Every total a half of a search reaches (at most kMaxAscans / 2 + 1 columns) keeps its key below
+// kUnreachableKey and above INT32_MIN: a state's cost is at most kOutsideCost and at least
+// -(2 x 255 + kDepthPriorWeight x kMaxDepth) (rpe_cost), a step's penalty at most 2 x 255 (the
+// coarse search's, from a step_penalty of 255) per px.
+static_assert(kStepKeyScale > 2 * kMaxKeyedStep + 1);
+static_assert((static_cast<std::int64_t>(kMaxAscans) / 2 + 1) *
+                  (kOutsideCost + 2 * 255 * kMaxKeyedStep + 1) <
+              kUnreachableKey / kStepKeyScale);
+static_assert((static_cast<std::int64_t>(kMaxAscans) / 2 + 1) *
+                  (2 * 255 + kDepthPriorWeight * static_cast<std::int64_t>(kMaxDepth)) <
+              kUnreachableKey / kStepKeyScale);
+
+IOCT_HD std::int32_t step_key_of(std::int32_t total) {
+  return total >= kUnreachable ? kUnreachableKey : total * kStepKeyScale;
+}
+IOCT_HD std::int32_t total_of_step_key(std::int32_t key) {
+  return key >= kUnreachableKey ? kUnreachable : key / kStepKeyScale;
+}
+
+// Where a step reads its candidates in a padded row of `states` keys: this A-scan's state plus the
+// band's shift, clamped so that the reads stay within the padding; a state clamped there has no
+// candidate inside the row, and the padding answers unreachable for all of them as the row would.
+template <int kFixedStep>
+IOCT_HD int step_key_base(int states, int s, int shift) {
+  static_assert(kFixedStep > 0 && kFixedStep <= kMaxKeyedStep);
+  return clamp_int(s + shift, -kFixedStep - 1, states + kFixedStep);
+}
+
+IOCT_HD std::int32_t add_min(std::int32_t a, std::int32_t b, std::int32_t c) {
+#if defined(__CUDA_ARCH__)
+  return __viaddmin_s32(a, b, c);  // min(a + b, c)
+#else
+  return min_int(a + b, c);
+#endif
+}
+
+// best_step over keys, for a step bound of kFixedStep: `row` points at state 0 of a padded row of
+// keys, `base` is step_key_base's; returns the best total reaching the state as a key
+// (kUnreachableKey if none) and the step taken.
+template <int kFixedStep>
+IOCT_HD std::int32_t best_step_key(const std::int32_t* row, int base, std::int32_t penalty,
+                                   int* step) {
+  constexpr int kCandidates = 2 * kFixedStep + 1;
+  constexpr int kChains = 4;  // independent minima, joined at the end
+  std::int32_t keys[kCandidates];
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+  for (int i = 0; i < kCandidates; ++i) keys[i] = row[base - tried_step(i)];
+  std::int32_t best[kChains] = {kUnreachableKey, kUnreachableKey, kUnreachableKey, kUnreachableKey};
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+  for (int i = 0; i < kCandidates; ++i) {
+    const std::int32_t penalty_and_order = penalty * kStepKeyScale * abs_int(tried_step(i)) + i;
+    best[i % kChains] = add_min(keys[i], penalty_and_order, best[i % kChains]);
+  }
+  const std::int32_t key = min_int(min_int(best[0], best[1]), min_int(best[2], best[3]));
+  if (key >= kUnreachableKey) {
+    *step = 0;
+    return kUnreachableKey;
+  }
+  const int i = key & (kStepKeyScale - 1);
+  *step = tried_step(i);
+  return key - i;  // the candidate's total, its step's penalty included, as a key
+}
+
+// A key plus a state's cost, staying unreachable.
+IOCT_HD std::int32_t add_cost_key(std::int32_t key, std::int32_t cost) {
+  return key >= kUnreachableKey ? kUnreachableKey : key + cost * kStepKeyScale;
 }
 
 // What the refinement of one A-scan found (px; NaN-free: the caller knows whether it applies).
