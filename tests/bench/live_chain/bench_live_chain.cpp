@@ -49,10 +49,8 @@
 #include "ioct/gpu/processing/cuda_oct_processor.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"
-#include "ioct/shm/ring_error.hpp"
-#include "ioct/shm/ring_writer.hpp"
-#include "ioct/sim/simulated_digitizer.hpp"
 #include "latency_summary.hpp"
+#include "simulated_group_ring.hpp"
 
 namespace {
 
@@ -68,74 +66,6 @@ struct Options {
   std::string render_mode = "enhanced";
   std::string json_path;
   double spin_window_s = live::VolumeStagesConfig{}.spin_window_s;
-};
-
-void fill_header(shm::SlotHeader& h, const shm::RingGeometry& g, std::uint64_t group) {
-  h.bscan_count = g.bscans_per_group;
-  h.active_ascan_begin = 0;
-  h.active_ascan_end = g.ascans_per_bscan;
-  h.status_flags = shm::kStatusSimulated;
-  const std::uint64_t first = group * g.bscans_per_group;
-  for (std::uint32_t b = 0; b < g.bscans_per_group; ++b) {
-    shm::BscanMarker& m = h.bscans[b];
-    m = {};
-    m.volume_index = (first + b) / g.bscans_per_volume;
-    m.bscan_in_volume = static_cast<std::uint32_t>((first + b) % g.bscans_per_volume);
-    if (m.bscan_in_volume == 0) m.flags |= shm::kBscanVolumeStart;
-    if (m.bscan_in_volume + 1 == g.bscans_per_volume) m.flags |= shm::kBscanVolumeEnd;
-  }
-}
-
-// A ring whose slots all hold simulated groups; publish() re-publishes them (headers only).
-class FilledRing {
- public:
-  FilledRing(const shm::RingGeometry& g, std::uint32_t slots)
-      : name_("ioct-bench-live-" + std::to_string(::getpid())), geometry_(g) {
-    shm::RingConfig config;
-    config.name = name_;
-    config.geometry = g;
-    config.slot_count = slots;
-    config.memory_lock = shm::MemoryLock::best_effort;
-    writer_.emplace(shm::RingWriter::create(config));
-    slots_ = slots;
-    hal::DigitizerConfig acquisition;
-    acquisition.samples_per_ascan = g.samples_per_ascan;
-    acquisition.ascans_per_bscan = g.ascans_per_bscan;
-    acquisition.bscans_per_group = g.bscans_per_group;
-    sim::SimulationConfig simulation;
-    simulation.scan.ascans_per_bscan = g.ascans_per_bscan;
-    simulation.scan.bscans_per_volume = g.bscans_per_volume;
-    sim::SimulatedDigitizer digitizer(simulation);
-    digitizer.prepare(acquisition);
-    digitizer.start();
-    for (std::uint32_t s = 0; s < slots; ++s) {
-      shm::RingWriter::Claim claim = writer_->claim();
-      hal::GroupInfo info;
-      digitizer.acquire_group(std::span(reinterpret_cast<std::uint16_t*>(claim.payload.data()),
-                                        claim.payload.size() / 2),
-                              info);
-      fill_header(*claim.header, g, claim.group);
-      writer_->publish(claim);
-    }
-  }
-  ~FilledRing() {
-    writer_.reset();
-    shm::ShmObject::remove(name_);
-  }
-  void publish() {
-    shm::RingWriter::Claim claim = writer_->claim();
-    fill_header(*claim.header, geometry_, claim.group);
-    writer_->publish(claim);
-  }
-  std::uint64_t published() const { return writer_->published(); }
-  std::uint32_t slots() const { return slots_; }
-  const std::string& name() const { return name_; }
-
- private:
-  std::string name_;
-  shm::RingGeometry geometry_;
-  std::uint32_t slots_ = 0;
-  std::optional<shm::RingWriter> writer_;
 };
 
 // Per group: publish and processed times from the live loop, the stages' times from their pass.
@@ -239,7 +169,7 @@ KernelAnchors measure_kernels(const shm::RingGeometry& g, const Volume& volume,
     DevicePixelTarget target;
     target.pixels = pixels.data();
     k.processing = kernel_ms(processor.stream(), 20, [&](int r) {
-      fill_header(header, g, static_cast<std::uint64_t>(r % 8));
+      bench::describe_group(header, g, static_cast<std::uint64_t>(r % 8));
       for (std::uint32_t b = 0; b < g.bscans_per_group; ++b) {
         target.position[b] = static_cast<std::int32_t>(header.bscans[b].bscan_in_volume);
       }
@@ -316,7 +246,7 @@ int run(const Options& o) {
               o.spin_window_s * 1e3);
   std::printf("geometry: %u samples x %u A-scans x %u B-scans per group, %u per volume\n",
               g.samples_per_ascan, g.ascans_per_bscan, g.bscans_per_group, g.bscans_per_volume);
-  FilledRing ring(g, o.slots);
+  bench::SimulatedGroupRing ring("live", g, o.slots);
 
   ChainRecorder recorder;
   live::VolumeStagesConfig config;

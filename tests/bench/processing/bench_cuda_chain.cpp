@@ -19,7 +19,6 @@
 // ratios.
 #include <cuda_runtime.h>
 
-#include <unistd.h>
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <atomic>
@@ -38,9 +37,7 @@
 #include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/ingest/live_pipeline.hpp"
 #include "ioct/gpu/processing/cuda_oct_processor.hpp"
-#include "ioct/shm/ring_error.hpp"
-#include "ioct/shm/ring_writer.hpp"
-#include "ioct/sim/simulated_digitizer.hpp"
+#include "simulated_group_ring.hpp"
 
 namespace {
 
@@ -62,88 +59,6 @@ shm::RingGeometry geometry_for(std::uint32_t samples) {
   g.samples_per_ascan = samples;
   return g;
 }
-
-void fill_header(shm::SlotHeader& h, const shm::RingGeometry& g, std::uint64_t group) {
-  h.bscan_count = g.bscans_per_group;
-  h.active_ascan_begin = 0;
-  h.active_ascan_end = g.ascans_per_bscan;
-  h.status_flags = shm::kStatusSimulated;
-  const std::uint64_t first = group * g.bscans_per_group;
-  for (std::uint32_t b = 0; b < g.bscans_per_group; ++b) {
-    shm::BscanMarker& m = h.bscans[b];
-    m = {};
-    m.volume_index = (first + b) / g.bscans_per_volume;
-    m.bscan_in_volume = static_cast<std::uint32_t>((first + b) % g.bscans_per_volume);
-    if (m.bscan_in_volume == 0) m.flags |= shm::kBscanVolumeStart;
-    if (m.bscan_in_volume + 1 == g.bscans_per_volume) m.flags |= shm::kBscanVolumeEnd;
-  }
-}
-
-// A ring whose slots all hold simulated groups; publish() re-publishes them (headers only).
-class FilledRing {
- public:
-  FilledRing(const shm::RingGeometry& g, std::uint32_t slots)
-      : name_("ioct-bench-chain-" + std::to_string(::getpid()) + "-" +
-              std::to_string(g.samples_per_ascan)),
-        geometry_(g) {
-    shm::RingConfig config;
-    config.name = name_;
-    config.geometry = g;
-    config.slot_count = slots;
-    config.memory_lock = shm::MemoryLock::best_effort;
-    // Fewer slots when /dev/shm is too small for the ones asked for.
-    for (;; --config.slot_count) {
-      try {
-        writer_.emplace(shm::RingWriter::create(config));
-        break;
-      } catch (const shm::RingError& e) {
-        if (config.slot_count <= 4) throw;
-        std::fprintf(stderr, "ring of %llu slots refused (%s); trying fewer\n",
-                     static_cast<unsigned long long>(config.slot_count), e.what());
-        shm::ShmObject::remove(name_);
-      }
-    }
-    slots = static_cast<std::uint32_t>(config.slot_count);
-    slots_ = slots;
-    hal::DigitizerConfig acquisition;
-    acquisition.samples_per_ascan = g.samples_per_ascan;
-    acquisition.ascans_per_bscan = g.ascans_per_bscan;
-    acquisition.bscans_per_group = g.bscans_per_group;
-    sim::SimulationConfig simulation;
-    simulation.scan.ascans_per_bscan = g.ascans_per_bscan;
-    simulation.scan.bscans_per_volume = g.bscans_per_volume;
-    sim::SimulatedDigitizer digitizer(simulation);
-    digitizer.prepare(acquisition);
-    digitizer.start();
-    for (std::uint32_t s = 0; s < slots; ++s) {
-      shm::RingWriter::Claim claim = writer_->claim();
-      hal::GroupInfo info;
-      digitizer.acquire_group(std::span(reinterpret_cast<std::uint16_t*>(claim.payload.data()),
-                                        claim.payload.size() / 2),
-                              info);
-      fill_header(*claim.header, g, claim.group);
-      writer_->publish(claim);
-    }
-  }
-  ~FilledRing() {
-    writer_.reset();
-    shm::ShmObject::remove(name_);
-  }
-  void publish() {
-    shm::RingWriter::Claim claim = writer_->claim();
-    fill_header(*claim.header, geometry_, claim.group);
-    writer_->publish(claim);
-  }
-  std::uint64_t published() const { return writer_->published(); }
-  std::uint32_t slots() const { return slots_; }
-  const std::string& name() const { return name_; }
-
- private:
-  std::string name_;
-  shm::RingGeometry geometry_;
-  std::uint32_t slots_ = 0;
-  std::optional<shm::RingWriter> writer_;
-};
 
 // Counts groups and records publish -> landed latency.
 class Counter final : public LiveEvents {
@@ -175,7 +90,8 @@ struct Throughput {
 };
 
 // The pipeline against a writer that publishes as fast as slots free up.
-Throughput measure_pipeline(FilledRing& ring, const shm::RingGeometry& g, const Options& o) {
+Throughput measure_pipeline(bench::SimulatedGroupRing& ring, const shm::RingGeometry& g,
+                            const Options& o) {
   LivePipelineOptions options;
   options.host_volumes = false;
   options.groups_in_flight = o.in_flight;
@@ -228,7 +144,8 @@ Throughput measure_pipeline(FilledRing& ring, const shm::RingGeometry& g, const 
 }
 
 // Publish one group every period; the pipeline polls; latency per group.
-LatencyHistogram measure_latency(FilledRing& ring, const Options& o, std::uint64_t& dropped) {
+LatencyHistogram measure_latency(bench::SimulatedGroupRing& ring, const Options& o,
+                                 std::uint64_t& dropped) {
   auto pipeline = make_live_pipeline(Backend::cuda, chain_config(),
                                      shm::RingReader::attach(ring.name(), {"bench-latency", false}),
                                      LivePipelineOptions{false, o.in_flight});
@@ -283,7 +200,7 @@ double compute_only_ascans_per_s(const shm::RingGeometry& g) {
   target.pixels = static_cast<std::uint8_t*>(volume);
   const auto run = [&](int groups) {
     for (int i = 0; i < groups; ++i) {
-      fill_header(header, g, static_cast<std::uint64_t>(i));
+      bench::describe_group(header, g, static_cast<std::uint64_t>(i));
       for (std::uint32_t b = 0; b < g.bscans_per_group; ++b) {
         target.position[b] = static_cast<std::int32_t>(header.bscans[b].bscan_in_volume);
       }
@@ -322,7 +239,7 @@ int run(const Options& o) {
     std::printf("\n%u samples x %u A-scans x %u B-scans per group (%.1f MB)\n", samples,
                 g.ascans_per_bscan, g.bscans_per_group,
                 static_cast<double>(g.group_payload_bytes()) / 1e6);
-    FilledRing ring(g, o.slots);
+    bench::SimulatedGroupRing ring("chain-" + std::to_string(samples), g, o.slots);
     // The anchor before and after the pipeline's run, so a drift of the link shows.
     const double pinned_before = pinned_h2d_ascans_per_s(g);
     const double compute = compute_only_ascans_per_s(g);

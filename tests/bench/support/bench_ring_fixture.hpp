@@ -30,6 +30,7 @@ class BenchRing {
   void publish(std::uint64_t groups) noexcept;
 
   shm::RingWriter& writer() noexcept { return writer_; }
+  const shm::RingWriter& writer() const noexcept { return writer_; }
   const shm::RingLayout& layout() const noexcept { return writer_.layout(); }
   const std::string& name() const noexcept { return writer_.config().name; }
 
