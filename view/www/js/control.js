@@ -9,6 +9,7 @@ import { buildControl } from './control-widgets.js';
 import { kMainControls, kViewControls, kAdvancedControls } from './control-table.js';
 import { attachOrbit } from './orbit.js';
 import { attachPresets } from './presets-panel.js';
+import { buildPicture } from './picture.js';
 
 const $ = (id) => document.getElementById(id);
 const token = tokenFromFragment();
@@ -19,6 +20,7 @@ let role = 'viewer';
 // "Follow" goes back to the shared view.
 let ownView = null;
 
+buildPicture($('live'), { interactive: true });
 const live = startLiveView({
   token,
   onState: (state) => {
