@@ -7,6 +7,7 @@
 #include "ioct/gpu/segmentation/column_math.hpp"
 #include "ioct/gpu/segmentation/finishing.hpp"
 #include "ioct/gpu/segmentation/histogram.hpp"
+#include "ioct/gpu/segmentation/lifted_rpe.hpp"
 
 namespace ioct::gpu::segmentation {
 
@@ -120,7 +121,7 @@ BscanSpan CpuSegmenter::segment_group(const Volume& volume, BscanSpan group, Sur
                                         params_.bridge_bscans,
                                         params_.smooth};
   const detail::RememberedFits remembered = memory_.remembered();
-  pool_.run(outputs.count, [&](std::uint32_t i, unsigned) {
+  pool_.run(outputs.count, [&](std::uint32_t i, unsigned worker) {
     const std::uint32_t b = outputs.first + i;
     surfaces.verdict[b] = static_cast<BscanVerdict>(memory_.verdict[b]);
     for (std::uint32_t a = 0; a < volume.ascans(); ++a) {
@@ -137,8 +138,33 @@ BscanSpan CpuSegmenter::segment_group(const Volume& volume, BscanSpan group, Sur
       memory_.finished_bm[k] = f.bm;
       memory_.finished_kind[k] = f.kind;
     }
+    const std::size_t row = surfaces.index(b, 0);
+    membrane_bscan(memory_.finished_bm.data() + row, surfaces.bm.data() + row, workspaces_[worker]);
   });
   return outputs;
+}
+
+void CpuSegmenter::membrane_bscan(const float* finished_bm, float* bm, Workspace& w) const {
+  const detail::MembraneSettings m =
+      detail::membrane_settings(sampling_.ascan_spacing_um, sampling_.axial_um_per_px);
+  const int ascans = params_.ascans;
+  const std::size_t n = static_cast<std::size_t>(ascans);
+  w.smoothed_bm.resize(n);
+  w.bm_floor.resize(n);
+  w.next_floor.resize(n);
+  for (int a = 0; a < ascans; ++a) {
+    w.smoothed_bm[a] = detail::bm_median_at(finished_bm, ascans, a, m.median_reach);
+  }
+  w.bm_floor = w.smoothed_bm;
+  for (int p = 1; p <= m.clip_reach; ++p) {
+    for (int a = 0; a < ascans; ++a) {
+      w.next_floor[a] = detail::clipped_at(w.bm_floor.data(), ascans, a, p);
+    }
+    w.bm_floor.swap(w.next_floor);
+  }
+  for (int a = 0; a < ascans; ++a) {
+    bm[a] = detail::membrane_at(finished_bm[a], w.smoothed_bm[a], w.bm_floor[a], m.lift_px);
+  }
 }
 
 void CpuSegmenter::coarse_bscan(const Volume& volume, std::uint32_t bscan, Workspace& w) {

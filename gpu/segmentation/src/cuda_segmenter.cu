@@ -13,6 +13,7 @@
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"
 #include "ioct/gpu/segmentation/finishing.hpp"
 #include "ioct/gpu/segmentation/histogram.hpp"
+#include "ioct/gpu/segmentation/lifted_rpe.hpp"
 
 namespace ioct::gpu::segmentation {
 
@@ -25,9 +26,10 @@ constexpr int kCostThreads = 256;
 constexpr int kPairsPerCostBlock = 8;
 constexpr int kColumnsPerCostBlock = 16;
 constexpr int kFinishThreads = 128;
-constexpr int kFitThreads = 64;       // a fit per thread: many small blocks
-constexpr int kVerdictThreads = 256;  // a B-scan per block
-constexpr int kChunk = 16;            // search columns whose costs a thread loads at once
+constexpr int kFitThreads = 64;        // a fit per thread: many small blocks
+constexpr int kVerdictThreads = 256;   // a B-scan per block
+constexpr int kMembraneThreads = 256;  // a B-scan per block
+constexpr int kChunk = 16;             // search columns whose costs a thread loads at once
 // Shared memory a search may use for its step choices; more goes to global memory (slower trace
 // back, same result).
 constexpr std::size_t kSharedStepsLimit = 160 * 1024;
@@ -518,7 +520,7 @@ struct FinishJob {
   detail::FinishSettings settings;
   float* ilm;
   float* rpe;
-  float* bm;
+  float* finished_bm;  // before Bruch's membrane is looked for beneath lifted RPE
   float* confidence;
   SurfaceState* state;
   detail::FinishedKind* finished_kind;
@@ -545,10 +547,51 @@ __global__ void finish_kernel(FinishJob job) {
   const std::size_t k = static_cast<std::size_t>(b) * job.raw.ascans + a;
   job.ilm[k] = f.ilm;
   job.rpe[k] = f.rpe;
-  job.bm[k] = f.bm;
+  job.finished_bm[k] = f.bm;
   job.confidence[k] = f.confidence;
   job.state[k] = f.state;
   job.finished_kind[k] = f.kind;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Bruch's membrane beneath a lifted RPE (lifted_rpe.hpp), after the finishing: a block per
+// finished B-scan, its smoothed BM and floor in shared memory through the clipping passes.
+
+struct MembraneJob {
+  const float* finished_bm;  // [bscan][ascan], as the finishing left it
+  float* bm;                 // the surfaces
+  int first;                 // first output B-scan
+  int ascans;
+  detail::MembraneSettings settings;
+};
+
+__global__ void membrane_kernel(MembraneJob job) {
+  extern __shared__ float scratch[];  // [3][ascans]: smoothed, floor, next floor
+  const int n = job.ascans;
+  const std::size_t row = static_cast<std::size_t>(job.first + blockIdx.x) * n;
+  const float* finished = job.finished_bm + row;
+  float* smoothed = scratch;
+  float* bm_floor = scratch + n;
+  float* next_floor = scratch + 2 * n;
+  for (int a = threadIdx.x; a < n; a += blockDim.x) {
+    const float v = detail::bm_median_at(finished, n, a, job.settings.median_reach);
+    smoothed[a] = v;
+    bm_floor[a] = v;
+  }
+  __syncthreads();
+  for (int p = 1; p <= job.settings.clip_reach; ++p) {
+    for (int a = threadIdx.x; a < n; a += blockDim.x) {
+      next_floor[a] = detail::clipped_at(bm_floor, n, a, p);
+    }
+    __syncthreads();  // the next pass writes where this one read
+    float* t = bm_floor;
+    bm_floor = next_floor;
+    next_floor = t;
+  }
+  float* bm = job.bm + row;
+  for (int a = threadIdx.x; a < n; a += blockDim.x) {
+    bm[a] = detail::membrane_at(finished[a], smoothed[a], bm_floor[a], job.settings.lift_px);
+  }
 }
 
 // The search kernels by step bound: [0] any bound, [k] a bound of k px (or cells).
@@ -581,7 +624,8 @@ struct CudaSegmenter::DeviceState {
   cuda::DeviceArray<std::uint32_t> fits_cycle;  // [bscan]
   cuda::DeviceArray<float> remembered_ilm, remembered_rpe, remembered_bm;
   cuda::DeviceArray<std::uint32_t> remembered_frame_cycle, remembered_measured_cycle;
-  cuda::DeviceArray<detail::FinishedKind> finished_kind;  // (the surfaces are the finished values)
+  cuda::DeviceArray<detail::FinishedKind> finished_kind;  // (the surfaces are the finished values,
+  cuda::DeviceArray<float> finished_bm;  // but for the BM, which is looked for beneath lifted RPE)
   // Surfaces.
   cuda::DeviceArray<float> ilm, rpe, bm, confidence;
   cuda::DeviceArray<SurfaceState> state;
@@ -736,6 +780,7 @@ void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uin
   d.remembered_frame_cycle = device_array<std::uint32_t>(n);
   d.remembered_measured_cycle = device_array<std::uint32_t>(n);
   d.finished_kind = device_array<detail::FinishedKind>(n);
+  d.finished_bm = device_array<float>(n);
   d.ilm = device_array<float>(n);
   d.rpe = device_array<float>(n);
   d.bm = device_array<float>(n);
@@ -940,7 +985,7 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
     job.finished_kind = d.finished_kind.data();
     job.finished_ilm = d.ilm.data();
     job.finished_rpe = d.rpe.data();
-    job.finished_bm = d.bm.data();
+    job.finished_bm = d.finished_bm.data();
     job.remembered = {d.remembered_ilm.data(), d.remembered_rpe.data(), d.remembered_bm.data(),
                       d.remembered_frame_cycle.data(), d.remembered_measured_cycle.data()};
     job.first = first;
@@ -974,7 +1019,7 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
                                           p.smooth};
     job.ilm = d.ilm.data();
     job.rpe = d.rpe.data();
-    job.bm = d.bm.data();
+    job.finished_bm = d.finished_bm.data();
     job.confidence = d.confidence.data();
     job.state = d.state.data();
     job.finished_kind = d.finished_kind.data();
@@ -986,6 +1031,14 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
                     outputs.count);
     finish_kernel<<<grid, kFinishThreads, 0, stream>>>(job);
     cuda::check_launch("finish_kernel");
+    const MembraneJob membrane{
+        d.finished_bm.data(), d.bm.data(), static_cast<int>(outputs.first),
+        static_cast<int>(d.ascans),
+        detail::membrane_settings(sampling_.ascan_spacing_um, sampling_.axial_um_per_px)};
+    // At most 3 x kMaxAscans floats: 48 KiB, the default limit of every device.
+    membrane_kernel<<<outputs.count, kMembraneThreads, 3 * d.ascans * sizeof(float), stream>>>(
+        membrane);
+    cuda::check_launch("membrane_kernel");
   }
   stage_done();
   return outputs;
@@ -1082,7 +1135,7 @@ void CudaSegmenter::download_memory(VolumeMemory& memory) {
   copy(memory.verdict.data(), d.raw_verdict.data(), d.bscans);
   copy(memory.finished_ilm.data(), d.ilm.data(), n * sizeof(float));
   copy(memory.finished_rpe.data(), d.rpe.data(), n * sizeof(float));
-  copy(memory.finished_bm.data(), d.bm.data(), n * sizeof(float));
+  copy(memory.finished_bm.data(), d.finished_bm.data(), n * sizeof(float));
   copy(memory.finished_kind.data(), d.finished_kind.data(), n);
   copy(&memory.clock, d.clock.data(), sizeof(detail::CycleClock));
   copy(memory.fits_cycle.data(), d.fits_cycle.data(), d.bscans * sizeof(std::uint32_t));

@@ -41,10 +41,15 @@ class CpuSegmenter final : public Segmenter {
     std::vector<std::int32_t> path;       // [ascan]
     std::vector<std::int32_t> ilm_px;     // [ascan]
     std::vector<detail::ColumnFit> fits;  // [ascan]
+    std::vector<float> smoothed_bm;       // [ascan] (lifted_rpe.hpp)
+    std::vector<float> bm_floor;          // [ascan]
+    std::vector<float> next_floor;        // [ascan]
   };
 
   void coarse_bscan(const Volume& volume, std::uint32_t bscan, Workspace& w);
   void fine_bscan(const Volume& volume, std::uint32_t bscan, Workspace& w);
+  // Bruch's membrane of a finished B-scan into `bm`, from its finished BM (lifted_rpe.hpp).
+  void membrane_bscan(const float* finished_bm, float* bm, Workspace& w) const;
 
   SegmentationConfig config_;
   VolumeSampling sampling_;

@@ -8,7 +8,8 @@
 // memory, joined in the middle and traced back from there), the ILM band costs, the ILM search,
 // the RPE band costs, the RPE search, the sub-px fits (remembering, in a B-scan's first search of
 // a cycle, what they replace: finishing.hpp) with each B-scan's typical contrasts and verdict (one
-// block per B-scan), and the finishing of every affected A-scan. The cycle clock lives on the
+// block per B-scan), the finishing of every affected A-scan, and Bruch's membrane beneath lifted
+// RPE in each affected B-scan (lifted_rpe.hpp; one block per B-scan). The cycle clock lives on the
 // device (advanced by the coarse costs' first block), so a captured graph needs no host input.
 #pragma once
 
@@ -72,14 +73,14 @@ class CudaSegmenter final : public Segmenter {
   cudaStream_t stream() const noexcept { return stream_; }
 
   // enqueue_group launches each group (by volume, group and stream) as a CUDA graph captured on
-  // first use, which takes out most of the launch overhead of its nine kernels; off: plain
+  // first use, which takes out most of the launch overhead of its ten kernels; off: plain
   // launches on the stream (also for the legacy default stream, which cannot be captured).
   void set_use_graphs(bool use) noexcept { use_graphs_ = use; }
 
   // Benchmarks: when set, enqueue_group launches directly and records one event after each of
   // its kStages stages (coarse costs with the background histograms, coarse search with the
   // background level, ILM costs, ILM search, RPE costs, RPE search, the fits with the B-scans'
-  // verdicts, finishing) into these events.
+  // verdicts, finishing with Bruch's membrane) into these events.
   static constexpr int kStages = 8;
   void set_stage_events(const cudaEvent_t* events) noexcept { stage_events_ = events; }
 

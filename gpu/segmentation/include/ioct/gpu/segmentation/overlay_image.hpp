@@ -2,7 +2,7 @@
 // the segmentation found, and the tests' view of a failure.
 //
 // The B-scan in grey (depth down, A-scans across), the ILM in red, the RPE centre in green, the
-// Bruch's membrane side of the RPE in blue; bridged A-scans (instrument shadow) are drawn every
+// Bruch's membrane in blue; bridged A-scans (instrument shadow) are drawn every
 // other A-scan, so their line shows dotted; a B-scan without a retina has no lines.
 #pragma once
 

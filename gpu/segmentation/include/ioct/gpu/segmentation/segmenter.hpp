@@ -17,7 +17,9 @@
 //   5. measured A-scans smoothed over their 3 x 3 neighbourhood (across B-scans too); A-scans of
 //      low confidence (an instrument's shadow) bridged from the nearest measured A-scans along the
 //      B-scan and across B-scans, weighted by inverse lateral distance, or, where an earlier
-//      volume measured them, carried from it, moved by the retina's axial motion since.
+//      volume measured them, carried from it, moved by the retina's axial motion since;
+//   6. per B-scan, Bruch's membrane beneath RPE lifted off it (drusen): the floor of the BM
+//      along the B-scan where the band's outer side rises above it (lifted_rpe.hpp).
 //
 // A segmenter keeps the intermediate results of the volume it last worked on (the neighbours'
 // coarse RPE, the unsmoothed fits, the measured fits of earlier cycles), so groups of a live

@@ -6,8 +6,10 @@
 //        reflex (where the intensity rising from the vitreous reaches ilm_level of the reflex)
 //   rpe  centre of the retinal pigment epithelium band: the intensity maximum of the outermost
 //        hyper-reflective band of the retina (the RPE/Bruch's membrane complex)
-//   bm   outer boundary of that band (Bruch's membrane side): where the intensity below the RPE
-//        centre has fallen half-way to the minimum beneath it
+//   bm   Bruch's membrane: where the RPE lies on it, the outer boundary of that band (where the
+//        intensity below the RPE centre has fallen half-way to the minimum beneath it); where the
+//        RPE is lifted off it (drusen, a small detachment), the floor of the B-scan's BM beneath
+//        the lift (lifted_rpe.hpp), inferred
 //
 // Each A-scan also carries a confidence in [0, 1] (how clear the evidence in its own column is)
 // and a state: measured (from the column's own evidence), bridged (evidence too weak, e.g. under

@@ -24,7 +24,8 @@ struct VolumeMemory {
   std::vector<float> bm;
   std::vector<float> confidence;
   std::vector<std::uint8_t> verdict;  // [bscan]: BscanVerdict
-  // What the last finishing gave each A-scan [bscan][ascan] (the surfaces, their kind).
+  // What the last finishing gave each A-scan [bscan][ascan] (the surfaces, their kind; the BM
+  // before Bruch's membrane is looked for beneath lifted RPE, lifted_rpe.hpp).
   std::vector<float> finished_ilm;
   std::vector<float> finished_rpe;
   std::vector<float> finished_bm;

@@ -1,0 +1,88 @@
+// Bruch's membrane beneath a lifted RPE, per B-scan, written once for the CPU and the CUDA
+// kernels: the per-A-scan arithmetic is here; each side loops over the A-scans of a B-scan.
+//
+// The fit's BM is the outer side of the RPE band (fit_column). Where the RPE lies on Bruch's
+// membrane that is the membrane. Where the RPE is lifted off it (drusen, a small detachment) the
+// band follows the lifted RPE while the membrane stays beneath, smooth. As in drusen segmentation
+// (Chiu, Farsiu et al.: a smooth baseline through the RPE floor, the parts lifted above it taken
+// out), per B-scan, on the finished BM:
+//   1. the median along the B-scan over kMedianUm either side (a single fit's outliers out);
+//   2. its floor, by peak clipping (SNIP): for p = 1 .. reach (kClipUm), every A-scan becomes the
+//      deeper of itself and the mean of the A-scans p to either side. What rises above its
+//      surroundings (a hump) is cut down to the chord beneath it, the cuts adding up over the
+//      passes; straight and bowl-shaped stretches (the chord above them) stay as they are;
+//   3. where the smoothed BM lies more than kLiftUm above its floor, the BM is the floor
+//      (inferred beneath the lifted RPE); elsewhere the finished BM as it was.
+// The RPE surface stays the RPE.
+#pragma once
+
+#include <cmath>
+
+#include "ioct/gpu/cuda/host_device_function.hpp"
+
+namespace ioct::gpu::segmentation::detail {
+
+// The median's reach either side: a fit's outliers (the band's outer side found in the choroid
+// for a few A-scans) are narrower than this.
+inline constexpr double kMedianUm = 72.0;
+inline constexpr int kMaxMedianReach = 8;
+// The clipping's reach: humps are cut down over the passes from both their sides, so humps
+// several times as wide go (the Spectralis scan's drusen, about 0.6 mm); wider ones would take the
+// retina's own curvature (a B-scan bending where it runs out of the image) with them.
+inline constexpr double kClipUm = 216.0;
+inline constexpr int kMaxClipReach = 64;
+// How far above its floor the smoothed BM must lie to count as lifted: above the fit's noise.
+inline constexpr double kLiftUm = 12.0;
+
+struct MembraneSettings {
+  int median_reach = 1;  // A-scans either side
+  int clip_reach = 1;    // passes, the last reaching this many A-scans either side
+  float lift_px = 3.0f;
+};
+
+// The settings in A-scans and depth px of a sampling.
+inline MembraneSettings membrane_settings(double ascan_spacing_um, double axial_um_per_px) {
+  const auto ascans = [&](double um, int most) {
+    const int n = static_cast<int>(std::lround(um / ascan_spacing_um));
+    return n < 1 ? 1 : (n > most ? most : n);
+  };
+  return {ascans(kMedianUm, kMaxMedianReach), ascans(kClipUm, kMaxClipReach),
+          static_cast<float>(kLiftUm / axial_um_per_px)};
+}
+
+// Step 1 at A-scan a: the median of the finite values within `reach` A-scans either side (the
+// mean of the middle two for an even count); NaN when there are none.
+IOCT_HD float bm_median_at(const float* bm, int ascans, int a, int reach) {
+  float values[2 * kMaxMedianReach + 1];
+  int n = 0;
+  for (int k = a - reach; k <= a + reach; ++k) {
+    if (k < 0 || k >= ascans) continue;
+    const float v = bm[k];
+    if (!(v == v)) continue;  // NaN
+    int j = n;
+    while (j > 0 && values[j - 1] > v) {
+      values[j] = values[j - 1];
+      --j;
+    }
+    values[j] = v;
+    ++n;
+  }
+  if (n == 0) return NAN;
+  return (n & 1) != 0 ? values[n / 2] : 0.5f * (values[n / 2 - 1] + values[n / 2]);
+}
+
+// Step 2, one pass of reach p at A-scan a: the deeper of z[a] and the mean of z[a - p] and
+// z[a + p]; z[a] where either lies outside the B-scan or a value is NaN.
+IOCT_HD float clipped_at(const float* z, int ascans, int a, int p) {
+  const float here = z[a];
+  if (a - p < 0 || a + p >= ascans) return here;
+  const float chord = 0.5f * (z[a - p] + z[a + p]);
+  return chord > here ? chord : here;  // false for NaN: here
+}
+
+// Step 3: the membrane at an A-scan from its finished BM, the smoothed BM and its floor.
+IOCT_HD float membrane_at(float bm, float smoothed, float floor, float lift_px) {
+  return smoothed < floor - lift_px ? floor : bm;
+}
+
+}  // namespace ioct::gpu::segmentation::detail
