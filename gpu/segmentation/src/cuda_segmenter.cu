@@ -28,7 +28,7 @@ constexpr int kColumnsPerCostBlock = 16;
 constexpr int kFinishThreads = 128;
 constexpr int kFitThreads = 64;        // a fit per thread: many small blocks
 constexpr int kVerdictThreads = 256;   // a B-scan per block
-constexpr int kMembraneThreads = 256;  // a B-scan per block
+constexpr int kMembraneThreads = 512;  // a B-scan per block
 constexpr int kChunk = 16;             // search columns whose costs a thread loads at once
 // Shared memory a search may use for its step choices; more goes to global memory (slower trace
 // back, same result).
@@ -566,19 +566,23 @@ struct MembraneJob {
 };
 
 __global__ void membrane_kernel(MembraneJob job) {
-  extern __shared__ float scratch[];  // [3][ascans]: smoothed, floor, next floor
+  // [3][ascans]: the finished BM (then the next floor), the smoothed BM, the floor. The row is read
+  // once, coalesced; the medians' windows then come from shared memory.
+  extern __shared__ float scratch[];
   const int n = job.ascans;
   const std::size_t row = static_cast<std::size_t>(job.first + blockIdx.x) * n;
-  const float* finished = job.finished_bm + row;
-  float* smoothed = scratch;
-  float* bm_floor = scratch + n;
-  float* next_floor = scratch + 2 * n;
+  float* finished = scratch;
+  float* smoothed = scratch + n;
+  float* bm_floor = scratch + 2 * n;
+  for (int a = threadIdx.x; a < n; a += blockDim.x) finished[a] = job.finished_bm[row + a];
+  __syncthreads();
   for (int a = threadIdx.x; a < n; a += blockDim.x) {
     const float v = detail::bm_median_at(finished, n, a, job.settings.median_reach);
     smoothed[a] = v;
     bm_floor[a] = v;
   }
   __syncthreads();
+  float* next_floor = finished;  // the finished BM is read from global memory at the end
   for (int p = 1; p <= job.settings.clip_reach; ++p) {
     for (int a = threadIdx.x; a < n; a += blockDim.x) {
       next_floor[a] = detail::clipped_at(bm_floor, n, a, p);
@@ -590,7 +594,8 @@ __global__ void membrane_kernel(MembraneJob job) {
   }
   float* bm = job.bm + row;
   for (int a = threadIdx.x; a < n; a += blockDim.x) {
-    bm[a] = detail::membrane_at(finished[a], smoothed[a], bm_floor[a], job.settings.lift_px);
+    bm[a] = detail::membrane_at(job.finished_bm[row + a], smoothed[a], bm_floor[a],
+                                job.settings.lift_px);
   }
 }
 

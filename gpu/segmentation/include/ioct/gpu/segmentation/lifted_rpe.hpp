@@ -51,24 +51,49 @@ inline MembraneSettings membrane_settings(double ascan_spacing_um, double axial_
 }
 
 // Step 1 at A-scan a: the median of the finite values within `reach` A-scans either side (the
-// mean of the middle two for an even count); NaN when there are none.
+// mean of the middle two for an even count); NaN when there are none. The window is sorted by a
+// fixed network in registers, the missing values last as +infinity (no per-element branches, no
+// indexed local array on the GPU).
 IOCT_HD float bm_median_at(const float* bm, int ascans, int a, int reach) {
-  float values[2 * kMaxMedianReach + 1];
+  constexpr int kSlots = 2 * kMaxMedianReach + 1;
+  float v[kSlots];
   int n = 0;
-  for (int k = a - reach; k <= a + reach; ++k) {
-    if (k < 0 || k >= ascans) continue;
-    const float v = bm[k];
-    if (!(v == v)) continue;  // NaN
-    int j = n;
-    while (j > 0 && values[j - 1] > v) {
-      values[j] = values[j - 1];
-      --j;
-    }
-    values[j] = v;
-    ++n;
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+  for (int i = 0; i < kSlots; ++i) {
+    const int k = a - reach + i;
+    const float value = i <= 2 * reach && k >= 0 && k < ascans ? bm[k] : NAN;
+    const bool finite = value == value;
+    v[i] = finite ? value : INFINITY;
+    n += finite ? 1 : 0;
   }
   if (n == 0) return NAN;
-  return (n & 1) != 0 ? values[n / 2] : 0.5f * (values[n / 2 - 1] + values[n / 2]);
+    // Odd-even transposition: kSlots rounds sort kSlots values.
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+  for (int round = 0; round < kSlots; ++round) {
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+    for (int i = round & 1; i + 1 < kSlots; i += 2) {
+      const float low = v[i] < v[i + 1] ? v[i] : v[i + 1];
+      const float high = v[i] < v[i + 1] ? v[i + 1] : v[i];
+      v[i] = low;
+      v[i + 1] = high;
+    }
+  }
+  float below = 0.0f;  // the (n - 1) / 2-th and n / 2-th smallest
+  float above = 0.0f;
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
+  for (int i = 0; i < kSlots; ++i) {
+    below = i == (n - 1) / 2 ? v[i] : below;
+    above = i == n / 2 ? v[i] : above;
+  }
+  return (n & 1) != 0 ? above : 0.5f * (below + above);
 }
 
 // Step 2, one pass of reach p at A-scan a: the deeper of z[a] and the mean of z[a - p] and
