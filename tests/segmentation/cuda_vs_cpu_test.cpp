@@ -123,6 +123,9 @@ void expect_same_memory(const VolumeMemory& cpu, const VolumeMemory& cuda, std::
   compare_floats(part(cpu.remembered_ilm), part(cuda.remembered_ilm), agreement, "remembered ilm");
   compare_floats(part(cpu.remembered_rpe), part(cuda.remembered_rpe), agreement, "remembered rpe");
   compare_floats(part(cpu.remembered_bm), part(cuda.remembered_bm), agreement, "remembered bm");
+  // The finishing's BM before Bruch's membrane is looked for beneath lifted RPE (what the cycles
+  // remember).
+  compare_floats(part(cpu.finished_bm), part(cuda.finished_bm), agreement, "finished bm");
 }
 #endif
 

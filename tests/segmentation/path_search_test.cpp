@@ -164,14 +164,14 @@ void expect_keyed_steps_equal(std::mt19937& rng) {
   SCOPED_TRACE("step bound " + std::to_string(kStep));
   constexpr int kStates = 40;
   constexpr int kPad = detail::kStepKeyPad;
-  // The largest totals a half of a search reaches (column_math.hpp's static_asserts).
-  constexpr std::int32_t kLargest =
-      static_cast<std::int32_t>(kMaxAscans / 2 + 1) * detail::kOutsideCost;
+  constexpr auto kLargest = static_cast<std::int32_t>(detail::kLargestHalfTotal);
   std::vector<std::int32_t> totals(kStates);
   std::vector<std::int32_t> keys(kStates + 2 * kPad, detail::kUnreachableKey);
   for (int trial = 0; trial < 2000; ++trial) {
-    // Few distinct values in some trials (ties), the whole range in others.
-    const std::int32_t spread = trial % 3 == 0 ? 4 : kLargest;
+    // Few distinct values and small penalties in some trials (ties between steps of different
+    // sizes), the whole range in others.
+    const bool ties = trial % 3 == 0;
+    const std::int32_t spread = ties ? 4 : kLargest;
     std::uniform_int_distribution<std::int32_t> total(-spread, spread);
     for (int s = 0; s < kStates; ++s) {
       totals[s] = rng() % 7 == 0 ? detail::kUnreachable : total(rng);
@@ -180,7 +180,7 @@ void expect_keyed_steps_equal(std::mt19937& rng) {
     const int s = static_cast<int>(rng() % kStates);
     const int shift =
         std::uniform_int_distribution<int>(-kStates - 3 * kStep, kStates + 3 * kStep)(rng);
-    const int penalty = std::uniform_int_distribution<int>(0, 2 * 255)(rng);
+    const int penalty = std::uniform_int_distribution<int>(0, ties ? 4 : 2 * kMaxStepPenalty)(rng);
     const std::int32_t cost =
         std::uniform_int_distribution<std::int32_t>(-5000, detail::kOutsideCost)(rng);
     int keyed_step = 99;

@@ -145,26 +145,14 @@ BscanSpan CpuSegmenter::segment_group(const Volume& volume, BscanSpan group, Sur
 }
 
 void CpuSegmenter::membrane_bscan(const float* finished_bm, float* bm, Workspace& w) const {
-  const detail::MembraneSettings m =
-      detail::membrane_settings(sampling_.ascan_spacing_um, sampling_.axial_um_per_px);
-  const int ascans = params_.ascans;
-  const std::size_t n = static_cast<std::size_t>(ascans);
+  const std::size_t n = static_cast<std::size_t>(params_.ascans);
   w.smoothed_bm.resize(n);
   w.bm_floor.resize(n);
   w.next_floor.resize(n);
-  for (int a = 0; a < ascans; ++a) {
-    w.smoothed_bm[a] = detail::bm_median_at(finished_bm, ascans, a, m.median_reach);
-  }
-  w.bm_floor = w.smoothed_bm;
-  for (int p = 1; p <= m.clip_reach; ++p) {
-    for (int a = 0; a < ascans; ++a) {
-      w.next_floor[a] = detail::clipped_at(w.bm_floor.data(), ascans, a, p);
-    }
-    w.bm_floor.swap(w.next_floor);
-  }
-  for (int a = 0; a < ascans; ++a) {
-    bm[a] = detail::membrane_at(finished_bm[a], w.smoothed_bm[a], w.bm_floor[a], m.lift_px);
-  }
+  detail::membrane_of_bscan(
+      finished_bm, params_.ascans,
+      detail::membrane_settings(sampling_.ascan_spacing_um, sampling_.axial_um_per_px), bm,
+      w.smoothed_bm.data(), w.bm_floor.data(), w.next_floor.data());
 }
 
 void CpuSegmenter::coarse_bscan(const Volume& volume, std::uint32_t bscan, Workspace& w) {

@@ -29,7 +29,9 @@ constexpr int kFinishThreads = 128;
 constexpr int kFitThreads = 64;        // a fit per thread: many small blocks
 constexpr int kVerdictThreads = 256;   // a B-scan per block
 constexpr int kMembraneThreads = 512;  // a B-scan per block
-constexpr int kChunk = 16;             // search columns whose costs a thread loads at once
+// membrane_kernel's rows: within the 48 KiB a launch may take without opting in.
+static_assert(3 * kMaxAscans * sizeof(float) <= 48 * 1024);
+constexpr int kChunk = 16;  // search columns whose costs a thread loads at once
 // Shared memory a search may use for its step choices; more goes to global memory (slower trace
 // back, same result).
 constexpr std::size_t kSharedStepsLimit = 160 * 1024;
@@ -604,6 +606,7 @@ void (*const kPathKernels[])(PathJob) = {path_kernel<0>, path_kernel<1>, path_ke
                                          path_kernel<3>, path_kernel<4>, path_kernel<5>,
                                          path_kernel<6>, path_kernel<7>, path_kernel<8>};
 constexpr int kFixedSteps = detail::kMaxKeyedStep;
+static_assert(std::size(kPathKernels) == kFixedSteps + 1);
 
 // Why this build's kernels cannot run on the current device, or cudaSuccess.
 cudaError_t probe_kernels() {

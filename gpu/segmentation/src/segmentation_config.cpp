@@ -20,7 +20,7 @@ void SegmentationConfig::validate() const {
                         5000.0);
   require_real_in_range("segmentation.rpe_depth_prior_um", rpe_depth_prior_um, 0.0, 2000.0);
   require_real_in_range("segmentation.max_slope", max_slope, 0.05, 10.0);
-  require_integer_in_range("segmentation.step_penalty", step_penalty, 0, 255);
+  require_integer_in_range("segmentation.step_penalty", step_penalty, 0, kMaxStepPenalty);
   require_real_in_range("segmentation.ilm_level", ilm_level, 0.1, 1.0);
   require_real_in_range("segmentation.min_confidence", min_confidence, 0.0, 1.0);
   require_real_in_range("segmentation.presence_fraction", presence_fraction, 0.0, 1.0);

@@ -148,21 +148,23 @@ IOCT_HD std::int32_t ilm_band_origin(std::int32_t coarse_cell, std::int32_t band
   return coarse_cell * kCoarseCellPx + kCoarseCellPx / 2 + 4 - band;
 }
 
-// The i-th step tried: 0, -1, +1, -2, +2, ... (this depth minus the neighbour's).
-IOCT_HD int tried_step(int i) {
+// The i-th offset from a place, nearest first and the shallower first of two: 0, -1, +1, -2, +2,
+// ... (the order the search tries its steps in, and the RPE's peak its neighbours).
+IOCT_HD int nearest_first(int i) {
   return (i & 1) != 0 ? -((i + 1) >> 1) : (i >> 1);
 }
 
 // One state of one step of the search along a B-scan. `previous` holds the neighbouring A-scan's
 // path totals over `states` states; this A-scan's band starts `shift` px deeper than the
 // neighbour's. Returns the best total reaching state `s` from it (kUnreachable if none) and the
-// step taken, trying steps in tried_step's order so that ties go the same way everywhere.
+// step taken (this depth minus the neighbour's), trying steps in nearest_first's order so that
+// ties go the same way everywhere.
 IOCT_HD std::int32_t best_step(const std::int32_t* previous, int states, int s, int shift,
                                int max_step, int penalty, int* step) {
   std::int32_t best = kUnreachable;
   int chosen = 0;
   for (int i = 0; i < 2 * max_step + 1; ++i) {
-    const int j = tried_step(i);
+    const int j = nearest_first(i);
     const int from = s + shift - j;
     if (from < 0 || from >= states) continue;
     const std::int32_t total = previous[from];
@@ -194,17 +196,21 @@ inline constexpr std::int32_t kStepKeyScale = 32;  // > the candidates of kMaxKe
 inline constexpr int kMaxKeyedStep = 8;
 inline constexpr int kStepKeyPad = 2 * kMaxKeyedStep + 1;
 inline constexpr std::int32_t kUnreachableKey = 0x7f000000;
-// Every total a half of a search reaches (at most kMaxAscans / 2 + 1 columns) keeps its key below
-// kUnreachableKey and above INT32_MIN: a state's cost is at most kOutsideCost and at least
-// -(2 x 255 + kDepthPriorWeight x kMaxDepth) (rpe_cost), a step's penalty at most 2 x 255 (the
-// coarse search's, from a step_penalty of 255) per px.
+// Every total a half of a search reaches (at most kMaxAscans / 2 + 1 columns) lies within
+// +-kLargestHalfTotal, and its key (with any step's penalty) below kUnreachableKey and above
+// INT32_MIN: a state's cost is at most kOutsideCost and at least -(2 x 255 + kDepthPriorWeight x
+// kMaxDepth) (rpe_cost), a step's penalty at most 2 x kMaxStepPenalty (the coarse search's) per px.
+inline constexpr std::int64_t kLargestHalfTotal =
+    (static_cast<std::int64_t>(kMaxAscans) / 2 + 1) *
+    (kOutsideCost + 2 * std::int64_t{kMaxStepPenalty} * kMaxKeyedStep);
 static_assert(kStepKeyScale > 2 * kMaxKeyedStep + 1);
 static_assert((static_cast<std::int64_t>(kMaxAscans) / 2 + 1) *
-                  (kOutsideCost + 2 * 255 * kMaxKeyedStep + 1) <
-              kUnreachableKey / kStepKeyScale);
-static_assert((static_cast<std::int64_t>(kMaxAscans) / 2 + 1) *
-                  (2 * 255 + kDepthPriorWeight * static_cast<std::int64_t>(kMaxDepth)) <
-              kUnreachableKey / kStepKeyScale);
+                  (2 * 255 + kDepthPriorWeight * static_cast<std::int64_t>(kMaxDepth)) <=
+              kLargestHalfTotal);
+static_assert((kLargestHalfTotal + 1) * kStepKeyScale < kUnreachableKey);
+static_assert(std::int64_t{kUnreachableKey} + 2 * kMaxStepPenalty * kMaxKeyedStep * kStepKeyScale +
+                  kStepKeyScale <=
+              INT32_MAX);
 
 IOCT_HD std::int32_t step_key_of(std::int32_t total) {
   return total >= kUnreachable ? kUnreachableKey : total * kStepKeyScale;
@@ -242,13 +248,13 @@ IOCT_HD std::int32_t best_step_key(const std::int32_t* row, int base, std::int32
 #if defined(__CUDA_ARCH__)
 #pragma unroll
 #endif
-  for (int i = 0; i < kCandidates; ++i) keys[i] = row[base - tried_step(i)];
+  for (int i = 0; i < kCandidates; ++i) keys[i] = row[base - nearest_first(i)];
   std::int32_t best[kChains] = {kUnreachableKey, kUnreachableKey, kUnreachableKey, kUnreachableKey};
 #if defined(__CUDA_ARCH__)
 #pragma unroll
 #endif
   for (int i = 0; i < kCandidates; ++i) {
-    const std::int32_t penalty_and_order = penalty * kStepKeyScale * abs_int(tried_step(i)) + i;
+    const std::int32_t penalty_and_order = penalty * kStepKeyScale * abs_int(nearest_first(i)) + i;
     best[i % kChains] = add_min(keys[i], penalty_and_order, best[i % kChains]);
   }
   const std::int32_t key = min_int(min_int(best[0], best[1]), min_int(best[2], best[3]));
@@ -257,7 +263,7 @@ IOCT_HD std::int32_t best_step_key(const std::int32_t* row, int base, std::int32
     return kUnreachableKey;
   }
   const int i = key & (kStepKeyScale - 1);
-  *step = tried_step(i);
+  *step = nearest_first(i);
   return key - i;  // the candidate's total, its step's penalty included, as a key
 }
 
@@ -282,8 +288,7 @@ IOCT_HD int rpe_peak_px(const std::uint8_t* column, int depth, int d) {
   int best = clamp_int(d, 0, depth - 1);
   int value = column[best];
   for (int i = 1; i <= 2 * kRpePeakReach; ++i) {
-    const int k = (i & 1) != 0 ? -((i + 1) >> 1) : (i >> 1);
-    const int x = d + k;
+    const int x = d + nearest_first(i);
     if (x < 0 || x >= depth) continue;
     if (column[x] > value) {
       value = column[x];

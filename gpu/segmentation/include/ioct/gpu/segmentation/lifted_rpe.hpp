@@ -105,9 +105,29 @@ IOCT_HD float clipped_at(const float* z, int ascans, int a, int p) {
   return chord > here ? chord : here;  // false for NaN: here
 }
 
-// Step 3: the membrane at an A-scan from its finished BM, the smoothed BM and its floor.
+// Step 3: the membrane at an A-scan from its finished BM, the smoothed BM and its floor; an A-scan
+// without a BM (NaN: nothing to finish it from) stays without one.
 IOCT_HD float membrane_at(float bm, float smoothed, float floor, float lift_px) {
-  return smoothed < floor - lift_px ? floor : bm;
+  return bm == bm && smoothed < floor - lift_px ? floor : bm;
+}
+
+// Steps 1-3 over one B-scan on the host (the CPU segmenter's loop; the CUDA kernel runs the same
+// functions a thread per A-scan between barriers): `bm` from `finished_bm`, both `ascans` long.
+// `smoothed`, `floor` and `next_floor` are scratch of `ascans` floats; `smoothed` and `floor` hold
+// the smoothed BM and its floor afterwards.
+inline void membrane_of_bscan(const float* finished_bm, int ascans, const MembraneSettings& m,
+                              float* bm, float* smoothed, float* floor, float* next_floor) {
+  for (int a = 0; a < ascans; ++a) {
+    smoothed[a] = bm_median_at(finished_bm, ascans, a, m.median_reach);
+    floor[a] = smoothed[a];
+  }
+  for (int p = 1; p <= m.clip_reach; ++p) {
+    for (int a = 0; a < ascans; ++a) next_floor[a] = clipped_at(floor, ascans, a, p);
+    for (int a = 0; a < ascans; ++a) floor[a] = next_floor[a];
+  }
+  for (int a = 0; a < ascans; ++a) {
+    bm[a] = membrane_at(finished_bm[a], smoothed[a], floor[a], m.lift_px);
+  }
 }
 
 }  // namespace ioct::gpu::segmentation::detail

@@ -85,6 +85,7 @@ inline constexpr std::uint32_t kMaxDepth = 2048;
 inline constexpr std::uint32_t kMaxAscans = 4096;
 inline constexpr std::int32_t kMaxBand = 256;
 inline constexpr std::int32_t kMaxStep = 16;
+inline constexpr std::int32_t kMaxStepPenalty = 255;  // segmentation.step_penalty
 inline constexpr std::uint32_t kMinDepth = 32;
 
 // The px settings for volumes of `depth` px and `ascans` A-scans per B-scan. Throws ConfigError
