@@ -11,6 +11,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <thread>
 
 #include "ioct/devtools/headless_chromium.hpp"
 #include "ioct/view_test/live_appliance.hpp"
@@ -184,6 +185,17 @@ TEST_F(LiveViewPage, ThresholdAndModeControlsChangeTheNextFramesPixels) {
   EXPECT_NE(error.dump().find("kg1"), std::string::npos) << error;
 
   page_->save_screenshot(kArtefacts / "control-page-la-mip.png", 10s);
+
+  // Enter in a field submits the form: the page stays (a reload would drop the token with the
+  // fragment, and the operator's role with it).
+  page_->evaluate(
+      "window.ioctStillThisPage = true; document.getElementById('controls').requestSubmit(); true",
+      5s);
+  std::this_thread::sleep_for(1s);  // a reload of a page served locally starts well within it
+  EXPECT_EQ(page_->evaluate("window.ioctStillThisPage === true && "
+                            "ioctView.status.role === 'operator'",
+                            5s),
+            true);
 }
 
 TEST_F(LiveViewPage, StereoPairFillsTheSurgeonsDisplaySideBySide) {

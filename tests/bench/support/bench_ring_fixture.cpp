@@ -42,7 +42,12 @@ void unlink_on_signal(const std::string& name) {
   }();
   (void)installed;
   const std::size_t i = cleanup_count.load(std::memory_order_relaxed);
-  if (i >= kMaxCleanupNames || name.size() >= kMaxNameBytes - 1) return;
+  if (name.size() >= kMaxNameBytes - 1) return;
+  // A name tried again (a ring retried with fewer slots) keeps its one entry.
+  for (std::size_t k = 0; k < i; ++k) {
+    if (name == cleanup_names[k].data()) return;
+  }
+  if (i >= kMaxCleanupNames) return;
   std::memcpy(cleanup_names[i].data(), name.c_str(), name.size() + 1);
   cleanup_count.store(i + 1, std::memory_order_release);
 }

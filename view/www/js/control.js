@@ -21,6 +21,9 @@ let role = 'viewer';
 let ownView = null;
 
 buildPicture($('live'), { interactive: true });
+// Enter in a field must not submit the form (a reload); an inline handler would be refused by the
+// page's Content-Security-Policy, so the module says it.
+$('controls').addEventListener('submit', (e) => e.preventDefault());
 const live = startLiveView({
   token,
   onState: (state) => {

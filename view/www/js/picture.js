@@ -1,8 +1,10 @@
 // The live picture's markup, the same on the surgeon's display and the assistant's page: the
 // render, the B-scan panel (the B-scan, its place on the volume, the B-scans through an
 // instrument's tip), the signal banner over them, and the state line beneath. Written once here so
-// the two pages cannot drift apart; live-view.js fills it.
+// the two pages cannot drift apart; live-view.js fills it. The pages' own placeholder
+// (#page-starting: NO SIGNAL, shown until now and wherever the modules fail to load) goes.
 export function buildPicture(container, { interactive = false } = {}) {
+  document.getElementById('page-starting')?.remove();
   const renderLabel = interactive
     ? 'Live volume render: drag to orbit, wheel or pinch to zoom'
     : 'Live volume render';
