@@ -117,20 +117,33 @@ IOCT_HD bool is_measured(const RawFits& raw, const FinishSettings& s, int b, int
   return confident(raw, s, b, a) && agrees_across(raw, s, b, a);
 }
 
-// Weighted mean of one surface over the measured 3 x 3 neighbourhood of (b, a), in a fixed order.
-IOCT_HD float smoothed(const float* surface, const RawFits& raw, const FinishSettings& s, int b,
-                       int a) {
-  const float centre = surface[b * raw.ascans + a];
-  float sum = 0.0f;
-  float weights = 0.0f;
+// Which of the 3 x 3 neighbourhood of (b, a) are measured: bit (db + 1) * 3 + (da + 1). Found
+// once for the three surfaces a measured A-scan smooths.
+IOCT_HD unsigned measured_neighbours(const RawFits& raw, const FinishSettings& s, int b, int a) {
+  unsigned mask = 0;
   for (int db = -1; db <= 1; ++db) {
     const int nb = b + db;
     if (nb < 0 || nb >= raw.bscans) continue;
     for (int da = -1; da <= 1; ++da) {
       const int na = a + da;
       if (na < 0 || na >= raw.ascans) continue;
-      if (!is_measured(raw, s, nb, na)) continue;
-      const float v = surface[nb * raw.ascans + na];
+      if (is_measured(raw, s, nb, na)) mask |= 1u << ((db + 1) * 3 + (da + 1));
+    }
+  }
+  return mask;
+}
+
+// Weighted mean of one surface over the measured 3 x 3 neighbourhood of (b, a) (`measured`, from
+// measured_neighbours), in a fixed order.
+IOCT_HD float smoothed(const float* surface, const RawFits& raw, const FinishSettings& s,
+                       unsigned measured, int b, int a) {
+  const float centre = surface[b * raw.ascans + a];
+  float sum = 0.0f;
+  float weights = 0.0f;
+  for (int db = -1; db <= 1; ++db) {
+    for (int da = -1; da <= 1; ++da) {
+      if ((measured & (1u << ((db + 1) * 3 + (da + 1)))) == 0) continue;
+      const float v = surface[(b + db) * raw.ascans + a + da];
       if (fabsf(v - centre) > s.smooth_tolerance_px) continue;
       const float w = static_cast<float>((2 - (db < 0 ? -db : db)) * (2 - (da < 0 ? -da : da)));
       sum += w * v;
@@ -404,9 +417,13 @@ IOCT_HD FinishedAscan finish_ascan(const RawFits& raw, const RememberedFits& rem
               SurfaceState::measured,
               FinishedKind::measured};
     }
-    return {smoothed(raw.ilm, raw, s, b, a), smoothed(raw.rpe, raw, s, b, a),
-            smoothed(raw.bm, raw, s, b, a),  confidence,
-            SurfaceState::measured,          FinishedKind::measured};
+    const unsigned measured = measured_neighbours(raw, s, b, a);
+    return {smoothed(raw.ilm, raw, s, measured, b, a),
+            smoothed(raw.rpe, raw, s, measured, b, a),
+            smoothed(raw.bm, raw, s, measured, b, a),
+            confidence,
+            SurfaceState::measured,
+            FinishedKind::measured};
   }
   // A carried fit replaces the neighbours' bridges: mixed in with a weight of 1 / d^2 like
   // theirs, the shadows' errors fell the smaller d was (d = 200, 25, 3 um: RPE max 20.0, 10.7,
