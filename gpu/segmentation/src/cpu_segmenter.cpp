@@ -107,11 +107,13 @@ BscanSpan CpuSegmenter::segment_group(const Volume& volume, BscanSpan group, Sur
   });
 
   const BscanSpan outputs = outputs_affected(group, volume.bscans());
+  measured_.resize(static_cast<std::size_t>(memory_.bscans) * memory_.ascans);
   const detail::RawFits raw{memory_.ilm.data(),
                             memory_.rpe.data(),
                             memory_.bm.data(),
                             memory_.confidence.data(),
                             memory_.verdict.data(),
+                            measured_.data(),
                             static_cast<int>(memory_.bscans),
                             static_cast<int>(memory_.ascans)};
   const detail::FinishSettings settings{params_.min_confidence,
@@ -120,6 +122,17 @@ BscanSpan CpuSegmenter::segment_group(const Volume& volume, BscanSpan group, Sur
                                         static_cast<float>(sampling_.bscan_spacing_um),
                                         params_.bridge_bscans,
                                         params_.smooth};
+  // The measured flags the finishing reads, first.
+  const detail::MeasuredSpan read =
+      detail::measured_span(settings, static_cast<int>(outputs.first),
+                            static_cast<int>(outputs.end()), static_cast<int>(memory_.bscans));
+  pool_.run(static_cast<std::uint32_t>(read.end - read.first), [&](std::uint32_t i, unsigned) {
+    const int b = read.first + static_cast<int>(i);
+    for (int a = 0; a < raw.ascans; ++a) {
+      measured_[static_cast<std::size_t>(b) * memory_.ascans + a] =
+          detail::measured_from_fits(raw, settings, b, a) ? 1 : 0;
+    }
+  });
   const detail::RememberedFits remembered = memory_.remembered();
   pool_.run(outputs.count, [&](std::uint32_t i, unsigned worker) {
     const std::uint32_t b = outputs.first + i;

@@ -532,6 +532,17 @@ struct FinishJob {
   int group_end;
 };
 
+// Whether each fit of B-scans first, first + 1, ... counts as measured (finishing.hpp,
+// RawFits::measured): a thread per A-scan.
+__global__ void measured_kernel(detail::RawFits raw, detail::FinishSettings settings,
+                                std::uint8_t* measured, int first) {
+  const int b = first + static_cast<int>(blockIdx.y);
+  const int a = static_cast<int>(blockIdx.x * blockDim.x + threadIdx.x);
+  if (a >= raw.ascans) return;
+  measured[static_cast<std::size_t>(b) * raw.ascans + a] =
+      detail::measured_from_fits(raw, settings, b, a) ? 1 : 0;
+}
+
 __global__ void finish_kernel(FinishJob job) {
   const int b = job.first + blockIdx.y;
   const int a = blockIdx.x * blockDim.x + threadIdx.x;
@@ -542,7 +553,7 @@ __global__ void finish_kernel(FinishJob job) {
   // bridges reach further).
   constexpr int kReach = 1 + detail::kAcrossCheckBscans;
   if ((b < job.group_first - kReach || b > job.group_end - 1 + kReach) &&
-      detail::is_measured(job.raw, job.settings, b, a)) {
+      detail::is_measured(job.raw, b, a)) {
     return;
   }
   const detail::FinishedAscan f = detail::finish_ascan(job.raw, job.remembered, job.settings, b, a);
@@ -632,8 +643,10 @@ struct CudaSegmenter::DeviceState {
   cuda::DeviceArray<std::uint32_t> fits_cycle;  // [bscan]
   cuda::DeviceArray<float> remembered_ilm, remembered_rpe, remembered_bm;
   cuda::DeviceArray<std::uint32_t> remembered_frame_cycle, remembered_measured_cycle;
-  cuda::DeviceArray<detail::FinishedKind> finished_kind;  // (the surfaces are the finished values,
-  cuda::DeviceArray<float> finished_bm;  // but for the BM, which is looked for beneath lifted RPE)
+  // (The surfaces are the finished values, but for the BM, looked for beneath lifted RPE.)
+  cuda::DeviceArray<detail::FinishedKind> finished_kind;
+  cuda::DeviceArray<float> finished_bm;
+  cuda::DeviceArray<std::uint8_t> measured;  // [bscan][ascan] (RawFits::measured), scratch
   // Surfaces.
   cuda::DeviceArray<float> ilm, rpe, bm, confidence;
   cuda::DeviceArray<SurfaceState> state;
@@ -789,6 +802,7 @@ void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uin
   d.remembered_measured_cycle = device_array<std::uint32_t>(n);
   d.finished_kind = device_array<detail::FinishedKind>(n);
   d.finished_bm = device_array<float>(n);
+  d.measured = device_array<std::uint8_t>(n);
   d.ilm = device_array<float>(n);
   d.rpe = device_array<float>(n);
   d.bm = device_array<float>(n);
@@ -1010,9 +1024,9 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
   {
     FinishJob job{};
     job.raw =
-        detail::RawFits{d.raw_ilm.data(),          d.raw_rpe.data(),     d.raw_bm.data(),
-                        d.raw_confidence.data(),   d.raw_verdict.data(), static_cast<int>(d.bscans),
-                        static_cast<int>(d.ascans)};
+        detail::RawFits{d.raw_ilm.data(),           d.raw_rpe.data(),          d.raw_bm.data(),
+                        d.raw_confidence.data(),    d.raw_verdict.data(),      d.measured.data(),
+                        static_cast<int>(d.bscans), static_cast<int>(d.ascans)};
     job.remembered = {d.remembered_ilm.data(),
                       d.remembered_rpe.data(),
                       d.remembered_bm.data(),
@@ -1035,8 +1049,17 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
     job.first = static_cast<int>(outputs.first);
     job.group_first = first;
     job.group_end = first + count;
-    const dim3 grid(static_cast<unsigned>((p.ascans + kFinishThreads - 1) / kFinishThreads),
-                    outputs.count);
+    // The measured flags the finishing reads, first.
+    const detail::MeasuredSpan read =
+        detail::measured_span(job.settings, static_cast<int>(outputs.first),
+                              static_cast<int>(outputs.end()), static_cast<int>(d.bscans));
+    const unsigned ascan_blocks =
+        static_cast<unsigned>((p.ascans + kFinishThreads - 1) / kFinishThreads);
+    measured_kernel<<<dim3(ascan_blocks, static_cast<unsigned>(read.end - read.first)),
+                      kFinishThreads, 0, stream>>>(job.raw, job.settings, d.measured.data(),
+                                                   read.first);
+    cuda::check_launch("measured_kernel");
+    const dim3 grid(ascan_blocks, outputs.count);
     finish_kernel<<<grid, kFinishThreads, 0, stream>>>(job);
     cuda::check_launch("finish_kernel");
     const MembraneJob membrane{

@@ -57,6 +57,7 @@ class CpuSegmenter final : public Segmenter {
   std::vector<Workspace> workspaces_;
   SegmentationParams params_;
   VolumeMemory memory_;
+  std::vector<std::uint8_t> measured_;  // [bscan][ascan] (finishing.hpp, RawFits::measured)
 };
 
 // The search along one B-scan, exposed for tests: the least-cost path through `ascans` columns

@@ -37,6 +37,10 @@ struct RawFits {
   const float* bm = nullptr;
   const float* confidence = nullptr;
   const std::uint8_t* verdict = nullptr;  // [bscan] BscanVerdict
+  // [bscan][ascan]: 1 where the fit counts as measured (measured_from_fits), filled for the
+  // B-scans a finishing reads (measured_span) before it starts: the bridges' walks and the
+  // smoothing look up a flag instead of testing a fit and its neighbours across each time.
+  const std::uint8_t* measured = nullptr;
   int bscans = 0;
   int ascans = 0;
 };
@@ -113,13 +117,28 @@ IOCT_HD bool agrees_across(const RawFits& raw, const FinishSettings& s, int b, i
   return after1 && !after2 && near_prediction(r, rpe[(b + 1) * n + a]);
 }
 
-IOCT_HD bool is_measured(const RawFits& raw, const FinishSettings& s, int b, int a) {
+IOCT_HD bool measured_from_fits(const RawFits& raw, const FinishSettings& s, int b, int a) {
   return confident(raw, s, b, a) && agrees_across(raw, s, b, a);
+}
+
+// The B-scans whose measured flags finishing B-scans [first, end) of `bscans` reads: the bridges
+// across reach bridge_bscans each way, their slope kSlopeBaselineBscans further.
+struct MeasuredSpan {
+  int first = 0;
+  int end = 0;
+};
+IOCT_HD MeasuredSpan measured_span(const FinishSettings& s, int first, int end, int bscans) {
+  const int reach = s.bridge_bscans + kSlopeBaselineBscans;
+  return {first > reach ? first - reach : 0, end + reach < bscans ? end + reach : bscans};
+}
+
+IOCT_HD bool is_measured(const RawFits& raw, int b, int a) {
+  return raw.measured[b * raw.ascans + a] != 0;
 }
 
 // Which of the 3 x 3 neighbourhood of (b, a) are measured: bit (db + 1) * 3 + (da + 1). Found
 // once for the three surfaces a measured A-scan smooths.
-IOCT_HD unsigned measured_neighbours(const RawFits& raw, const FinishSettings& s, int b, int a) {
+IOCT_HD unsigned measured_neighbours(const RawFits& raw, int b, int a) {
   unsigned mask = 0;
   for (int db = -1; db <= 1; ++db) {
     const int nb = b + db;
@@ -127,7 +146,7 @@ IOCT_HD unsigned measured_neighbours(const RawFits& raw, const FinishSettings& s
     for (int da = -1; da <= 1; ++da) {
       const int na = a + da;
       if (na < 0 || na >= raw.ascans) continue;
-      if (is_measured(raw, s, nb, na)) mask |= 1u << ((db + 1) * 3 + (da + 1));
+      if (is_measured(raw, nb, na)) mask |= 1u << ((db + 1) * 3 + (da + 1));
     }
   }
   return mask;
@@ -172,23 +191,22 @@ struct DirectionBridge {
   float weight = 0.0f;
 };
 
-IOCT_HD int nearest_measured(const RawFits& raw, const FinishSettings& s, int b, int a, int step_b,
-                             int step_a, int first, int reach) {
+IOCT_HD int nearest_measured(const RawFits& raw, int b, int a, int step_b, int step_a, int first,
+                             int reach) {
   for (int k = first; k <= reach; ++k) {
     const int nb = b + k * step_b;
     const int na = a + k * step_a;
     if (nb < 0 || nb >= raw.bscans || na < 0 || na >= raw.ascans) return -1;
-    if (is_measured(raw, s, nb, na)) return k;
+    if (is_measured(raw, nb, na)) return k;
   }
   return -1;
 }
 
-IOCT_HD DirectionBridge bridge_direction(const RawFits& raw, const FinishSettings& s, int b, int a,
-                                         int step_b, int step_a, int reach, float spacing_um,
-                                         int baseline) {
+IOCT_HD DirectionBridge bridge_direction(const RawFits& raw, int b, int a, int step_b, int step_a,
+                                         int reach, float spacing_um, int baseline) {
   DirectionBridge bridge;
-  const int ahead = nearest_measured(raw, s, b, a, step_b, step_a, 1, reach);
-  const int behind = nearest_measured(raw, s, b, a, -step_b, -step_a, 1, reach);
+  const int ahead = nearest_measured(raw, b, a, step_b, step_a, 1, reach);
+  const int behind = nearest_measured(raw, b, a, -step_b, -step_a, 1, reach);
   if (ahead > 0 && behind > 0) {
     const Triple p = triple_at(raw, (b + ahead * step_b) * raw.ascans + a + ahead * step_a);
     const Triple q = triple_at(raw, (b - behind * step_b) * raw.ascans + a - behind * step_a);
@@ -211,7 +229,7 @@ IOCT_HD DirectionBridge bridge_direction(const RawFits& raw, const FinishSetting
   const int fb_index = b + sign * far * step_b;
   const int fa_index = a + sign * far * step_a;
   if (fb_index >= 0 && fb_index < raw.bscans && fa_index >= 0 && fa_index < raw.ascans &&
-      is_measured(raw, s, fb_index, fa_index)) {
+      is_measured(raw, fb_index, fa_index)) {
     const Triple q = triple_at(raw, fb_index * raw.ascans + fa_index);
     const float t = static_cast<float>(near) / static_cast<float>(baseline);
     bridge.value = {p.ilm + (p.ilm - q.ilm) * t, p.rpe + (p.rpe - q.rpe) * t,
@@ -350,7 +368,7 @@ IOCT_HD SideMotion side_motion(const RawFits& raw, const RememberedFits& m, cons
       if (confident(raw, s, b, na) && ++others > kMotionSearchOthers) break;
       continue;
     }
-    if (!is_measured(raw, s, b, na)) continue;
+    if (!is_measured(raw, b, na)) continue;
     // Where the ILM and the RPE moved differently, one of the fits is wrong (next to a shadow the
     // RPE can settle on an inner band with full confidence).
     const float ilm_moved = raw.ilm[j] - m.ilm[j];
@@ -408,7 +426,7 @@ IOCT_HD FinishedAscan finish_ascan(const RawFits& raw, const RememberedFits& rem
   const int i = b * raw.ascans + a;
   if (!has_retina(raw, b)) return {nan, nan, nan, 0.0f, SurfaceState::none, FinishedKind::none};
   const float confidence = raw.confidence[i];
-  if (is_measured(raw, s, b, a)) {
+  if (is_measured(raw, b, a)) {
     if (!s.smooth) {
       return {raw.ilm[i],
               raw.rpe[i],
@@ -417,7 +435,7 @@ IOCT_HD FinishedAscan finish_ascan(const RawFits& raw, const RememberedFits& rem
               SurfaceState::measured,
               FinishedKind::measured};
     }
-    const unsigned measured = measured_neighbours(raw, s, b, a);
+    const unsigned measured = measured_neighbours(raw, b, a);
     return {smoothed(raw.ilm, raw, s, measured, b, a),
             smoothed(raw.rpe, raw, s, measured, b, a),
             smoothed(raw.bm, raw, s, measured, b, a),
@@ -436,9 +454,9 @@ IOCT_HD FinishedAscan finish_ascan(const RawFits& raw, const RememberedFits& rem
             confidence,  SurfaceState::bridged, FinishedKind::carried};
   }
   const DirectionBridge along =
-      bridge_direction(raw, s, b, a, 0, 1, raw.ascans, s.ascan_spacing_um, kSlopeBaselineAscans);
-  const DirectionBridge across = bridge_direction(raw, s, b, a, 1, 0, s.bridge_bscans,
-                                                  s.bscan_spacing_um, kSlopeBaselineBscans);
+      bridge_direction(raw, b, a, 0, 1, raw.ascans, s.ascan_spacing_um, kSlopeBaselineAscans);
+  const DirectionBridge across =
+      bridge_direction(raw, b, a, 1, 0, s.bridge_bscans, s.bscan_spacing_um, kSlopeBaselineBscans);
   const float weights = along.weight + across.weight;
   if (weights == 0.0f) {
     return {nan, nan, nan, confidence, SurfaceState::none, FinishedKind::none};
