@@ -134,6 +134,8 @@ BscanSpan CpuSegmenter::segment_group(const Volume& volume, BscanSpan group, Sur
     }
   });
   const detail::RememberedFits remembered = memory_.remembered();
+  const detail::MembraneSettings membrane =
+      detail::membrane_settings(sampling_.ascan_spacing_um, sampling_.axial_um_per_px);
   pool_.run(outputs.count, [&](std::uint32_t i, unsigned worker) {
     const std::uint32_t b = outputs.first + i;
     surfaces.verdict[b] = static_cast<BscanVerdict>(memory_.verdict[b]);
@@ -152,20 +154,21 @@ BscanSpan CpuSegmenter::segment_group(const Volume& volume, BscanSpan group, Sur
       memory_.finished_kind[k] = f.kind;
     }
     const std::size_t row = surfaces.index(b, 0);
-    membrane_bscan(memory_.finished_bm.data() + row, surfaces.bm.data() + row, workspaces_[worker]);
+    membrane_bscan(memory_.finished_bm.data() + row, membrane, surfaces.bm.data() + row,
+                   workspaces_[worker]);
   });
   return outputs;
 }
 
-void CpuSegmenter::membrane_bscan(const float* finished_bm, float* bm, Workspace& w) const {
+void CpuSegmenter::membrane_bscan(const float* finished_bm,
+                                  const detail::MembraneSettings& settings, float* bm,
+                                  Workspace& w) const {
   const std::size_t n = static_cast<std::size_t>(params_.ascans);
   w.smoothed_bm.resize(n);
   w.bm_floor.resize(n);
   w.next_floor.resize(n);
-  detail::membrane_of_bscan(
-      finished_bm, params_.ascans,
-      detail::membrane_settings(sampling_.ascan_spacing_um, sampling_.axial_um_per_px), bm,
-      w.smoothed_bm.data(), w.bm_floor.data(), w.next_floor.data());
+  detail::membrane_of_bscan(finished_bm, params_.ascans, settings, bm, w.smoothed_bm.data(),
+                            w.bm_floor.data(), w.next_floor.data());
 }
 
 void CpuSegmenter::coarse_bscan(const Volume& volume, std::uint32_t bscan, Workspace& w) {

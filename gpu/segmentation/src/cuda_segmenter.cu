@@ -1066,7 +1066,6 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
         d.finished_bm.data(), d.bm.data(), static_cast<int>(outputs.first),
         static_cast<int>(d.ascans),
         detail::membrane_settings(sampling_.ascan_spacing_um, sampling_.axial_um_per_px)};
-    // At most 3 x kMaxAscans floats: 48 KiB, the default limit of every device.
     membrane_kernel<<<outputs.count, kMembraneThreads, 3 * d.ascans * sizeof(float), stream>>>(
         membrane);
     cuda::check_launch("membrane_kernel");

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "ioct/gpu/segmentation/column_math.hpp"
+#include "ioct/gpu/segmentation/lifted_rpe.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"
 #include "ioct/gpu/segmentation/volume_memory.hpp"
 #include "ioct/gpu/worker_pool.hpp"
@@ -49,7 +50,8 @@ class CpuSegmenter final : public Segmenter {
   void coarse_bscan(const Volume& volume, std::uint32_t bscan, Workspace& w);
   void fine_bscan(const Volume& volume, std::uint32_t bscan, Workspace& w);
   // Bruch's membrane of a finished B-scan into `bm`, from its finished BM (lifted_rpe.hpp).
-  void membrane_bscan(const float* finished_bm, float* bm, Workspace& w) const;
+  void membrane_bscan(const float* finished_bm, const detail::MembraneSettings& settings, float* bm,
+                      Workspace& w) const;
 
   SegmentationConfig config_;
   VolumeSampling sampling_;
