@@ -68,6 +68,10 @@ void SafetySupervisor::run() noexcept {
 }
 
 void SafetySupervisor::poll_once() noexcept {
+  // The operator's requests first, the lines after: a re-arm sent just after its cause cleared
+  // is then judged on lines read after it was made, never on a read that came before it.
+  const std::uint64_t starts = start_requests_.load(std::memory_order_acquire);
+  const std::uint64_t stops = stop_requests_.load(std::memory_order_acquire);
   SafetyInputs in;
   in.now_ns = ioct::monotonic_ns();
   in.lines = lines_.read_inputs();
@@ -83,8 +87,6 @@ void SafetySupervisor::poll_once() noexcept {
     in.acquisition_verified = running_ && loop.verified;
   }
   in.acquisition_heartbeat_ns = loop.heartbeat_ns;
-  const std::uint64_t starts = start_requests_.load(std::memory_order_acquire);
-  const std::uint64_t stops = stop_requests_.load(std::memory_order_acquire);
   in.start_requested = starts != start_seen_;
   in.stop_requested = stops != stop_seen_;
   start_seen_ = starts;

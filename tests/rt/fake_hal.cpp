@@ -157,8 +157,13 @@ bool FakeLines::laser_emission() const noexcept {
 }
 
 hal::LineInputs FakeLines::read_inputs() noexcept {
-  const std::lock_guard lock(mutex_);
-  return inputs_;
+  hal::LineInputs read;
+  {
+    const std::lock_guard lock(mutex_);
+    read = inputs_;
+  }
+  if (std::function<void()>* then = after_next_read.exchange(nullptr)) (*then)();
+  return read;
 }
 
 std::optional<hal::LineEvent> FakeLines::wait_event(std::chrono::nanoseconds timeout) {

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <functional>
 #include <mutex>
 #include <span>
 #include <string>
@@ -76,7 +77,9 @@ class FakeGalvo final : public hal::GalvoOutput {
   std::atomic<std::uint64_t> parks{0};
   // Samples written for the last stream (from the prefill before start() on), in order (the first
   // `keep`); read after the loop has stopped.
-  std::span<const hal::GalvoSample> written() const noexcept { return {storage_.data(), kept_count_}; }
+  std::span<const hal::GalvoSample> written() const noexcept {
+    return {storage_.data(), kept_count_};
+  }
 
  protected:
   void do_prepare(const hal::GalvoOutputConfig& config) override;
@@ -120,6 +123,9 @@ class FakeLines final : public hal::Lines {
 
   // Test side. Returns the CLOCK_MONOTONIC time of the edge.
   std::uint64_t set_input(hal::InputLine line, bool level);
+  // Runs once, on the reader's thread, just after the next read_inputs() took its values: lets a
+  // test put an event between the supervisor's read of the lines and the rest of its poll.
+  std::atomic<std::function<void()>*> after_next_read{nullptr};
   std::atomic<Readback> readback{Readback::follows};
 
   std::atomic<bool> commanded{false};

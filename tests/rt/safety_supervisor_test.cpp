@@ -266,6 +266,25 @@ TEST(FootswitchPresses, ABouncingPressCountsOnceAndAPedalHeldAtStartNotAtAll) {
   EXPECT_EQ(f.presses(), 2u);
 }
 
+// The operator clears the cause and re-arms at once. Here the request lands in the worst place:
+// after the supervisor read the lines (cause still present) and before it looked at the requests.
+// It must be judged on the lines as they are after it, not refused on the read before it.
+TEST(SafetySupervisor, AReArmIsJudgedOnTheLinesReadAfterIt) {
+  Rig rig("rt-safe-rearm");
+  start_scanning(rig);
+  rig.lines.set_input(hal::InputLine::laser_ready, false);
+  ASSERT_TRUE(rig.reaches(SafetyState::safe)) << to_string(rig.state());
+  std::function<void()> clear_and_rearm = [&] {
+    rig.lines.set_input(hal::InputLine::laser_ready, true);
+    rig.supervisor->request_start();
+  };
+  rig.lines.after_next_read.store(&clear_and_rearm);
+  ASSERT_TRUE(rig.reaches(SafetyState::scanning, 5s))
+      << to_string(rig.state()) << ", refused: " << rig.supervisor->status().last_refusal;
+  EXPECT_EQ(rig.lines.after_next_read.load(), nullptr);
+  EXPECT_EQ(rig.supervisor->status().record.arms_total, 2u);
+}
+
 TEST(SafetySupervisor, AStopParksAndEndsIdleWithoutAFault) {
   Rig rig("rt-safe-stop");
   start_scanning(rig);
