@@ -1,4 +1,5 @@
 #include <algorithm>
+#include <array>
 #include <cub/warp/warp_reduce.cuh>
 #include <cuda/functional>
 #include <map>
@@ -31,7 +32,10 @@ constexpr int kVerdictThreads = 256;   // a B-scan per block
 constexpr int kMembraneThreads = 512;  // a B-scan per block
 // membrane_kernel's rows: within the 48 KiB a launch may take without opting in.
 static_assert(3 * kMaxAscans * sizeof(float) <= 48 * 1024);
-constexpr int kChunk = 16;  // search columns whose costs a thread loads at once
+// Search columns whose costs a thread loads at once: 16, or 8 in blocks of more than 512 threads
+// (half the registers a thread).
+template <int kMaxThreads>
+constexpr int kChunk = kMaxThreads <= 512 ? 16 : 8;
 // Shared memory a search may use for its step choices; more goes to global memory (slower trace
 // back, same result).
 constexpr std::size_t kSharedStepsLimit = 160 * 1024;
@@ -182,16 +186,20 @@ __device__ void sum_background(const PathJob& job, int g, int b) {
   }
 }
 
-// Up to 1024 threads: the coarse search of a 2048 px axis has 512 cells per half.
-template <int kFixedStep>
-__global__ void __launch_bounds__(1024) path_kernel(PathJob job) {
+// kMaxThreads: the block's size bounds the registers a thread may hold, so a search of up to 512
+// threads gets the kernel built for 512 (the costs and band shifts of a chunk, the step's offsets
+// in registers) and only a larger one (the coarse search of a 2048 px axis: 512 cells per half)
+// the kernel built for 1024.
+template <int kFixedStep, int kMaxThreads>
+__global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
   extern __shared__ __align__(16) unsigned char shared[];
   const int g = blockIdx.x;
   const int b = job.first + g;
   const int S = job.states;
   const int N = job.columns;
   // With the step bound fixed, the rows hold keys with unreachable padding (column_math.hpp,
-  // best_step_key); else plain totals.
+  // best_step_key) and the steps are kept as their places in the order tried; else plain totals
+  // and the steps themselves.
   constexpr bool kKeys = kFixedStep > 0;
   constexpr int kPad = kKeys ? detail::kStepKeyPad : 0;
   const int R = S + 2 * kPad;  // a row's length
@@ -199,8 +207,10 @@ __global__ void __launch_bounds__(1024) path_kernel(PathJob job) {
   std::int32_t* rows = reinterpret_cast<std::int32_t*>(shared);
   std::int32_t* origin = rows + 4 * R;
   unsigned long long* keys = reinterpret_cast<unsigned long long*>(origin + N + (N & 1));
-  std::int8_t* steps = job.shared_steps ? reinterpret_cast<std::int8_t*>(keys + 32)
-                                        : job.global_steps + static_cast<std::size_t>(g) * N * S;
+  std::int8_t* const shared_steps = reinterpret_cast<std::int8_t*>(keys + 32);
+  std::int8_t* const global_steps =
+      job.shared_steps ? nullptr : job.global_steps + static_cast<std::size_t>(g) * N * S;
+  std::int8_t* const steps = job.shared_steps ? shared_steps : global_steps;
   const std::int32_t* cost = job.cost + static_cast<std::size_t>(g) * N * S;
 
   if (job.stage == PathStage::coarse) sum_background(job, g, b);
@@ -214,12 +224,13 @@ __global__ void __launch_bounds__(1024) path_kernel(PathJob job) {
   std::int32_t* buffer1 = buffer0 + R;
   const int middle = N / 2;
   const int iterations = max(middle, N - 1 - middle);
-  // The column a half works on at iteration i (1-based), or -1 when it is done.
-  const auto column_at = [&](int i) {
-    if (half == 0) return i <= middle ? i : -1;
-    const int a = N - 1 - i;
-    return a >= middle ? a : -1;
-  };
+  // This half walks from its end column towards the middle: at iteration i (1-based, up to its
+  // own count) it works on column end + direction x i, and keeps the step into it at that column
+  // (from the left) or the next one (from the right: the middle column's two steps do not share a
+  // place), i.e. at the column plus the half.
+  const int own_iterations = half == 0 ? middle : N - 1 - middle;
+  const int end = half == 0 ? 0 : N - 1;
+  const int direction = half == 0 ? 1 : -1;
   if constexpr (kKeys) {
     for (int i = threadIdx.x; i < 4 * 2 * kPad; i += blockDim.x) {
       const int pad = i % (2 * kPad);  // [0, kPad) before a row's states, the rest after them
@@ -227,49 +238,55 @@ __global__ void __launch_bounds__(1024) path_kernel(PathJob job) {
     }
   }
   const auto to_row = [](std::int32_t total) { return kKeys ? detail::step_key_of(total) : total; };
-  if (active) buffer0[s] = to_row(load_cost(cost, N, S, half == 0 ? 0 : N - 1, s));
+  if (active) buffer0[s] = to_row(load_cost(cost, N, S, end, s));
+  // The candidates' offsets, the same for every step (unused without keys).
+  constexpr int kOffsetsStep = kKeys ? kFixedStep : 1;
+  const detail::StepKeyOffsets<kOffsetsStep> offsets =
+      detail::step_key_offsets<kOffsetsStep>(job.penalty);
+  const std::int32_t* own_costs = cost + s;  // column a's cost of this state: own_costs[a * S]
   __syncthreads();
 
   std::int32_t* previous = buffer0;  // this half's totals so far
   std::int32_t* next = buffer1;
-  for (int first = 1; first <= iterations; first += kChunk) {
+  constexpr int kColumns = kChunk<kMaxThreads>;
+  for (int first = 1; first <= iterations; first += kColumns) {
     // The chunk's costs and band shifts, loaded together: one wait for memory per chunk, none
     // between the barriers of its steps.
-    std::int32_t costs[kChunk];
-    int shifts[kChunk];
+    std::int32_t costs[kColumns];
+    int shifts[kColumns];
 #pragma unroll
-    for (int k = 0; k < kChunk; ++k) {
-      const int a = column_at(first + k);
-      costs[k] = active && a >= 0 ? load_cost(cost, N, S, a, s) : 0;
+    for (int k = 0; k < kColumns; ++k) {
+      const int i = first + k;
+      const int a = end + direction * i;
+      costs[k] = active && i <= own_iterations ? __ldg(own_costs + a * S) : 0;
+      shifts[k] = i <= own_iterations ? origin[a] - origin[a - direction] : 0;
     }
 #pragma unroll
-    for (int k = 0; k < kChunk; ++k) {
-      const int a = column_at(first + k);
-      shifts[k] = a >= 0 ? origin[a] - origin[half == 0 ? a - 1 : a + 1] : 0;
-    }
-#pragma unroll
-    for (int k = 0; k < kChunk; ++k) {
+    for (int k = 0; k < kColumns; ++k) {
       const int i = first + k;
       if (i <= iterations) {  // the same for every thread: the barrier below is reached by all
-        const int a = column_at(i);
-        if (active && a >= 0) {
-          int step = 0;
+        const bool working = i <= own_iterations;
+        if (active && working) {
+          int kept = 0;  // the step, or (with keys) its place in the order tried
           if constexpr (kKeys) {
             const int from = detail::step_key_base<kFixedStep>(S, s, shifts[k]);
             next[s] = detail::add_cost_key(
-                detail::best_step_key<kFixedStep>(previous, from, job.penalty, &step), costs[k]);
+                detail::best_step_key<kFixedStep>(previous, from, offsets, &kept), costs[k]);
           } else {
             const std::int32_t best =
-                detail::best_step(previous, S, s, shifts[k], job.max_step, job.penalty, &step);
+                detail::best_step(previous, S, s, shifts[k], job.max_step, job.penalty, &kept);
             next[s] = detail::add_cost(best, costs[k]);
           }
-          // The step into column a from the left is kept at a; from the right, at a + 1 (so the
-          // middle column's two steps do not share a place).
-          steps[static_cast<std::size_t>(half == 0 ? a : a + 1) * S + s] =
-              static_cast<std::int8_t>(step);
+          // Shared or global memory, chosen for the whole block: each store of its own kind.
+          const int at = (end + direction * i + half) * S + s;
+          if (job.shared_steps) {
+            shared_steps[at] = static_cast<std::int8_t>(kept);
+          } else {
+            global_steps[at] = static_cast<std::int8_t>(kept);
+          }
         }
         __syncthreads();
-        if (a >= 0) {  // a half that is done keeps its last row where it is
+        if (working) {  // a half that is done keeps its last row where it is
           std::int32_t* t = previous;
           previous = next;
           next = t;
@@ -310,19 +327,22 @@ __global__ void __launch_bounds__(1024) path_kernel(PathJob job) {
   const int best_state = keys[0] == ~0ull ? 0 : static_cast<int>(keys[0] & 0xffffffffull);
 
   // Back along the steps taken: one thread to the left end, one (another warp) to the right.
+  const auto step_at = [&](int column, int state) {
+    const int kept = steps[static_cast<std::size_t>(column) * S + state];
+    return kKeys ? detail::nearest_first(kept) : kept;
+  };
   std::int32_t* path = job.path + static_cast<std::size_t>(g) * N;
   if (threadIdx.x == 0) {
     int state = best_state;
     path[middle] = origin[middle] + state;
     for (int a = middle; a >= 1; --a) {
-      state = state + (origin[a] - origin[a - 1]) - steps[static_cast<std::size_t>(a) * S + state];
+      state = state + (origin[a] - origin[a - 1]) - step_at(a, state);
       path[a - 1] = origin[a - 1] + state;
     }
   } else if (threadIdx.x == job.half_threads) {
     int state = best_state;
     for (int a = middle; a <= N - 2; ++a) {
-      state =
-          state + (origin[a] - origin[a + 1]) - steps[static_cast<std::size_t>(a + 1) * S + state];
+      state = state + (origin[a] - origin[a + 1]) - step_at(a + 1, state);
       path[a + 1] = origin[a + 1] + state;
     }
   }
@@ -612,17 +632,19 @@ __global__ void membrane_kernel(MembraneJob job) {
   }
 }
 
-// The search kernels by step bound: [0] any bound, [k] a bound of k px (or cells).
-void (*const kPathKernels[])(PathJob) = {path_kernel<0>, path_kernel<1>, path_kernel<2>,
-                                         path_kernel<3>, path_kernel<4>, path_kernel<5>,
-                                         path_kernel<6>, path_kernel<7>, path_kernel<8>};
+// The search kernels by step bound: [0] any bound, [k] a bound of k px (or cells); for blocks of
+// up to 512 threads and of up to 1024.
 constexpr int kFixedSteps = detail::kMaxKeyedStep;
-static_assert(std::size(kPathKernels) == kFixedSteps + 1);
+template <int kMaxThreads>
+constexpr std::array<void (*)(PathJob), kFixedSteps + 1> kPathKernels = {
+    path_kernel<0, kMaxThreads>, path_kernel<1, kMaxThreads>, path_kernel<2, kMaxThreads>,
+    path_kernel<3, kMaxThreads>, path_kernel<4, kMaxThreads>, path_kernel<5, kMaxThreads>,
+    path_kernel<6, kMaxThreads>, path_kernel<7, kMaxThreads>, path_kernel<8, kMaxThreads>};
 
 // Why this build's kernels cannot run on the current device, or cudaSuccess.
 cudaError_t probe_kernels() {
   cudaFuncAttributes attributes;
-  return cudaFuncGetAttributes(&attributes, path_kernel<0>);
+  return cudaFuncGetAttributes(&attributes, path_kernel<0, 1024>);
 }
 
 }  // namespace
@@ -733,14 +755,16 @@ CudaSegmenter::CudaSegmenter(const SegmentationConfig& config, const VolumeSampl
   int optin = 0;
   IOCT_CUDA_CHECK(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, device));
   std::size_t dynamic_limit = static_cast<std::size_t>(optin);
-  for (const auto kernel : kPathKernels) {
-    // What the kernel's own (static) shared memory leaves of the block's.
-    cudaFuncAttributes attributes{};
-    IOCT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, kernel));
-    const int dynamic = optin - static_cast<int>(attributes.sharedSizeBytes);
-    IOCT_CUDA_CHECK(
-        cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, dynamic));
-    dynamic_limit = std::min(dynamic_limit, static_cast<std::size_t>(dynamic));
+  for (const auto& kernels : {kPathKernels<512>, kPathKernels<1024>}) {
+    for (const auto kernel : kernels) {
+      // What the kernel's own (static) shared memory leaves of the block's.
+      cudaFuncAttributes attributes{};
+      IOCT_CUDA_CHECK(cudaFuncGetAttributes(&attributes, kernel));
+      const int dynamic = optin - static_cast<int>(attributes.sharedSizeBytes);
+      IOCT_CUDA_CHECK(
+          cudaFuncSetAttribute(kernel, cudaFuncAttributeMaxDynamicSharedMemorySize, dynamic));
+      dynamic_limit = std::min(dynamic_limit, static_cast<std::size_t>(dynamic));
+    }
   }
   state_ = std::make_unique<DeviceState>();
   // The steps go to shared memory when they fit beside the rows and origins (at most 4 x (256 +
@@ -850,8 +874,10 @@ void launch_path(const PathJob& job, int count, std::size_t max_steps_shared, cu
   const int fixed_step = j.max_step <= kFixedSteps ? j.max_step : 0;
   const int row_pad = fixed_step > 0 ? detail::kStepKeyPad : 0;
   const std::size_t shared = path_shared_bytes(j.columns, j.states, row_pad, j.shared_steps);
-  const auto kernel = kPathKernels[fixed_step];
-  kernel<<<count, 2 * j.half_threads, shared, stream>>>(j);
+  const int threads = 2 * j.half_threads;
+  const auto kernel =
+      threads <= 512 ? kPathKernels<512>[fixed_step] : kPathKernels<1024>[fixed_step];
+  kernel<<<count, threads, shared, stream>>>(j);
   cuda::check_launch("path_kernel");
 }
 

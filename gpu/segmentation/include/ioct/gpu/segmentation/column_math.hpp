@@ -236,12 +236,31 @@ IOCT_HD std::int32_t add_min(std::int32_t a, std::int32_t b, std::int32_t c) {
 #endif
 }
 
+// What each candidate of a step adds to its neighbour's key, for a step bound of kFixedStep: its
+// step's penalty (times the scale) plus its place in the order tried (nearest_first). The same for
+// every step of a search, so a search works them out once.
+template <int kFixedStep>
+struct StepKeyOffsets {
+  std::int32_t of[2 * kFixedStep + 1];
+};
+template <int kFixedStep>
+IOCT_HD StepKeyOffsets<kFixedStep> step_key_offsets(std::int32_t penalty) {
+  StepKeyOffsets<kFixedStep> offsets{};
+  for (int i = 0; i < 2 * kFixedStep + 1; ++i) {
+    offsets.of[i] = penalty * kStepKeyScale * abs_int(nearest_first(i)) + i;
+  }
+  return offsets;
+}
+
 // best_step over keys, for a step bound of kFixedStep: `row` points at state 0 of a padded row of
 // keys, `base` is step_key_base's; returns the best total reaching the state as a key
-// (kUnreachableKey if none) and the step taken.
+// (kUnreachableKey if none) and the place of the step taken in the order tried (0, the step 0,
+// if none): the step is nearest_first(*order). The place, not the step, so that a search step
+// spends no instructions on turning one into the other; only the trace back does, once per
+// column.
 template <int kFixedStep>
-IOCT_HD std::int32_t best_step_key(const std::int32_t* row, int base, std::int32_t penalty,
-                                   int* step) {
+IOCT_HD std::int32_t best_step_key(const std::int32_t* row, int base,
+                                   const StepKeyOffsets<kFixedStep>& offsets, int* order) {
   constexpr int kCandidates = 2 * kFixedStep + 1;
   constexpr int kChains = 4;  // independent minima, joined at the end
   std::int32_t keys[kCandidates];
@@ -254,17 +273,13 @@ IOCT_HD std::int32_t best_step_key(const std::int32_t* row, int base, std::int32
 #pragma unroll
 #endif
   for (int i = 0; i < kCandidates; ++i) {
-    const std::int32_t penalty_and_order = penalty * kStepKeyScale * abs_int(nearest_first(i)) + i;
-    best[i % kChains] = add_min(keys[i], penalty_and_order, best[i % kChains]);
+    best[i % kChains] = add_min(keys[i], offsets.of[i], best[i % kChains]);
   }
   const std::int32_t key = min_int(min_int(best[0], best[1]), min_int(best[2], best[3]));
-  if (key >= kUnreachableKey) {
-    *step = 0;
-    return kUnreachableKey;
-  }
-  const int i = key & (kStepKeyScale - 1);
-  *step = nearest_first(i);
-  return key - i;  // the candidate's total, its step's penalty included, as a key
+  const bool reached = key < kUnreachableKey;
+  *order = reached ? key & (kStepKeyScale - 1) : 0;
+  // The candidate's total, its step's penalty included, as a key.
+  return reached ? key - *order : kUnreachableKey;
 }
 
 // A key plus a state's cost, staying unreachable.
