@@ -253,7 +253,7 @@ TEST_F(CudaVsCpu, BlackSaturatedAndOddSizedVolumes) {
   compare_group_by_group(one, sampling, 1, "single A-scan");
 }
 
-TEST_F(CudaVsCpu, SpectralisBscanAndAWideOneWhoseStepsGoToGlobalMemory) {
+TEST_F(CudaVsCpu, SpectralisBscanAWideOneWhoseStepsGoToGlobalMemoryAndADeepOne) {
   const std::filesystem::path spectralis = seg_test::spectralis_file();
   if (!std::filesystem::exists(spectralis)) {
     FAIL() << "test data missing: " << spectralis;
@@ -275,6 +275,17 @@ TEST_F(CudaVsCpu, SpectralisBscanAndAWideOneWhoseStepsGoToGlobalMemory) {
               wide.pixels().begin() + static_cast<std::ptrdiff_t>(k) * filtered.pixels().size());
   }
   compare_group_by_group(wide, sampling, 1, "spectralis x3");
+  // Four copies stacked in depth: 496 coarse cells, so the coarse search takes more than 512
+  // threads (the kernel built for blocks of 1024, chunks of 8 columns).
+  Volume deep(1, filtered.ascans(), 4 * filtered.depth());
+  const std::size_t depth = filtered.depth();
+  for (std::size_t a = 0; a < filtered.ascans(); ++a) {
+    const auto column = filtered.bscan(0).subspan(a * depth, depth);
+    for (std::size_t k = 0; k < 4; ++k) {
+      std::copy(column.begin(), column.end(), deep.bscan(0).begin() + (4 * a + k) * depth);
+    }
+  }
+  compare_group_by_group(deep, sampling, 1, "spectralis stacked x4 in depth");
 }
 
 }  // namespace
