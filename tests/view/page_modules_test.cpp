@@ -1,6 +1,7 @@
 // The pages' ES modules on their own, in the browser, without a server: the frame message is
 // parsed as the protocol lays it out, the signal is never live without a live, recent, connected
-// server, the state line reads ioct-rt's status, and parameter changes are throttled and merged.
+// server, the state line reads ioct-rt's status, parameter changes are throttled and merged, and a
+// picture that comes again unchanged is not decoded again.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -184,7 +185,8 @@ TEST_F(PageModules, ParameterChangesGoOutAtMostEvery30MsMergedAndInOrder) {
             type: sent[0].msg.type, replies: replies.length};)");
   EXPECT_GE(r.at("count").get<int>(), 4);
   EXPECT_LE(r.at("count").get<int>(), 15) << "50 changes in ~250 ms: at most one per 30 ms";
-  EXPECT_GE(r.at("minGap").get<double>(), 29.8) << "by the page's own clock, less the time to hand one message over";
+  EXPECT_GE(r.at("minGap").get<double>(), 29.8)
+      << "by the page's own clock, less the time to hand one message over";
   EXPECT_EQ(r.at("type"), "params");
   EXPECT_EQ(r.at("last").at("changes").at("enhanced").at("threshold"), 0.49)
       << "the last value always goes out";
@@ -200,6 +202,38 @@ TEST_F(PageModules, TokenComesFromTheFragmentAndGoesOutAsABearerHeader) {
   EXPECT_EQ(r.at("none"), "");
   EXPECT_EQ(r.at("header").at("Authorization"), "Bearer abc123");
   EXPECT_TRUE(r.at("noHeader").empty());
+}
+
+// The B-scan beside the render comes again in most frames unchanged: decoded once while its
+// bytes stay the same (even in another message's buffer), again when they change, and the bitmap
+// it replaces closed; a real JPEG decodes to its size, once.
+TEST_F(PageModules, ARepeatedPictureIsDecodedOnlyWhenItsBytesChange) {
+  const nlohmann::json r = with_module("repeated-picture.js", R"(
+    const decoded = [], closed = [];
+    const picture = new m.RepeatedPicture(async (bytes) => {
+      const id = decoded.length;
+      decoded.push([...bytes]);
+      return {id, close: () => closed.push(id)};
+    });
+    const ids = [];
+    for (const bytes of [[1, 2, 3], [1, 2, 3], [1, 2, 4], [1, 2, 4, 0], [1, 2, 4, 0]]) {
+      ids.push((await picture.picture(new Uint8Array(bytes))).id);
+    }
+    // A real JPEG (3 x 2, made by the browser) through the real decoder.
+    const canvas = new OffscreenCanvas(3, 2);
+    canvas.getContext('2d').fillRect(0, 0, 3, 2);
+    const jpeg = new Uint8Array(
+        await (await canvas.convertToBlob({type: 'image/jpeg'})).arrayBuffer());
+    const real = new m.RepeatedPicture();
+    const first = await real.picture(jpeg);
+    const again = await real.picture(jpeg.slice());
+    return {ids, decoded: decoded.length, closed, same: first === again,
+            size: [again.width, again.height]};)");
+  EXPECT_EQ(r.at("ids"), (nlohmann::json{0, 0, 1, 2, 2}));
+  EXPECT_EQ(r.at("decoded"), 3);
+  EXPECT_EQ(r.at("closed"), (nlohmann::json{0, 1})) << "each replaced bitmap closed, once";
+  EXPECT_TRUE(r.at("same").get<bool>()) << "the same bytes in another buffer: no new decode";
+  EXPECT_EQ(r.at("size"), (nlohmann::json{3, 2}));
 }
 
 }  // namespace

@@ -6,9 +6,12 @@
 // written, so ioct-view's own published -> drawn figure (the page reports each frame it drew)
 // reads here as written -> drawn. Added to a GPU machine's published -> written (ioct-bench-view),
 // it gives group published -> frame drawn in a browser where that machine has no browser.
-// Anchor in the same run: written -> sent by ioct-view (its published -> sent).
+// Anchor in the same run: written -> sent by ioct-view (its published -> sent). The B-scan is a
+// new picture every --bscan-every frames (1: every frame, the worst case; in the appliance it
+// changes only with a pass that touched it, about one in 6 at the default geometry: a group's 16
+// B-scans and their neighbours of 128).
 //
-//   ioct-bench-browser [--seconds 30] [--rate 60] [--json FILE]
+//   ioct-bench-browser [--seconds 30] [--rate 60] [--bscan-every 1] [--json FILE]
 #include <unistd.h>
 #include <CLI/CLI.hpp>
 
@@ -110,6 +113,9 @@ int main(int argc, char** argv) {
   std::string json_path;
   app.add_option("--seconds", seconds, "measured time")->check(CLI::Range(1.0, 3600.0));
   app.add_option("--rate", rate_hz, "frames (groups) per second")->check(CLI::Range(1.0, 240.0));
+  std::uint32_t bscan_every = 1;
+  app.add_option("--bscan-every", bscan_every, "frames that show the same B-scan picture")
+      ->check(CLI::Range(1u, 1000u));
   app.add_option("--json", json_path, "write the figures here too");
   CLI11_PARSE(app, argc, argv);
 
@@ -197,7 +203,7 @@ int main(int argc, char** argv) {
         m.bscan_index = 64;
         m.bscans = 128;
         std::strncpy(m.mode, "enhanced", sizeof m.mode - 1);
-        writer.publish(m, renders[f % renders.size()], bscans[f % bscans.size()]);
+        writer.publish(m, renders[f % renders.size()], bscans[(f / bscan_every) % bscans.size()]);
         written.fetch_add(1);
         next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(period);
         std::this_thread::sleep_until(next);
@@ -242,9 +248,9 @@ int main(int argc, char** argv) {
     const double frames_drawn = drawn_after.get<double>() - drawn_before.get<double>();
     std::printf(
         "frames: %.0f written, %.0f drawn by the page (%.1f /s) in %.0f s; render %ux%u %zu B, "
-        "B-scan %ux%u %zu B (JPEG)\n",
+        "B-scan %ux%u %zu B (JPEG), a new B-scan every %u frames\n",
         frames_written, frames_drawn, frames_drawn / seconds, seconds, kRenderWidth, kRenderHeight,
-        renders[0].size(), kBscanWidth, kBscanHeight, bscans[0].size());
+        renders[0].size(), kBscanWidth, kBscanHeight, bscans[0].size(), bscan_every);
     std::printf("written -> drawn in the page: p50 %.2f ms, p99 %.2f ms (%.0f groups)\n",
                 drawn.p50_ms, drawn.p99_ms, drawn.count);
     std::printf("anchor, written -> sent by ioct-view: p50 %.2f ms, p99 %.2f ms\n", sent.p50_ms,
@@ -252,6 +258,7 @@ int main(int argc, char** argv) {
     if (!json_path.empty()) {
       std::ofstream(json_path) << nlohmann::json{{"seconds", seconds},
                                                  {"rate_hz", rate_hz},
+                                                 {"bscan_every", bscan_every},
                                                  {"frames_written", frames_written},
                                                  {"frames_drawn", frames_drawn},
                                                  {"render_jpeg_bytes", renders[0].size()},

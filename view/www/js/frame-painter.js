@@ -1,7 +1,10 @@
 // Draws frames onto the render and B-scan canvases as they come, newest first: while one frame
 // is being decoded, a newer one replaces any other waiting (a slow page drops frames, it never
-// falls behind). After drawing it calls onDrawn(meta), which tells the server (published → drawn).
+// falls behind). The render is new in every frame; the B-scan and the tip's pair are decoded
+// only when their bytes change (repeated-picture.js). After drawing it calls onDrawn(meta), which
+// tells the server (published → drawn).
 import { drawTipMarker, drawTipBscanMarkers, drawRenderTipMarker } from './instrument-readout.js';
+import { RepeatedPicture, decodeJpeg } from './repeated-picture.js';
 
 export class FramePainter {
   constructor({ renderCanvas, bscanCanvas, tipCanvas = null, onDrawn = () => {}, onProblem = () => {} }) {
@@ -10,6 +13,8 @@ export class FramePainter {
     this.waiting = null;
     this.tipMarked = false;  // the last B-scan drawn has the instrument's tip marked on it
     this.tipOnRender = false;  // ... and the last render
+    this.bscanPicture = new RepeatedPicture();
+    this.tipPicture = new RepeatedPicture();
   }
 
   paint(frame) {
@@ -33,12 +38,11 @@ export class FramePainter {
   }
 
   async draw({ meta, render, bscan, tipBscans }) {
-    const jpeg = (bytes) => createImageBitmap(new Blob([bytes], { type: 'image/jpeg' }));
     const tipShown = Boolean(this.tipCanvas && tipBscans && tipBscans.byteLength > 0);
     const images = await Promise.all([
-      jpeg(render),
-      bscan.byteLength > 0 ? jpeg(bscan) : null,
-      tipShown ? jpeg(tipBscans) : null,
+      decodeJpeg(render),
+      bscan.byteLength > 0 ? this.bscanPicture.picture(bscan) : null,
+      tipShown ? this.tipPicture.picture(tipBscans) : null,
     ]);
     drawBitmap(this.renderCanvas, images[0]);
     this.tipOnRender = drawRenderTipMarker(this.renderCanvas, meta);
@@ -53,7 +57,7 @@ export class FramePainter {
         drawTipBscanMarkers(this.tipCanvas, meta);
       }
     }
-    for (const image of images) image?.close();
+    images[0].close();  // the others stay with their RepeatedPicture for the next frames
   }
 }
 
