@@ -260,7 +260,9 @@ std::string Process::wait_for_request(bool start, std::uint64_t request, const n
     s = supervisor_->status();
   }
   const char* cmd = start ? "start" : "stop";
-  if (start && s.last_refusal_request == request && !s.last_refusal.empty()) {
+  // Two starts in one poll share its answer: the first is refused as the second is.
+  if (start && s.last_refusal_first_request <= request && request <= s.last_refusal_request &&
+      !s.last_refusal.empty()) {
     return rt::error_reply(std::string(s.last_refusal) + " (state " +
                                std::string(to_string(s.state)) + ", faults " +
                                rt::describe_faults(s.record.faults) + ")",

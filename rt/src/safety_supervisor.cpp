@@ -87,6 +87,7 @@ void SafetySupervisor::poll_once() noexcept {
     in.acquisition_verified = running_ && loop.verified;
   }
   in.acquisition_heartbeat_ns = loop.heartbeat_ns;
+  const std::uint64_t first_start = start_seen_ + 1;  // the first request this poll answers
   in.start_requested = starts != start_seen_;
   in.stop_requested = stops != stop_seen_;
   start_seen_ = starts;
@@ -134,6 +135,7 @@ void SafetySupervisor::poll_once() noexcept {
   working_.stop_requests_handled = stops;
   if (in.start_requested) {
     working_.last_refusal = machine_.refusal();
+    working_.last_refusal_first_request = first_start;
     working_.last_refusal_request = starts;
   }
   heartbeat_ns_.store(in.now_ns, std::memory_order_relaxed);

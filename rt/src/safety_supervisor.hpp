@@ -41,8 +41,10 @@ struct SafetyStatus {
   std::uint64_t footswitch_presses = 0;  // FootswitchPresses, since start
   std::uint64_t start_requests_handled = 0;
   std::uint64_t stop_requests_handled = 0;
-  std::string_view last_refusal;           // static text; empty when the last start was not refused
-  std::uint64_t last_refusal_request = 0;  // the start request it answered
+  std::string_view last_refusal;  // static text; empty when the last start was not refused
+  // The start requests it answered: several that came within one poll get one answer.
+  std::uint64_t last_refusal_first_request = 0;
+  std::uint64_t last_refusal_request = 0;
 };
 
 struct SafetyTransition {

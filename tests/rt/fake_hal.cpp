@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <stdexcept>
+#include <utility>
 
 #include "ioct/concurrency/monotonic_clock.hpp"
 
@@ -158,12 +159,24 @@ bool FakeLines::laser_emission() const noexcept {
 
 hal::LineInputs FakeLines::read_inputs() noexcept {
   hal::LineInputs read;
+  std::function<void()> then;
   {
     const std::lock_guard lock(mutex_);
     read = inputs_;
+    then = std::exchange(after_next_read_, nullptr);
   }
-  if (std::function<void()>* then = after_next_read.exchange(nullptr)) (*then)();
+  if (then) then();  // outside the lock: it may set inputs
   return read;
+}
+
+void FakeLines::after_next_read(std::function<void()> then) {
+  const std::lock_guard lock(mutex_);
+  after_next_read_ = std::move(then);
+}
+
+bool FakeLines::after_next_read_pending() const {
+  const std::lock_guard lock(mutex_);
+  return static_cast<bool>(after_next_read_);
 }
 
 std::optional<hal::LineEvent> FakeLines::wait_event(std::chrono::nanoseconds timeout) {

@@ -123,9 +123,10 @@ class FakeLines final : public hal::Lines {
 
   // Test side. Returns the CLOCK_MONOTONIC time of the edge.
   std::uint64_t set_input(hal::InputLine line, bool level);
-  // Runs once, on the reader's thread, just after the next read_inputs() took its values: lets a
-  // test put an event between the supervisor's read of the lines and the rest of its poll.
-  std::atomic<std::function<void()>*> after_next_read{nullptr};
+  // `then` runs once, on the reader's thread, just after the next read_inputs() took its values:
+  // lets a test put an event between the supervisor's read of the lines and the rest of its poll.
+  void after_next_read(std::function<void()> then);
+  bool after_next_read_pending() const;
   std::atomic<Readback> readback{Readback::follows};
 
   std::atomic<bool> commanded{false};
@@ -138,6 +139,7 @@ class FakeLines final : public hal::Lines {
   mutable std::mutex mutex_;
   std::condition_variable changed_;
   hal::LineInputs inputs_{true, true, true, true};
+  std::function<void()> after_next_read_;
   std::vector<hal::LineEvent> pending_;
 };
 

@@ -14,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cstdio>
 #include <functional>
 #include <string>
@@ -267,22 +268,46 @@ TEST(FootswitchPresses, ABouncingPressCountsOnceAndAPedalHeldAtStartNotAtAll) {
 }
 
 // The operator clears the cause and re-arms at once. Here the request lands in the worst place:
-// after the supervisor read the lines (cause still present) and before it looked at the requests.
-// It must be judged on the lines as they are after it, not refused on the read before it.
+// between the supervisor's read of the lines (cause still present) and the rest of its poll. It
+// must be judged on the lines as they are after it, not refused on the read before it.
 TEST(SafetySupervisor, AReArmIsJudgedOnTheLinesReadAfterIt) {
   Rig rig("rt-safe-rearm");
   start_scanning(rig);
   rig.lines.set_input(hal::InputLine::laser_ready, false);
   ASSERT_TRUE(rig.reaches(SafetyState::safe)) << to_string(rig.state());
-  std::function<void()> clear_and_rearm = [&] {
+  rig.lines.after_next_read([&] {
     rig.lines.set_input(hal::InputLine::laser_ready, true);
     rig.supervisor->request_start();
-  };
-  rig.lines.after_next_read.store(&clear_and_rearm);
+  });
   ASSERT_TRUE(rig.reaches(SafetyState::scanning, 5s))
       << to_string(rig.state()) << ", refused: " << rig.supervisor->status().last_refusal;
-  EXPECT_EQ(rig.lines.after_next_read.load(), nullptr);
+  EXPECT_FALSE(rig.lines.after_next_read_pending());
   EXPECT_EQ(rig.supervisor->status().record.arms_total, 2u);
+}
+
+// Two starts that come within one poll get one answer: both refused while a cause stands (the
+// control socket tells each caller so, not just the last).
+TEST(SafetySupervisor, StartsWithinOnePollShareTheirRefusal) {
+  Rig rig("rt-safe-twostarts");
+  start_scanning(rig);
+  rig.lines.set_input(hal::InputLine::laser_ready, false);
+  ASSERT_TRUE(rig.reaches(SafetyState::safe)) << to_string(rig.state());
+  std::atomic<std::uint64_t> first{0}, second{0};  // set on the safety thread
+  rig.lines.after_next_read([&] {
+    first = rig.supervisor->request_start();
+    second = rig.supervisor->request_start();
+  });
+  ASSERT_TRUE(eventually(
+      [&] {
+        return second.load() != 0 && rig.supervisor->status().start_requests_handled >= second;
+      },
+      5s));
+  const SafetyStatus status = rig.supervisor->status();
+  EXPECT_EQ(rig.state(), SafetyState::safe);
+  EXPECT_FALSE(status.last_refusal.empty());
+  EXPECT_EQ(status.last_refusal_first_request, first.load());
+  EXPECT_EQ(status.last_refusal_request, second.load());
+  EXPECT_EQ(status.record.arms_total, 1u);
 }
 
 TEST(SafetySupervisor, AStopParksAndEndsIdleWithoutAFault) {
