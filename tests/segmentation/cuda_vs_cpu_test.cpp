@@ -276,16 +276,21 @@ TEST_F(CudaVsCpu, SpectralisBscanAWideOneWhoseStepsGoToGlobalMemoryAndADeepOne) 
   }
   compare_group_by_group(wide, sampling, 1, "spectralis x3");
   // Four copies stacked in depth: 496 coarse cells, so the coarse search takes more than 512
-  // threads (the kernel built for blocks of 1024, chunks of 8 columns).
-  Volume deep(1, filtered.ascans(), 4 * filtered.depth());
+  // threads (the kernel built for blocks of 1024, chunks of 8 columns); over all 768 A-scans its
+  // steps go to global memory, over the first 256 they fit in shared memory.
   const std::size_t depth = filtered.depth();
-  for (std::size_t a = 0; a < filtered.ascans(); ++a) {
-    const auto column = filtered.bscan(0).subspan(a * depth, depth);
-    for (std::size_t k = 0; k < 4; ++k) {
-      std::copy(column.begin(), column.end(), deep.bscan(0).begin() + (4 * a + k) * depth);
+  for (const std::uint32_t ascans : {filtered.ascans(), 256u}) {
+    Volume deep(1, ascans, 4 * filtered.depth());
+    for (std::size_t a = 0; a < ascans; ++a) {
+      const auto column = filtered.bscan(0).subspan(a * depth, depth);
+      for (std::size_t k = 0; k < 4; ++k) {
+        std::copy(column.begin(), column.end(), deep.bscan(0).begin() + (4 * a + k) * depth);
+      }
     }
+    const std::string name =
+        "spectralis stacked x4 in depth, " + std::to_string(ascans) + " A-scans";
+    compare_group_by_group(deep, sampling, 1, name.c_str());
   }
-  compare_group_by_group(deep, sampling, 1, "spectralis stacked x4 in depth");
 }
 
 }  // namespace

@@ -144,6 +144,30 @@ TEST(PathSearch, DoesNotStepFurtherThanTheBoundEvenForMuchEvidence) {
   EXPECT_EQ(path_total(g, path), shortest_path_total(g));
 }
 
+TEST(PathSearch, ABandThatJumpsPastEveryStateLeavesThePathInTheBand) {
+  // Between columns 1 and 2 the band moves 100 px deeper with 10 states and a bound of 2: no
+  // state of column 2 on is reachable from the left, and none reaches the middle from both
+  // sides. There is no path; the trace back must still stay in the band (and in the steps).
+  Graph g;
+  g.columns = 8;
+  g.states = 10;
+  g.max_step = 2;
+  g.penalty = 1;
+  g.origin = {0, 0, 100, 100, 100, 100, 100, 100};
+  g.cost.assign(8 * 10, 0);
+  std::vector<std::int32_t> forward, backward, next, path(8);
+  std::vector<std::int8_t> steps;
+  solve_path(g.columns, g.states, g.origin.data(), g.cost.data(), g.max_step, g.penalty,
+             path.data(), forward, backward, next, steps);
+  for (std::int32_t a = 0; a < g.columns; ++a) {
+    EXPECT_GE(path[a], g.origin[a]) << "column " << a;
+    EXPECT_LT(path[a], g.origin[a] + g.states) << "column " << a;
+  }
+  EXPECT_EQ(detail::state_before(3, 100, 0, 10), 9);
+  EXPECT_EQ(detail::state_before(3, -100, 0, 10), 0);
+  EXPECT_EQ(detail::state_before(3, 2, 1, 10), 4);
+}
+
 TEST(PathSearch, BestStepPrefersTheSmallestStepAmongEqualTotals) {
   const std::int32_t previous[5] = {7, 7, 7, 7, 7};
   int step = 99;

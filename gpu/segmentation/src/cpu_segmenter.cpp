@@ -70,12 +70,12 @@ void solve_path(std::int32_t ascans, std::int32_t states, const std::int32_t* or
   std::int32_t s = best_state;
   path[middle] = origin[middle] + s;
   for (std::int32_t a = middle; a >= 1; --a) {
-    s = s + (origin[a] - origin[a - 1]) - steps[a * s_count + s];
+    s = detail::state_before(s, origin[a] - origin[a - 1], steps[a * s_count + s], states);
     path[a - 1] = origin[a - 1] + s;
   }
   s = best_state;
   for (std::int32_t a = middle; a <= ascans - 2; ++a) {
-    s = s + (origin[a] - origin[a + 1]) - steps[(a + 1) * s_count + s];
+    s = detail::state_before(s, origin[a] - origin[a + 1], steps[(a + 1) * s_count + s], states);
     path[a + 1] = origin[a + 1] + s;
   }
 }

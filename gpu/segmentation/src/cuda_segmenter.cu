@@ -336,13 +336,13 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
     int state = best_state;
     path[middle] = origin[middle] + state;
     for (int a = middle; a >= 1; --a) {
-      state = state + (origin[a] - origin[a - 1]) - step_at(a, state);
+      state = detail::state_before(state, origin[a] - origin[a - 1], step_at(a, state), S);
       path[a - 1] = origin[a - 1] + state;
     }
   } else if (threadIdx.x == job.half_threads) {
     int state = best_state;
     for (int a = middle; a <= N - 2; ++a) {
-      state = state + (origin[a] - origin[a + 1]) - step_at(a + 1, state);
+      state = detail::state_before(state, origin[a] - origin[a + 1], step_at(a + 1, state), S);
       path[a + 1] = origin[a + 1] + state;
     }
   }

@@ -179,6 +179,14 @@ IOCT_HD std::int32_t best_step(const std::int32_t* previous, int states, int s, 
   return best;
 }
 
+// One step back along a found path: the neighbouring column's state the step into `state` came
+// from, where that column's band starts `shift` px shallower than this one's. Held in the band:
+// a path always is, but where no state reached the middle column (a band that jumps past every
+// state) the trace back starts from state 0 of nothing, and must not read past the steps.
+IOCT_HD int state_before(int state, int shift, int step, int states) {
+  return clamp_int(state + shift - step, 0, states - 1);
+}
+
 // A path total plus a state's cost, staying at kUnreachable.
 IOCT_HD std::int32_t add_cost(std::int32_t total, std::int32_t cost) {
   return total >= kUnreachable ? kUnreachable : total + cost;
