@@ -60,6 +60,37 @@ TEST_F(PageModules, FrameMessageIsParsedAsTheProtocolLaysItOut) {
   EXPECT_NE(parsed.at("truncated").get<std::string>().find("past the end"), std::string::npos);
 }
 
+// A frame marked pictures_repeated carries the render alone: it gets the B-scan and the tip's pair
+// of the last frame that carried them, sizes included; one before any such frame is an error.
+TEST_F(PageModules, ARepeatedFrameGetsTheLastPicturesReceived) {
+  const nlohmann::json r = with_module("frame-message.js", R"(
+    const message = (meta, payload) => {
+      const json = new TextEncoder().encode(JSON.stringify(Object.assign({type: 'frame'}, meta)));
+      const bytes = new Uint8Array(4 + json.length + payload.length);
+      new DataView(bytes.buffer).setUint32(0, json.length, true);
+      bytes.set(json, 4);
+      bytes.set(payload, 4 + json.length);
+      return m.parseFrameMessage(bytes.buffer);
+    };
+    const pictures = new m.FramePictures();
+    let early = '';
+    try {
+      pictures.complete(message({frame: 1, render_bytes: 1, bscan_bytes: 0, tip_bscans_bytes: 0,
+                                 pictures_repeated: true}, [5]));
+    } catch (e) { early = e.message; }
+    pictures.complete(message({frame: 2, render_bytes: 1, bscan_bytes: 2, tip_bscans_bytes: 1},
+                              [5, 8, 9, 4]));
+    const f = pictures.complete(message({frame: 3, render_bytes: 2, bscan_bytes: 0,
+                                         tip_bscans_bytes: 0, pictures_repeated: true}, [6, 6]));
+    return {early, render: [...f.render], bscan: [...f.bscan], tip: [...f.tipBscans],
+            sizes: [f.meta.bscan_bytes, f.meta.tip_bscans_bytes]};)");
+  EXPECT_NE(r.at("early").get<std::string>().find("never received"), std::string::npos) << r;
+  EXPECT_EQ(r.at("render"), (nlohmann::json{6, 6}));
+  EXPECT_EQ(r.at("bscan"), (nlohmann::json{8, 9}));
+  EXPECT_EQ(r.at("tip"), (nlohmann::json{4}));
+  EXPECT_EQ(r.at("sizes"), (nlohmann::json{2, 1}));
+}
+
 TEST_F(PageModules, InstrumentReadoutTellsMeasuredInferredNoneAndWarningApart) {
   const nlohmann::json r = with_module("instrument-readout.js", R"(
     const tip = (extra) => Object.assign({state: 'found', instruments: 1, tip_voxel: [10, 64, 80],

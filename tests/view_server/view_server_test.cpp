@@ -26,6 +26,7 @@ namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 using testing::http_request;
 using testing::LineService;
+using testing::ReceivedFrame;
 using testing::WsViewer;
 
 constexpr const char* kToken = "test-operator-token-0123456789";
@@ -138,7 +139,8 @@ class ViewServerTest : public ::testing::Test {
     writer_->heartbeat(ioct::monotonic_ns());
   }
 
-  void publish(std::uint64_t group, std::uint64_t view = 0, std::size_t render_bytes = 1000) {
+  void publish(std::uint64_t group, std::uint64_t view = 0, std::size_t render_bytes = 1000,
+               std::byte bscan_value = std::byte{7}) {
     report_live(group);
     shm::FrameMeta m{};
     m.group_index = group;
@@ -149,7 +151,7 @@ class ViewServerTest : public ::testing::Test {
     m.height = 48;
     std::strncpy(m.mode, "enhanced", sizeof m.mode - 1);
     const std::vector<std::byte> render(render_bytes, static_cast<std::byte>(group & 0xff));
-    const std::vector<std::byte> bscan(100, std::byte{7});
+    const std::vector<std::byte> bscan(100, bscan_value);
     writer_->publish(m, render, bscan);
   }
 
@@ -248,10 +250,12 @@ TEST_F(ViewServerTest, EightViewersKeepTheirFramesWhileANinthNeverReads) {
       if (any) {
         EXPECT_GT(g, last) << "a viewer gets newer frames only";
       }
+      // Every frame has the same B-scan: the first brings it, the others say it repeats.
+      EXPECT_EQ(frame->description.value("pictures_repeated", false), any) << "group " << g;
+      EXPECT_EQ(frame->bscan.size(), any ? 0u : 100u) << "group " << g;
       last = g;
       any = true;
       EXPECT_EQ(frame->render.size(), 400'000u);
-      EXPECT_EQ(frame->bscan.size(), 100u);
       EXPECT_EQ(static_cast<unsigned char>(frame->render[0]), g & 0xff);
       if (g == kFrames - 1) break;
     }
@@ -262,6 +266,48 @@ TEST_F(ViewServerTest, EightViewersKeepTheirFramesWhileANinthNeverReads) {
   ASSERT_NE(at, std::string::npos);
   EXPECT_GT(std::stod(metrics.substr(at + 33)), 0.0)
       << "the idle viewer's frames were replaced, not queued";
+}
+
+// The B-scan beside the render is sent to a viewer only when it is not the one that viewer was
+// sent last (ioct-gpu writes it with every frame, new only after a pass that touched it): the
+// frames between say "pictures_repeated" and carry the render alone; a viewer who joins later is
+// sent the B-scan with its first frame.
+TEST_F(ViewServerTest, TheBscanGoesToAViewerOnlyWhenItIsNewToIt) {
+  start();
+  WsViewer first(port_);
+  ASSERT_TRUE(first.next_text("state", 2s)) << "joined";
+  const auto frame_of = [&](WsViewer& viewer, std::uint64_t group, std::byte bscan) {
+    publish(group, 0, 1000, bscan);
+    auto frame = viewer.next_frame(3s);
+    EXPECT_TRUE(frame.has_value()) << "group " << group;
+    if (frame) EXPECT_EQ(frame->description.at("group"), group);
+    return frame.value_or(ReceivedFrame{});
+  };
+  const std::byte a{7}, b{9};
+  ReceivedFrame f = frame_of(first, 0, a);
+  EXPECT_EQ(f.bscan, std::string(100, '\x07'));
+  EXPECT_FALSE(f.description.value("pictures_repeated", false));
+  for (std::uint64_t g = 1; g <= 2; ++g) {
+    f = frame_of(first, g, a);
+    EXPECT_TRUE(f.bscan.empty()) << "group " << g;
+    EXPECT_TRUE(f.description.value("pictures_repeated", false)) << "group " << g;
+    EXPECT_EQ(f.description.at("bscan_bytes"), 0);
+    EXPECT_EQ(f.description.at("render_bytes"), 1000) << "the rest of the description as it was";
+    EXPECT_EQ(f.render.size(), 1000u);
+  }
+  f = frame_of(first, 3, b);
+  EXPECT_EQ(f.bscan, std::string(100, '\x09')) << "a new B-scan comes whole";
+  EXPECT_FALSE(f.description.value("pictures_repeated", false));
+  f = frame_of(first, 4, b);
+  EXPECT_TRUE(f.description.value("pictures_repeated", false));
+
+  WsViewer later(port_);
+  ASSERT_TRUE(later.next_text("state", 2s)) << "joined";
+  f = frame_of(later, 5, b);
+  EXPECT_EQ(f.bscan, std::string(100, '\x09')) << "a viewer's first frame brings the B-scan";
+  EXPECT_FALSE(f.description.value("pictures_repeated", false));
+  f = first.next_frame(3s).value_or(ReceivedFrame{});
+  EXPECT_TRUE(f.description.value("pictures_repeated", false)) << "the first viewer has it";
 }
 
 TEST_F(ViewServerTest, OnlyOperatorsChangeTheRenderAndTheirErrorsNameTheKey) {

@@ -2,6 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 namespace ioct::view {
@@ -51,9 +52,10 @@ nlohmann::json instrument_json(const shm::FrameInstrument& in) {
 
 }  // namespace
 
-FrameMessage make_frame_message(const shm::Frame& frame, std::uint64_t now_ns) {
+FrameMessage make_frame_message(const shm::Frame& frame, std::uint64_t now_ns,
+                                std::uint64_t pictures) {
   const shm::FrameMeta& m = frame.meta;
-  const nlohmann::json description = {
+  nlohmann::json description = {
       {"type", "frame"},
       {"frame", m.frame_index},
       {"view", m.view_id},
@@ -85,14 +87,26 @@ FrameMessage make_frame_message(const shm::Frame& frame, std::uint64_t now_ns) {
       {"age_ms", ms_between(m.t_group_published_ns, now_ns)},
       {"published_to_rendered_ms", ms_between(m.t_group_published_ns, m.t_rendered_ns)},
       {"published_to_sent_ms", ms_between(m.t_group_published_ns, now_ns)}};
-  const std::string json = description.dump();
-  auto bytes = std::make_shared<std::string>();
-  bytes->reserve(4 + json.size() + frame.payload.size());
-  const auto n = static_cast<std::uint32_t>(json.size());
-  for (int i = 0; i < 4; ++i) bytes->push_back(static_cast<char>((n >> (8 * i)) & 0xff));
-  bytes->append(json);
-  bytes->append(reinterpret_cast<const char*>(frame.payload.data()), frame.payload.size());
-  return {std::move(bytes), m.frame_index, m.view_id, m.group_index, m.t_group_published_ns};
+  const auto message = [&](std::size_t payload_bytes) {
+    const std::string json = description.dump();
+    auto bytes = std::make_shared<std::string>();
+    bytes->reserve(4 + json.size() + payload_bytes);
+    const auto n = static_cast<std::uint32_t>(json.size());
+    for (int i = 0; i < 4; ++i) bytes->push_back(static_cast<char>((n >> (8 * i)) & 0xff));
+    bytes->append(json);
+    bytes->append(reinterpret_cast<const char*>(frame.payload.data()), payload_bytes);
+    return bytes;
+  };
+  FrameMessage out{
+      message(frame.payload.size()), nullptr, pictures, m.frame_index, m.view_id, m.group_index,
+      m.t_group_published_ns};
+  if (m.bscan_bytes != 0 || m.tip_bscans_bytes != 0) {
+    description["bscan_bytes"] = 0;
+    description["tip_bscans_bytes"] = 0;
+    description["pictures_repeated"] = true;
+    out.without_pictures = message(std::min<std::size_t>(m.render_bytes, frame.payload.size()));
+  }
+  return out;
 }
 
 }  // namespace ioct::view

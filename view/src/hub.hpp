@@ -86,6 +86,10 @@ class Hub {
   LatencyRecord published_to_drawn_;
   HubCounters counters_;
   shm::FrameInstrument instrument_{};
+  // The B-scan and tip pair of the last frame made into a message, and their number (a new one
+  // whenever the bytes change): a viewer sent them already is sent a frame without them.
+  std::string last_pictures_;
+  std::uint64_t pictures_ = 0;
   int connections_ = 0;
   std::function<void()> on_footswitch_;
 };

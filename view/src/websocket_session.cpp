@@ -193,7 +193,11 @@ void WebSocketSession::write_next() {
     message = std::move(pending_state_);
     pending_state_.reset();
   } else if (pending_frame_.bytes) {
-    message = pending_frame_.bytes;
+    // Its B-scan and tip pair only if this viewer was not sent those very bytes last.
+    const bool repeated =
+        pending_frame_.without_pictures && pending_frame_.pictures == pictures_sent_;
+    message = repeated ? pending_frame_.without_pictures : pending_frame_.bytes;
+    pictures_sent_ = pending_frame_.pictures;
     binary = true;
     const std::uint64_t now = ioct::monotonic_ns();
     // The latency of a group is that of the first frame that shows it; the frames after it

@@ -66,6 +66,7 @@ class WebSocketSession final : public Viewer,
   std::size_t sent_next_ = 0;
   bool sent_any_ = false;
   std::uint64_t last_group_sent_ = 0;
+  std::uint64_t pictures_sent_ = 0;  // the pictures of the last frame sent (0: none yet)
   std::uint64_t last_group_drawn_ = ~0ull;
   double tokens_ = 2 * kMessagesPerSecond;
   std::uint64_t tokens_at_ns_ = 0;

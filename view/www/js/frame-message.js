@@ -1,6 +1,8 @@
 // A binary WebSocket frame: u32 little-endian n, n bytes of JSON (the frame's description),
 // the render's JPEG (render_bytes), the B-scan's JPEG (bscan_bytes), then the B-scan pair through
-// the instrument's tip (tip_bscans_bytes; 0 without an instrument).
+// the instrument's tip (tip_bscans_bytes; 0 without an instrument). A frame marked
+// pictures_repeated carries neither: its B-scan and pair are the last ones this connection
+// received (FramePictures fills them in).
 export function parseFrameMessage(buffer) {
   if (buffer.byteLength < 4) throw new Error(`frame message of ${buffer.byteLength} bytes`);
   const jsonBytes = new DataView(buffer).getUint32(0, true);
@@ -19,4 +21,23 @@ export function parseFrameMessage(buffer) {
     bscan: new Uint8Array(buffer, renderStart + renderBytes, bscanBytes),
     tipBscans: new Uint8Array(buffer, renderStart + renderBytes + bscanBytes, tipBytes),
   };
+}
+
+// Makes frames whole on one connection: a frame with pictures is remembered, one marked
+// pictures_repeated gets that frame's B-scan and pair (and their sizes in its description).
+export class FramePictures {
+  constructor() { this.last = null; }
+
+  complete(frame) {
+    const { meta } = frame;
+    if (!meta.pictures_repeated) {
+      this.last = { bscan: frame.bscan, tipBscans: frame.tipBscans, bscanBytes: meta.bscan_bytes,
+                    tipBytes: meta.tip_bscans_bytes };
+      return frame;
+    }
+    if (!this.last) throw new Error(`frame ${meta.frame} repeats pictures never received`);
+    meta.bscan_bytes = this.last.bscanBytes;
+    meta.tip_bscans_bytes = this.last.tipBytes;
+    return { ...frame, bscan: this.last.bscan, tipBscans: this.last.tipBscans };
+  }
 }

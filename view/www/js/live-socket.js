@@ -1,7 +1,7 @@
 // The page's WebSocket to ioct-view: says hello with the token (when there is one), hands frames
 // and state messages on, matches replies to requests by id, and reconnects with backoff when the
 // connection drops (250 ms, doubling, at most 4 s).
-import { parseFrameMessage } from './frame-message.js';
+import { parseFrameMessage, FramePictures } from './frame-message.js';
 
 const kFirstRetryMs = 250;
 const kLongestRetryMs = 4000;
@@ -24,6 +24,7 @@ export class LiveSocket {
     const ws = new WebSocket(`${scheme}//${window.location.host}/ws`);
     ws.binaryType = 'arraybuffer';
     this.ws = ws;
+    this.pictures = new FramePictures();  // a new connection sends its pictures first
     ws.onopen = () => {
       this.retryMs = kFirstRetryMs;
       if (this.token) ws.send(JSON.stringify({ type: 'hello', token: this.token }));
@@ -44,7 +45,7 @@ export class LiveSocket {
   receive(data) {
     try {
       if (typeof data !== 'string') {
-        this.onFrame(parseFrameMessage(data));
+        this.onFrame(this.pictures.complete(parseFrameMessage(data)));
         return;
       }
       const message = JSON.parse(data);
