@@ -61,7 +61,8 @@ TEST_F(PageModules, FrameMessageIsParsedAsTheProtocolLaysItOut) {
 }
 
 // A frame marked pictures_repeated carries the render alone: it gets the B-scan and the tip's pair
-// of the last frame that carried them, sizes included; one before any such frame is an error.
+// of the last frame that carried them, sizes included, if they are the pictures it names; one
+// before any such frame, naming others, or after an unreadable frame is an error.
 TEST_F(PageModules, ARepeatedFrameGetsTheLastPicturesReceived) {
   const nlohmann::json r = with_module("frame-message.js", R"(
     const message = (meta, payload) => {
@@ -73,18 +74,27 @@ TEST_F(PageModules, ARepeatedFrameGetsTheLastPicturesReceived) {
       return m.parseFrameMessage(bytes.buffer);
     };
     const pictures = new m.FramePictures();
-    let early = '';
-    try {
-      pictures.complete(message({frame: 1, render_bytes: 1, bscan_bytes: 0, tip_bscans_bytes: 0,
-                                 pictures_repeated: true}, [5]));
-    } catch (e) { early = e.message; }
-    pictures.complete(message({frame: 2, render_bytes: 1, bscan_bytes: 2, tip_bscans_bytes: 1},
-                              [5, 8, 9, 4]));
-    const f = pictures.complete(message({frame: 3, render_bytes: 2, bscan_bytes: 0,
+    const refusal = (meta, payload) => {
+      try { pictures.complete(message(meta, payload)); } catch (e) { return e.message; }
+      return '';
+    };
+    const repeated = {render_bytes: 1, bscan_bytes: 0, tip_bscans_bytes: 0,
+                      pictures_repeated: true};
+    const early = refusal(Object.assign({frame: 1, pictures: 4}, repeated), [5]);
+    pictures.complete(message({frame: 2, pictures: 4, render_bytes: 1, bscan_bytes: 2,
+                               tip_bscans_bytes: 1}, [5, 8, 9, 4]));
+    const f = pictures.complete(message({frame: 3, pictures: 4, render_bytes: 2, bscan_bytes: 0,
                                          tip_bscans_bytes: 0, pictures_repeated: true}, [6, 6]));
-    return {early, render: [...f.render], bscan: [...f.bscan], tip: [...f.tipBscans],
-            sizes: [f.meta.bscan_bytes, f.meta.tip_bscans_bytes]};)");
-  EXPECT_NE(r.at("early").get<std::string>().find("never received"), std::string::npos) << r;
+    // Pictures it never received (a frame lost or unreadable before it): refused, not the old.
+    const other = refusal(Object.assign({frame: 4, pictures: 5}, repeated), [7]);
+    pictures.forget();
+    const forgotten = refusal(Object.assign({frame: 5, pictures: 4}, repeated), [7]);
+    return {early, other, forgotten, render: [...f.render], bscan: [...f.bscan],
+            tip: [...f.tipBscans], sizes: [f.meta.bscan_bytes, f.meta.tip_bscans_bytes]};)");
+  for (const char* refused : {"early", "other", "forgotten"}) {
+    EXPECT_NE(r.at(refused).get<std::string>().find("never received"), std::string::npos)
+        << refused << ": " << r;
+  }
   EXPECT_EQ(r.at("render"), (nlohmann::json{6, 6}));
   EXPECT_EQ(r.at("bscan"), (nlohmann::json{8, 9}));
   EXPECT_EQ(r.at("tip"), (nlohmann::json{4}));

@@ -288,16 +288,20 @@ TEST_F(ViewServerTest, TheBscanGoesToAViewerOnlyWhenItIsNewToIt) {
   EXPECT_EQ(f.bscan, std::string(100, '\x07'));
   EXPECT_FALSE(f.description.value("pictures_repeated", false));
   for (std::uint64_t g = 1; g <= 2; ++g) {
+    const nlohmann::json named = f.description.at("pictures");
     f = frame_of(first, g, a);
+    EXPECT_EQ(f.description.at("pictures"), named) << "it names the pictures it repeats";
     EXPECT_TRUE(f.bscan.empty()) << "group " << g;
     EXPECT_TRUE(f.description.value("pictures_repeated", false)) << "group " << g;
     EXPECT_EQ(f.description.at("bscan_bytes"), 0);
     EXPECT_EQ(f.description.at("render_bytes"), 1000) << "the rest of the description as it was";
     EXPECT_EQ(f.render.size(), 1000u);
   }
+  const std::uint64_t pictures_a = f.description.at("pictures");
   f = frame_of(first, 3, b);
   EXPECT_EQ(f.bscan, std::string(100, '\x09')) << "a new B-scan comes whole";
   EXPECT_FALSE(f.description.value("pictures_repeated", false));
+  EXPECT_NE(f.description.at("pictures"), pictures_a) << "new pictures, a new number";
   f = frame_of(first, 4, b);
   EXPECT_TRUE(f.description.value("pictures_repeated", false));
 

@@ -53,7 +53,7 @@ nlohmann::json instrument_json(const shm::FrameInstrument& in) {
 }  // namespace
 
 FrameMessage make_frame_message(const shm::Frame& frame, std::uint64_t now_ns,
-                                std::uint64_t pictures) {
+                                std::uint64_t pictures, bool pictures_new) {
   const shm::FrameMeta& m = frame.meta;
   nlohmann::json description = {
       {"type", "frame"},
@@ -76,6 +76,7 @@ FrameMessage make_frame_message(const shm::Frame& frame, std::uint64_t now_ns,
       {"tip_bscans_bytes", m.tip_bscans_bytes},
       {"tip_bscan_width", m.tip_bscan_width},
       {"tip_bscan_height", m.tip_bscan_height},
+      {"pictures", pictures},
       // CLOCK_MONOTONIC, for clients on this machine: the group published by ioct-rt, placed in
       // the live volume, its frame rendered and written to the frame ring by ioct-gpu, and this
       // message made by ioct-view (so a client can tell where a frame's age comes from).
@@ -100,7 +101,7 @@ FrameMessage make_frame_message(const shm::Frame& frame, std::uint64_t now_ns,
   FrameMessage out{
       message(frame.payload.size()), nullptr, pictures, m.frame_index, m.view_id, m.group_index,
       m.t_group_published_ns};
-  if (m.bscan_bytes != 0 || m.tip_bscans_bytes != 0) {
+  if (!pictures_new && (m.bscan_bytes != 0 || m.tip_bscans_bytes != 0)) {
     description["bscan_bytes"] = 0;
     description["tip_bscans_bytes"] = 0;
     description["pictures_repeated"] = true;

@@ -25,7 +25,9 @@ struct FrameMessage {
   std::uint64_t t_group_published_ns = 0;
 };
 
+// `pictures`: the number of the frame's B-scan and tip pair ("pictures" in the JSON);
+// `pictures_new`: no frame made before had them, so no viewer can be sent the frame without them.
 FrameMessage make_frame_message(const shm::Frame& frame, std::uint64_t now_ns,
-                                std::uint64_t pictures);
+                                std::uint64_t pictures, bool pictures_new);
 
 }  // namespace ioct::view

@@ -52,11 +52,12 @@ void Hub::on_frame(const std::shared_ptr<const shm::Frame>& frame, std::uint64_t
   const std::size_t render = std::min<std::size_t>(frame->meta.render_bytes, frame->payload.size());
   const std::string_view pictures(reinterpret_cast<const char*>(frame->payload.data()) + render,
                                   frame->payload.size() - render);
-  if (pictures_ == 0 || pictures != last_pictures_) {
+  const bool pictures_new = pictures_ == 0 || pictures != last_pictures_;
+  if (pictures_new) {
     last_pictures_.assign(pictures);
     ++pictures_;
   }
-  message = make_frame_message(*frame, now_ns, pictures_);
+  message = make_frame_message(*frame, now_ns, pictures_, pictures_new);
   for (const auto& viewer : to) {
     ++counters_.frames_offered;
     viewer->offer_frame(message);

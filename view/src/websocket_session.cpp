@@ -137,8 +137,8 @@ void WebSocketSession::on_message(const std::string& text) {
   if (type == "drawn") {
     const std::uint64_t frame = message.value("frame", std::uint64_t{0});
     const std::uint64_t now = ioct::monotonic_ns();
-    for (const FrameMessage& sent : sent_) {
-      if (sent.bytes && sent.frame_index == frame && sent.t_group_published_ns != 0 &&
+    for (const SentFrame& sent : sent_) {
+      if (sent.frame_index == frame && sent.t_group_published_ns != 0 &&
           now > sent.t_group_published_ns) {
         if (sent.group_index != last_group_drawn_) {  // the first frame drawn of its group
           hub_.published_to_drawn().record(now - sent.t_group_published_ns);
@@ -210,7 +210,8 @@ void WebSocketSession::write_next() {
     sent_any_ = true;
     last_group_sent_ = pending_frame_.group_index;
     ++hub_.counters().frames_sent;
-    sent_[sent_next_++ % sent_.size()] = pending_frame_;
+    sent_[sent_next_++ % sent_.size()] = {pending_frame_.frame_index, pending_frame_.group_index,
+                                          pending_frame_.t_group_published_ns};
     pending_frame_ = {};
   } else {
     return;

@@ -61,8 +61,13 @@ class WebSocketSession final : public Viewer,
   std::deque<std::shared_ptr<const std::string>> replies_;
   std::shared_ptr<const std::string> pending_state_;
   FrameMessage pending_frame_;
-  // Frames sent lately, to match the page's "drawn" reports with their groups.
-  std::array<FrameMessage, 16> sent_{};
+  // Frames sent lately, to match the page's "drawn" reports with their groups (not their bytes).
+  struct SentFrame {
+    std::uint64_t frame_index = 0;
+    std::uint64_t group_index = 0;
+    std::uint64_t t_group_published_ns = 0;  // 0: an empty place
+  };
+  std::array<SentFrame, 16> sent_{};
   std::size_t sent_next_ = 0;
   bool sent_any_ = false;
   std::uint64_t last_group_sent_ = 0;

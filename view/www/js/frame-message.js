@@ -24,18 +24,24 @@ export function parseFrameMessage(buffer) {
 }
 
 // Makes frames whole on one connection: a frame with pictures is remembered, one marked
-// pictures_repeated gets that frame's B-scan and pair (and their sizes in its description).
+// pictures_repeated gets that frame's B-scan and pair (and their sizes in its description), but
+// only if they are the pictures it names (`pictures`): never an older B-scan shown as current.
 export class FramePictures {
   constructor() { this.last = null; }
+
+  // After a frame that could not be read: whatever it brought is unknown.
+  forget() { this.last = null; }
 
   complete(frame) {
     const { meta } = frame;
     if (!meta.pictures_repeated) {
-      this.last = { bscan: frame.bscan, tipBscans: frame.tipBscans, bscanBytes: meta.bscan_bytes,
-                    tipBytes: meta.tip_bscans_bytes };
+      this.last = { number: meta.pictures, bscan: frame.bscan, tipBscans: frame.tipBscans,
+                    bscanBytes: meta.bscan_bytes, tipBytes: meta.tip_bscans_bytes };
       return frame;
     }
-    if (!this.last) throw new Error(`frame ${meta.frame} repeats pictures never received`);
+    if (!this.last || this.last.number !== meta.pictures) {
+      throw new Error(`frame ${meta.frame} repeats pictures ${meta.pictures}, never received`);
+    }
     meta.bscan_bytes = this.last.bscanBytes;
     meta.tip_bscans_bytes = this.last.tipBytes;
     return { ...frame, bscan: this.last.bscan, tipBscans: this.last.tipBscans };

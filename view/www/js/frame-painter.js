@@ -39,11 +39,17 @@ export class FramePainter {
 
   async draw({ meta, render, bscan, tipBscans }) {
     const tipShown = Boolean(this.tipCanvas && tipBscans && tipBscans.byteLength > 0);
-    const images = await Promise.all([
+    const settled = await Promise.allSettled([
       decodeJpeg(render),
       bscan.byteLength > 0 ? this.bscanPicture.picture(bscan) : null,
       tipShown ? this.tipPicture.picture(tipBscans) : null,
     ]);
+    const failed = settled.find((s) => s.status === 'rejected');
+    if (failed) {
+      if (settled[0].status === 'fulfilled') settled[0].value.close();  // the others are kept
+      throw failed.reason;
+    }
+    const images = settled.map((s) => s.value);
     drawBitmap(this.renderCanvas, images[0]);
     this.tipOnRender = drawRenderTipMarker(this.renderCanvas, meta);
     if (images[1]) {

@@ -45,7 +45,14 @@ export class LiveSocket {
   receive(data) {
     try {
       if (typeof data !== 'string') {
-        this.onFrame(this.pictures.complete(parseFrameMessage(data)));
+        let frame;
+        try {
+          frame = this.pictures.complete(parseFrameMessage(data));
+        } catch (error) {
+          this.pictures.forget();  // the frames after it must not repeat what it may have brought
+          throw error;
+        }
+        this.onFrame(frame);
         return;
       }
       const message = JSON.parse(data);

@@ -25,6 +25,7 @@ export class RepeatedPicture {
 }
 
 function sameBytes(a, b) {
+  if (a === b) return true;  // a repeated frame hands on the very same bytes
   if (a.byteLength !== b.byteLength) return false;
   for (let i = 0; i < a.length; i += 1) {
     if (a[i] !== b[i]) return false;
