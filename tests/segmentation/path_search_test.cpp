@@ -83,6 +83,15 @@ Graph random_graph(std::mt19937& rng, std::int32_t columns, std::int32_t states,
   return g;
 }
 
+// solve_path over a graph, with workspaces of its own.
+std::vector<std::int32_t> solve(const Graph& g) {
+  std::vector<std::int32_t> forward, backward, next, path(static_cast<std::size_t>(g.columns));
+  std::vector<std::int8_t> steps;
+  solve_path(g.columns, g.states, g.origin.data(), g.cost.data(), g.max_step, g.penalty,
+             path.data(), forward, backward, next, steps);
+  return path;
+}
+
 TEST(PathSearch, FindsTheShortestPathOfTheClassicGraph) {
   const unsigned seed = std::random_device{}();
   SCOPED_TRACE("seed " + std::to_string(seed));
@@ -117,10 +126,7 @@ TEST(PathSearch, FollowsAStepWithinTheBoundAndBridgesAFlatGap) {
     if (a >= 30 && a < 40) continue;
     g.cost[a * 30 + (a < 20 ? 10 : 13)] = -100;
   }
-  std::vector<std::int32_t> forward, backward, next, path(60);
-  std::vector<std::int8_t> steps;
-  solve_path(g.columns, g.states, g.origin.data(), g.cost.data(), g.max_step, g.penalty,
-             path.data(), forward, backward, next, steps);
+  const std::vector<std::int32_t> path = solve(g);
   for (std::int32_t a = 0; a < 60; ++a) EXPECT_EQ(path[a], a < 20 ? 10 : 13) << "column " << a;
 }
 
@@ -135,10 +141,7 @@ TEST(PathSearch, DoesNotStepFurtherThanTheBoundEvenForMuchEvidence) {
   g.cost.assign(40, 0);
   g.cost[0 * 20 + 2] = -50;
   g.cost[1 * 20 + 12] = -1000;
-  std::vector<std::int32_t> forward, backward, next, path(2);
-  std::vector<std::int8_t> steps;
-  solve_path(g.columns, g.states, g.origin.data(), g.cost.data(), g.max_step, g.penalty,
-             path.data(), forward, backward, next, steps);
+  const std::vector<std::int32_t> path = solve(g);
   EXPECT_EQ(path[1], 12);
   EXPECT_LE(std::abs(path[1] - path[0]), 2);
   EXPECT_EQ(path_total(g, path), shortest_path_total(g));
@@ -148,17 +151,13 @@ TEST(PathSearch, ABandThatJumpsPastEveryStateLeavesThePathInTheBand) {
   // Between columns 1 and 2 the band moves 100 px deeper with 10 states and a bound of 2: no
   // state of column 2 on is reachable from the left, and none reaches the middle from both
   // sides. There is no path; the trace back must still stay in the band (and in the steps).
-  Graph g;
-  g.columns = 8;
-  g.states = 10;
-  g.max_step = 2;
-  g.penalty = 1;
-  g.origin = {0, 0, 100, 100, 100, 100, 100, 100};
-  g.cost.assign(8 * 10, 0);
-  std::vector<std::int32_t> forward, backward, next, path(8);
-  std::vector<std::int8_t> steps;
-  solve_path(g.columns, g.states, g.origin.data(), g.cost.data(), g.max_step, g.penalty,
-             path.data(), forward, backward, next, steps);
+  const Graph g{.columns = 8,
+                .states = 10,
+                .max_step = 2,
+                .penalty = 1,
+                .origin = {0, 0, 100, 100, 100, 100, 100, 100},
+                .cost = std::vector<std::int32_t>(8 * 10, 0)};
+  const std::vector<std::int32_t> path = solve(g);
   for (std::int32_t a = 0; a < g.columns; ++a) {
     EXPECT_GE(path[a], g.origin[a]) << "column " << a;
     EXPECT_LT(path[a], g.origin[a] + g.states) << "column " << a;
