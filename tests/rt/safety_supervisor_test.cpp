@@ -20,6 +20,8 @@
 #include <string>
 #include <thread>
 
+#include "ioct/test_support/allocation_counter.hpp"
+#include "ioct/test_support/page_fault_counter.hpp"
 #include "rig.hpp"
 
 namespace ioct::rt {
@@ -308,6 +310,39 @@ TEST(SafetySupervisor, StartsWithinOnePollShareTheirRefusal) {
   EXPECT_EQ(status.last_refusal_first_request, first.load());
   EXPECT_EQ(status.last_refusal_request, second.load());
   EXPECT_EQ(status.record.arms_total, 1u);
+}
+
+// The safety thread's poll in steady state (scanning, the watchdog fed, the status published):
+// between two of its reads of the lines, some 300 polls apart, it allocates nothing and faults no
+// page in (its own counters, read on its own thread by the fake lines' hook).
+TEST(SafetySupervisor, ItsPollsAllocateNothingAndFaultNoPageWhileScanning) {
+  Rig rig("rt-safe-steady");
+  start_scanning(rig);
+  struct Sample {
+    std::atomic<std::uint64_t> allocations{0}, page_faults{0};
+    std::atomic<bool> taken{false};
+  };
+  const auto sample = [&](Sample& into) {
+    rig.lines.after_next_read([&into] {
+      into.allocations = test_support::thread_allocations();
+      into.page_faults = test_support::thread_page_faults().total();
+      into.taken = true;
+    });
+    ASSERT_TRUE(eventually([&] { return into.taken.load(); }, 5s));
+  };
+  std::this_thread::sleep_for(100ms);  // past the first polls of scanning
+  Sample before, after;
+  sample(before);
+  std::this_thread::sleep_for(300ms);
+  sample(after);
+  EXPECT_EQ(rig.state(), SafetyState::scanning);
+  EXPECT_GT(rig.lines.toggles.load(), 0u);
+  EXPECT_EQ(after.allocations - before.allocations, 0u)
+      << test_support::allocation_counting_method();
+#if !defined(__SANITIZE_THREAD__)
+  // (ThreadSanitizer faults its shadow memory in lazily: there only the allocations are judged.)
+  EXPECT_EQ(after.page_faults - before.page_faults, 0u);
+#endif
 }
 
 TEST(SafetySupervisor, AStopParksAndEndsIdleWithoutAFault) {
