@@ -32,10 +32,13 @@ constexpr int kVerdictThreads = 256;   // a B-scan per block
 constexpr int kMembraneThreads = 512;  // a B-scan per block
 // membrane_kernel's rows: within the 48 KiB a launch may take without opting in.
 static_assert(3 * kMaxAscans * sizeof(float) <= 48 * 1024);
-// Search columns whose costs a thread loads at once: 16, or 8 in blocks of more than 512 threads
-// (half the registers a thread).
+// The searches' kernels are built for blocks of up to this many threads (registers for a whole
+// chunk, 128 a thread) and of up to 1024 (the coarse search of a 2048 px axis: 512 cells a half).
+constexpr int kSearchThreads = 512;
+// Search columns whose costs a thread loads at once: 16, or 8 in the larger blocks (half the
+// registers a thread).
 template <int kMaxThreads>
-constexpr int kChunk = kMaxThreads <= 512 ? 16 : 8;
+constexpr int kChunk = kMaxThreads <= kSearchThreads ? 16 : 8;
 // Shared memory a search may use for its step choices; more goes to global memory (slower trace
 // back, same result).
 constexpr std::size_t kSharedStepsLimit = 160 * 1024;
@@ -186,10 +189,9 @@ __device__ void sum_background(const PathJob& job, int g, int b) {
   }
 }
 
-// kMaxThreads: the block's size bounds the registers a thread may hold, so a search of up to 512
-// threads gets the kernel built for 512 (the costs and band shifts of a chunk, the step's offsets
-// in registers) and only a larger one (the coarse search of a 2048 px axis: 512 cells per half)
-// the kernel built for 1024.
+// kMaxThreads: the block's size bounds the registers a thread may hold, so a search of up to
+// kSearchThreads gets the kernel built for them (the costs and band shifts of a chunk, the step's
+// offsets in registers) and only a larger one the kernel built for 1024.
 template <int kFixedStep, int kMaxThreads>
 __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
   extern __shared__ __align__(16) unsigned char shared[];
@@ -633,7 +635,7 @@ __global__ void membrane_kernel(MembraneJob job) {
 }
 
 // The search kernels by step bound: [0] any bound, [k] a bound of k px (or cells); for blocks of
-// up to 512 threads and of up to 1024.
+// up to kSearchThreads threads and of up to 1024.
 constexpr int kFixedSteps = detail::kMaxKeyedStep;
 template <int kMaxThreads>
 constexpr std::array<void (*)(PathJob), kFixedSteps + 1> kPathKernels = {
@@ -755,7 +757,7 @@ CudaSegmenter::CudaSegmenter(const SegmentationConfig& config, const VolumeSampl
   int optin = 0;
   IOCT_CUDA_CHECK(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, device));
   std::size_t dynamic_limit = static_cast<std::size_t>(optin);
-  for (const auto& kernels : {kPathKernels<512>, kPathKernels<1024>}) {
+  for (const auto& kernels : {kPathKernels<kSearchThreads>, kPathKernels<1024>}) {
     for (const auto kernel : kernels) {
       // What the kernel's own (static) shared memory leaves of the block's.
       cudaFuncAttributes attributes{};
@@ -875,8 +877,8 @@ void launch_path(const PathJob& job, int count, std::size_t max_steps_shared, cu
   const int row_pad = fixed_step > 0 ? detail::kStepKeyPad : 0;
   const std::size_t shared = path_shared_bytes(j.columns, j.states, row_pad, j.shared_steps);
   const int threads = 2 * j.half_threads;
-  const auto kernel =
-      threads <= 512 ? kPathKernels<512>[fixed_step] : kPathKernels<1024>[fixed_step];
+  const auto kernel = threads <= kSearchThreads ? kPathKernels<kSearchThreads>[fixed_step]
+                                                : kPathKernels<1024>[fixed_step];
   kernel<<<count, threads, shared, stream>>>(j);
   cuda::check_launch("path_kernel");
 }
