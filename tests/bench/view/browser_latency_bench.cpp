@@ -8,8 +8,8 @@
 // it gives group published -> frame drawn in a browser where that machine has no browser.
 // Anchor in the same run: written -> sent by ioct-view (its published -> sent). The B-scan is a
 // new picture every --bscan-every frames (1: every frame, the worst case; in the appliance it
-// changes only with a pass that touched it, about one in 6 at the default geometry: a group's 16
-// B-scans and their neighbours of 128).
+// changes only with a pass that touched it, 1 or 2 of a volume's 8 groups at the default
+// geometry: a few times a second against frames at up to the display's rate).
 //
 //   ioct-bench-browser [--seconds 30] [--rate 60] [--bscan-every 1] [--json FILE]
 #include <unistd.h>
