@@ -39,6 +39,9 @@ constexpr std::array<const char*, kHops> kHopNames = {
 struct ViewerFigures {
   std::vector<std::uint64_t> received_ns;  // group published → its first frame received
   std::vector<std::uint64_t> rendered_ns;  // group published → that frame rendered (anchor)
+  // received_ns split by what the frame brought: a new B-scan (or tip pair), which ioct-gpu
+  // fetches, draws and encodes on the frame's way, or the pictures the viewer already holds.
+  std::vector<std::uint64_t> received_new_pictures_ns, received_same_pictures_ns;
   // The same frames' hops: published → processed → rendered → written → made → received.
   std::array<std::vector<std::uint64_t>, kHops> hops;
   std::uint64_t frames = 0;
@@ -48,6 +51,7 @@ struct ViewerFigures {
 ViewerFigures watch(std::uint16_t port, double seconds, int own_view) {
   ViewerFigures f;
   std::uint64_t last_group = 0;
+  std::uint64_t last_pictures = 0;
   WsViewer viewer(port);
   if (own_view >= 0) {
     // A camera of its own, turning from its own angle: ioct-gpu renders it for this viewer alone.
@@ -72,9 +76,14 @@ ViewerFigures watch(std::uint16_t port, double seconds, int own_view) {
     f.bytes += frame->render.size() + frame->bscan.size();
     viewer.send({{"type", "drawn"}, {"frame", frame->description["frame"]}});
     const std::uint64_t group = frame->description.value("group", std::uint64_t{0});
+    const std::uint64_t pictures = frame->description.value("pictures", std::uint64_t{0});
+    const bool new_pictures = f.frames == 1 || pictures != last_pictures;
+    last_pictures = pictures;
     if (published == 0 || now < published || (f.frames > 1 && group == last_group)) continue;
     last_group = group;
     f.received_ns.push_back(now - published);
+    (new_pictures ? f.received_new_pictures_ns : f.received_same_pictures_ns)
+        .push_back(now - published);
     const double rendered_ms = frame->description.value("published_to_rendered_ms", 0.0);
     f.rendered_ns.push_back(static_cast<std::uint64_t>(rendered_ms * 1e6));
     std::array<std::uint64_t, kHops + 1> stamps{published};
@@ -144,12 +153,18 @@ int main(int argc, char** argv) {
     const double renders_per_s = (gpu_renders(port) - renders_before) / seconds;
     std::vector<std::uint64_t> received;
     std::vector<std::uint64_t> rendered;
+    std::vector<std::uint64_t> received_new_pictures, received_same_pictures;
     std::array<std::vector<std::uint64_t>, kHops> hops;
     std::uint64_t frames = 0;
     std::uint64_t bytes = 0;
     for (const auto& f : figures) {
       received.insert(received.end(), f.received_ns.begin(), f.received_ns.end());
       rendered.insert(rendered.end(), f.rendered_ns.begin(), f.rendered_ns.end());
+      received_new_pictures.insert(received_new_pictures.end(), f.received_new_pictures_ns.begin(),
+                                   f.received_new_pictures_ns.end());
+      received_same_pictures.insert(received_same_pictures.end(),
+                                    f.received_same_pictures_ns.begin(),
+                                    f.received_same_pictures_ns.end());
       for (std::size_t i = 0; i < kHops; ++i) {
         hops[i].insert(hops[i].end(), f.hops[i].begin(), f.hops[i].end());
       }
@@ -169,6 +184,17 @@ int main(int argc, char** argv) {
                 ms(r.p99_ns).c_str(), ms(r.max_ns).c_str(),
                 static_cast<double>(bytes) / seconds * 1e-6, ms(a.p50_ns).c_str(),
                 ms(a.p99_ns).c_str());
+    nlohmann::json by_pictures = nlohmann::json::object();
+    for (const auto& [name, samples] :
+         {std::pair{"with a new B-scan", &received_new_pictures},
+          std::pair{"with the B-scan held", &received_same_pictures}}) {
+      if (samples->empty()) continue;
+      const auto h = ioct::bench::summarize(*samples);
+      std::printf("    received, %-20s p50 %7s  p99 %7s  max %7s ms (%zu groups)\n", name,
+                  ms(h.p50_ns).c_str(), ms(h.p99_ns).c_str(), ms(h.max_ns).c_str(),
+                  samples->size());
+      by_pictures[name] = ioct::bench::to_json(h);
+    }
     nlohmann::json hop_figures = nlohmann::json::object();
     for (std::size_t i = 0; i < kHops; ++i) {
       if (hops[i].empty()) continue;
@@ -179,6 +205,7 @@ int main(int argc, char** argv) {
     }
     runs.push_back({{"viewers", n},
                     {"hops", hop_figures},
+                    {"published_to_received_by_pictures", by_pictures},
                     {"own_views", own_views},
                     {"gpu_renders_per_s", renders_per_s},
                     {"frames_per_s_per_viewer", fps},
