@@ -6,11 +6,13 @@
 // CUDA segmentation cannot run.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <optional>
+#include <random>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -18,9 +20,12 @@
 #include "ioct/gpu/filters/volume_filter.hpp"
 #include "ioct/gpu/offline/heidelberg_vol.hpp"
 #include "ioct/gpu/segmentation/cpu_segmenter.hpp"
+#include "ioct/gpu/segmentation/overlay_image.hpp"
 #include "simulated_volume.hpp"
 #include "test_paths.hpp"
 #if IOCT_SEGMENTATION_HAVE_CUDA
+#include "ioct/gpu/cuda/cuda_support.hpp"
+#include "ioct/gpu/segmentation/cuda_overlay_image.hpp"
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"
 #endif
 
@@ -291,6 +296,89 @@ TEST_F(CudaVsCpu, SpectralisBscanAWideOneWhoseStepsGoToGlobalMemoryAndADeepOne) 
         "spectralis stacked x4 in depth, " + std::to_string(ascans) + " A-scans";
     compare_group_by_group(deep, sampling, 1, name.c_str());
   }
+}
+
+// The live B-scan's picture drawn on the device (make_overlay_on_device) against make_overlay, on
+// fresh random voxels and surfaces that hit every rule: NaN, depths off the image at both ends,
+// halves (rounded away from zero), lines on the same row (the later one shows), bridged A-scans
+// (every other one drawn) and B-scans without a retina; a small odd size and the live B-scan's.
+TEST_F(CudaVsCpu, TheBscanOverlayDrawnOnTheDeviceIsMakeOverlaysPicture) {
+#if IOCT_SEGMENTATION_HAVE_CUDA
+  const unsigned seed = std::random_device{}();
+  SCOPED_TRACE(testing::Message() << "seed " << seed);
+  std::mt19937 random(seed);
+  const VolumeDims sizes[] = {{3, 37, 45}, {2, 512, 688}};
+  for (const VolumeDims& dims : sizes) {
+    Volume volume(dims.bscans, dims.ascans, dims.depth);
+    for (std::uint8_t& v : volume.pixels()) v = static_cast<std::uint8_t>(random());
+    Surfaces surfaces;
+    surfaces.reset(dims.bscans, dims.ascans, dims.depth);
+    const float depth = static_cast<float>(dims.depth);
+    const auto draw = [&]() -> float {
+      switch (random() % 6) {
+        case 0:
+          return std::nanf("");
+        case 1:
+          return -0.5f - static_cast<float>(random() % 3);  // above the image
+        case 2:
+          return depth - 0.5f + static_cast<float>(random() % 3);  // at or past its end
+        case 3:
+          return static_cast<float>(random() % dims.depth) + 0.5f;  // a half
+        default:
+          return std::uniform_real_distribution<float>(0.0f, depth)(random);
+      }
+    };
+    for (std::size_t k = 0; k < surfaces.ilm.size(); ++k) {
+      surfaces.state[k] = static_cast<SurfaceState>(random() % 3);
+      surfaces.ilm[k] = draw();
+      surfaces.rpe[k] = random() % 5 == 0 ? surfaces.ilm[k] : draw();  // now and then one row
+      surfaces.bm[k] = random() % 5 == 0 ? surfaces.rpe[k] : draw();
+    }
+    cuda::DeviceArray<std::uint8_t> voxels(dims.bytes()), rgb(dims.bscan_bytes() * 3);
+    cuda::DeviceArray<float> ilm(surfaces.ilm.size()), rpe(surfaces.rpe.size()),
+        bm(surfaces.bm.size());
+    cuda::DeviceArray<SurfaceState> state(surfaces.state.size());
+    const auto up = [](void* to, const void* from, std::size_t bytes) {
+      IOCT_CUDA_CHECK(cudaMemcpy(to, from, bytes, cudaMemcpyHostToDevice));
+    };
+    up(voxels.data(), volume.pixels().data(), dims.bytes());
+    up(ilm.data(), surfaces.ilm.data(), ilm.bytes());
+    up(rpe.data(), surfaces.rpe.data(), rpe.bytes());
+    up(bm.data(), surfaces.bm.data(), bm.bytes());
+    up(state.data(), surfaces.state.data(), state.bytes());
+    DeviceSurfaceView view;
+    view.ilm = ilm.data();
+    view.rpe = rpe.data();
+    view.bm = bm.data();
+    view.state = state.data();
+    view.bscans = dims.bscans;
+    view.ascans = dims.ascans;
+    for (std::uint32_t b = 0; b < dims.bscans; ++b) {
+      SCOPED_TRACE(testing::Message() << dims.ascans << " x " << dims.depth << ", B-scan " << b);
+      IOCT_CUDA_CHECK(cudaMemset(rgb.data(), 0x5a, rgb.bytes()));  // every pixel must be written
+      make_overlay_on_device(voxels.data(), dims, b, view, rgb.data(), nullptr);
+      std::vector<std::uint8_t> got(rgb.size());
+      IOCT_CUDA_CHECK(cudaMemcpy(got.data(), rgb.data(), rgb.bytes(), cudaMemcpyDeviceToHost));
+      const RgbImage expected = make_overlay(volume, b, surfaces);
+      ASSERT_EQ(expected.pixels.size(), got.size());
+      std::size_t differ = 0, first = got.size();
+      for (std::size_t i = 0; i < got.size(); ++i) {
+        if (got[i] == expected.pixels[i]) continue;
+        ++differ;
+        first = std::min(first, i);
+      }
+      EXPECT_EQ(differ, 0u) << "bytes differ, the first at pixel (" << first / 3 % dims.ascans
+                            << ", " << first / 3 / dims.ascans << ")";
+    }
+    EXPECT_THROW(
+        make_overlay_on_device(voxels.data(), dims, dims.bscans, view, rgb.data(), nullptr),
+        std::out_of_range);
+    DeviceSurfaceView other = view;
+    other.ascans = dims.ascans + 1;
+    EXPECT_THROW(make_overlay_on_device(voxels.data(), dims, 0, other, rgb.data(), nullptr),
+                 std::invalid_argument);
+  }
+#endif
 }
 
 }  // namespace

@@ -255,5 +255,33 @@ TEST(Output, OverlayDrawsTheSurfacesOverTheBscan) {
   EXPECT_THROW(make_overlay(v, 1, s), std::out_of_range);
 }
 
+// Every grey pixel is its voxel: sizes that are no multiple of the overlay's tiles, a B-scan not
+// the first, values that differ along both axes (a transposed or shifted tile would show).
+TEST(Output, OverlayShowsEveryVoxelOfItsBscanInPlace) {
+  Volume v(3, 45, 70);
+  for (std::uint32_t b = 0; b < v.bscans(); ++b) {
+    for (std::uint32_t a = 0; a < v.ascans(); ++a) {
+      for (std::uint32_t d = 0; d < v.depth(); ++d) {
+        v.bscan(b)[std::size_t{a} * v.depth() + d] =
+            static_cast<std::uint8_t>(b * 101 + a * 7 + d * 3);
+      }
+    }
+  }
+  Surfaces s;
+  s.reset(3, 45, 70);  // no surface: nothing drawn over the grey
+  const RgbImage image = make_overlay(v, 1, s);
+  ASSERT_EQ(image.width, 45u);
+  ASSERT_EQ(image.height, 70u);
+  for (std::uint32_t d = 0; d < image.height; ++d) {
+    for (std::uint32_t a = 0; a < image.width; ++a) {
+      const std::uint8_t* p = image.pixels.data() + (std::size_t{d} * image.width + a) * 3;
+      const std::uint8_t expected = v.at(1, a, d);
+      ASSERT_TRUE(p[0] == expected && p[1] == expected && p[2] == expected)
+          << "pixel (" << a << ", " << d << ") is " << int{p[0]} << "," << int{p[1]} << ","
+          << int{p[2]} << ", its voxel " << int{expected};
+    }
+  }
+}
+
 }  // namespace
 }  // namespace ioct::gpu::segmentation

@@ -16,6 +16,7 @@
 #include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/filters/cuda_volume_filter.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
+#include "ioct/gpu/segmentation/cuda_overlay_image.hpp"
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"
 #else
 #define IOCT_LIVE_DEVICE_CHAIN 0
@@ -56,6 +57,9 @@ struct DeviceStageChain::Impl {
   bool renderer_bscan_median = false;  // the renderer holds render_filtered's B-scans
   cuda::Event render_input_read;       // the render stream's last read of the input
   bool render_input_read_recorded = false;
+  // The B-scan shown, drawn with its surfaces (bscan_overlay), and its way to the host.
+  cuda::DeviceArray<std::uint8_t> overlay;
+  cuda::PinnedArray<std::uint8_t> overlay_host;
 
   Impl(filters::CudaVolumeFilter& f, filters::CudaVolumeFilter* bscan,
        segmentation::CudaSegmenter& s, render::CudaRenderer& r)
@@ -287,24 +291,20 @@ void DeviceStageChain::download(Volume& filtered, segmentation::Surfaces& surfac
   m.segmenter.download_surfaces(surfaces, m.stream.get());
 }
 
-void DeviceStageChain::download_bscan(std::uint32_t bscan, Volume& filtered,
-                                      segmentation::Surfaces* surfaces) {
+void DeviceStageChain::bscan_overlay(std::uint32_t bscan, segmentation::RgbImage& image) {
   Impl& m = *impl_;
   const VolumeDims& d = m.input_dims;
-  if (filtered.bscans() != d.bscans || filtered.ascans() != d.ascans ||
-      filtered.depth() != d.depth) {
-    filtered.reshape(d.bscans, d.ascans, d.depth);
-  }
-  if (d.bytes() == 0 || bscan >= d.bscans) return;
-  const std::size_t n = std::size_t{d.ascans} * d.depth;
-  cuda::copy_async(filtered.bscan(bscan).data(), m.filtered.data() + bscan * n, n,
-                   cudaMemcpyDeviceToHost, m.stream.get(), cuda::Payload::volume,
-                   "copy of the B-scan shown to the host");
-  if (surfaces != nullptr) {
-    m.segmenter.download_surfaces(*surfaces, m.stream.get());  // waits for both
-  } else {
-    IOCT_CUDA_CHECK(cudaStreamSynchronize(m.stream.get()));
-  }
+  const std::size_t bytes = d.bscan_bytes() * 3;
+  m.overlay.resize(bytes);
+  if (m.overlay_host.size() != bytes) m.overlay_host = cuda::PinnedArray<std::uint8_t>(bytes);
+  segmentation::make_overlay_on_device(m.filtered.data(), d, bscan, m.segmenter.device_surfaces(),
+                                       m.overlay.data(), m.stream.get());
+  cuda::copy_async(m.overlay_host.data(), m.overlay.data(), bytes, cudaMemcpyDeviceToHost,
+                   m.stream.get(), cuda::Payload::other, "copy of the B-scan shown to the host");
+  IOCT_CUDA_CHECK(cudaStreamSynchronize(m.stream.get()));
+  image.width = d.ascans;
+  image.height = d.depth;
+  image.pixels.assign(m.overlay_host.data(), m.overlay_host.data() + bytes);
 }
 
 void DeviceStageChain::download_surfaces(segmentation::Surfaces& surfaces) {
@@ -351,7 +351,7 @@ void DeviceStageChain::use_render_volume(render::RenderMode) {
 void DeviceStageChain::download(Volume&, segmentation::Surfaces&) {
   throw std::logic_error("live stages: built without CUDA");
 }
-void DeviceStageChain::download_bscan(std::uint32_t, Volume&, segmentation::Surfaces*) {
+void DeviceStageChain::bscan_overlay(std::uint32_t, segmentation::RgbImage&) {
   throw std::logic_error("live stages: built without CUDA");
 }
 void DeviceStageChain::download_surfaces(segmentation::Surfaces&) {

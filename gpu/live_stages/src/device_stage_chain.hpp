@@ -30,6 +30,7 @@
 #include "ioct/gpu/ingest/live_stage.hpp"
 #include "ioct/gpu/render/render_config.hpp"
 #include "ioct/gpu/render/rgba_image.hpp"
+#include "ioct/gpu/segmentation/overlay_image.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
 #include "ioct/gpu/volume/volume.hpp"
 #include "ioct/gpu/volume/volume_ref.hpp"
@@ -107,11 +108,10 @@ class DeviceStageChain {
 
   // The filtered volume and the surfaces, to the host (the files at the end).
   void download(Volume& filtered, segmentation::Surfaces& surfaces);
-  // B-scan `bscan` of the filtered volume into the same B-scan of `filtered` (reshaped to the
-  // input's dimensions; its other B-scans are left as they are) and, unless `surfaces` is null
-  // (the host has this pass's already), the surfaces, to the host: the B-scan a frame shows
-  // beside the render. Returns once they are there.
-  void download_bscan(std::uint32_t bscan, Volume& filtered, segmentation::Surfaces* surfaces);
+  // The B-scan a frame shows beside the render: B-scan `bscan` of the filtered volume with the
+  // last pass's surfaces drawn over it (segmentation::make_overlay's picture), drawn on the
+  // device, so that only the picture comes to the host. Returns once it is in `image`.
+  void bscan_overlay(std::uint32_t bscan, segmentation::RgbImage& image);
   // The surfaces alone, to the host (the instrument's distances after a pass).
   void download_surfaces(segmentation::Surfaces& surfaces);
   // The passes' input (the unfiltered B-scans) as a device ref on the chain's stream: what the

@@ -299,7 +299,6 @@ bool VolumeStages::make_backends() {
                                          detector_.get());
     std::lock_guard lock(mutex_);
     device_ = std::move(device);
-    surfaces_on_host_ = false;  // none of this chain's yet
     views_.set_timing(view_timing(config_, cpu_renderer));
     backends_ = "filter " + std::string(filters::filter_name(config_.filter)) + " " +
                 std::string(filter_->backend_name()) +
@@ -387,13 +386,14 @@ void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered
     const std::uint32_t bscans = device_ != nullptr ? device_->bscans() : filtered_.bscans();
     const std::uint32_t bscan = shown_bscan(render.config.slice, bscans);
     if (bscan_stale_ || bscan != bscan_shown_) {
-      // On the device path only the B-scan shown (and the surfaces) come to the host.
+      // On the device path the picture is drawn there: only it comes to the host.
+      segmentation::RgbImage overlay;
       if (device_ != nullptr) {
-        device_->download_bscan(bscan, filtered_, surfaces_on_host_ ? nullptr : &surfaces_);
-        surfaces_on_host_ = true;
+        device_->bscan_overlay(bscan, overlay);
+      } else {
+        overlay = segmentation::make_overlay(filtered_, bscan, surfaces_);
       }
-      publisher_->set_bscan(segmentation::make_overlay(filtered_, bscan, surfaces_), bscan,
-                            filtered_.bscans());
+      publisher_->set_bscan(std::move(overlay), bscan, bscans);
       bscan_stale_ = false;
       bscan_shown_ = bscan;
     }
@@ -437,9 +437,10 @@ shm::FrameInstrument VolumeStages::instrument_for(const render::RenderConfig& sh
     return frame_instrument(nullptr, config_.instruments.warn_rpe_um, nullptr);
   // The render's camera, to place the tip over the picture (the tables are not needed for it).
   std::optional<render::RenderParams> camera;
-  if (findings_.nearest_tip() != nullptr && !filtered_.pixels().empty()) {
+  const VolumeDims dims = device_ != nullptr ? device_->input().dims() : VolumeDims::of(filtered_);
+  if (findings_.nearest_tip() != nullptr && dims.bytes() != 0) {
     try {
-      camera = render::bake_params(shown, VolumeDims::of(filtered_), 0.0f);
+      camera = render::bake_params(shown, dims, 0.0f);
     } catch (const std::exception&) {
       // A config the renderer took is baked the same way; without a camera the tip is not placed.
     }
@@ -598,13 +599,11 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
       publisher_ != nullptr || !waiters.empty() || live_image_due(ioct::monotonic_ns());
   const DeviceStageChain::PassTimes t =
       device_->run_pass(first, count, shared.config, frame_wanted ? &image_ : nullptr);
-  surfaces_on_host_ = false;
   if (detector_ != nullptr) {
     // After the frame, before it is published: the frame carries the instrument of the volume
     // state it shows. The classes come from the input in place; the surfaces come to the host
-    // for the tips' distances (a few hundred kB), and the B-scan shown then needs no second copy.
+    // for the tips' distances (a few hundred kB).
     device_->download_surfaces(surfaces_);
-    surfaces_on_host_ = true;
     detect_instruments(device_->input(), first, count);
   }
   last_render_ns_ = t.rendered_ns;

@@ -11,9 +11,8 @@ namespace ioct::gpu::segmentation {
 
 void mark(RgbImage& image, std::uint32_t x, float depth_px, std::uint8_t r, std::uint8_t g,
           std::uint8_t b) noexcept {
-  if (!std::isfinite(depth_px) || x >= image.width) return;
-  const long y = std::lround(depth_px);
-  if (y < 0 || y >= static_cast<long>(image.height)) return;
+  const long y = overlay_row(depth_px, image.height);
+  if (y < 0 || x >= image.width) return;
   image.set(x, static_cast<std::uint32_t>(y), r, g, b);
 }
 
@@ -32,18 +31,33 @@ RgbImage make_overlay(const Volume& volume, std::uint32_t bscan, const Surfaces&
   image.width = volume.ascans();
   image.height = volume.depth();
   image.pixels.resize(std::size_t{image.width} * image.height * 3);
-  for (std::uint32_t a = 0; a < volume.ascans(); ++a) {
-    for (std::uint32_t d = 0; d < volume.depth(); ++d) {
-      const std::uint8_t v = volume.at(bscan, a, d);
-      image.set(a, d, v, v, v);
+  // The B-scan is stored A-scan by A-scan (depth fastest), the image row by row: a transpose, in
+  // tiles that keep both sides in the cache (a column at a time strides the image by a whole row
+  // per pixel, which made this the slowest step of a live frame with a new B-scan).
+  constexpr std::uint32_t kTile = 32;
+  const std::uint8_t* grey = volume.bscan(bscan).data();
+  for (std::uint32_t a0 = 0; a0 < image.width; a0 += kTile) {
+    const std::uint32_t a_end = std::min(a0 + kTile, image.width);
+    for (std::uint32_t d0 = 0; d0 < image.height; d0 += kTile) {
+      const std::uint32_t d_end = std::min(d0 + kTile, image.height);
+      for (std::uint32_t d = d0; d < d_end; ++d) {
+        std::uint8_t* out = image.pixels.data() + (std::size_t{d} * image.width + a0) * 3;
+        for (std::uint32_t a = a0; a < a_end; ++a, out += 3) {
+          const std::uint8_t v = grey[std::size_t{a} * image.height + d];
+          out[0] = v;
+          out[1] = v;
+          out[2] = v;
+        }
+      }
     }
   }
   for (std::uint32_t a = 0; a < volume.ascans(); ++a) {
     const std::size_t k = surfaces.index(bscan, a);
-    if (surfaces.state[k] == SurfaceState::bridged && a % 2 == 1) continue;
-    mark(image, a, surfaces.bm[k], 40, 120, 255);
-    mark(image, a, surfaces.rpe[k], 0, 230, 0);
-    mark(image, a, surfaces.ilm[k], 255, 40, 40);
+    if (!overlay_column_marked(surfaces.state[k], a)) continue;
+    // In this order: where two lines meet, the later one shows.
+    mark(image, a, surfaces.bm[k], kBmColor.r, kBmColor.g, kBmColor.b);
+    mark(image, a, surfaces.rpe[k], kRpeColor.r, kRpeColor.g, kRpeColor.b);
+    mark(image, a, surfaces.ilm[k], kIlmColor.r, kIlmColor.g, kIlmColor.b);
   }
   return image;
 }

@@ -282,9 +282,6 @@ class VolumeStages final : public LiveStage, public ViewControl {
   Volume input_;
   Volume filtered_;
   segmentation::Surfaces surfaces_;
-  // The device path: surfaces_ holds the last pass's surfaces (they came for the instruments or
-  // the B-scan shown), so the next B-scan shown needs only its pixels.
-  bool surfaces_on_host_ = true;
   render::RgbaImage image_;
   GroupStamp shown_stamp_;   // the newest group in the volume the renderer has
   bool bscan_stale_ = true;  // a pass changed the B-scan shown since the publisher encoded it

@@ -6,14 +6,43 @@
 // other A-scan, so their line shows dotted; a B-scan without a retina has no lines.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <vector>
 
+#include "ioct/gpu/cuda/host_device_function.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
 #include "ioct/gpu/volume/volume.hpp"
 
 namespace ioct::gpu::segmentation {
+
+// What the overlay draws, for make_overlay and its CUDA sibling (cuda_overlay_image.hpp) alike.
+struct OverlayColor {
+  std::uint8_t r, g, b;
+};
+inline constexpr OverlayColor kIlmColor{255, 40, 40};
+inline constexpr OverlayColor kRpeColor{0, 230, 0};
+inline constexpr OverlayColor kBmColor{40, 120, 255};
+
+// The row of a mark at depth `depth_px` (rounded half away from zero) in an image `height` rows
+// high; -1: none (NaN, or off the image).
+IOCT_HD long overlay_row(float depth_px, std::uint32_t height) {
+#if defined(__CUDA_ARCH__)
+  if (!isfinite(depth_px)) return -1;
+  const long row = lroundf(depth_px);
+#else
+  if (!std::isfinite(depth_px)) return -1;
+  const long row = std::lround(depth_px);
+#endif
+  return row >= 0 && row < static_cast<long>(height) ? row : -1;
+}
+
+// Whether column `ascan` carries its marks: bridged A-scans only every other one, so that an
+// inferred line shows dotted.
+IOCT_HD bool overlay_column_marked(SurfaceState state, std::uint32_t ascan) {
+  return !(state == SurfaceState::bridged && ascan % 2 == 1);
+}
 
 struct RgbImage {
   std::uint32_t width = 0;
