@@ -107,6 +107,41 @@ TEST(BandedJpeg, OneBandIsThePlainEncoding) {
   EXPECT_TRUE(std::equal(plain.begin(), plain.end(), one.begin(), one.end()));
 }
 
+// Two images cut at once, their bands encoded in one run of the pool in an order that mixes them
+// (as the frame publisher encodes a render and a new B-scan): each decodes as encoded alone.
+TEST(BandedJpeg, TwoImagesBandsSharingOneRunDecodeAsEachAlone) {
+  const std::vector<std::uint8_t> render = picture(1024, 768, 4, 11);
+  const std::vector<std::uint8_t> bscan = picture(512, 688, 3, 12);
+  JpegEncoder whole(85);
+  const Decoded render_alone = decode(whole.encode(render, 1024, 768, PixelLayout::rgba));
+  const Decoded bscan_alone = decode(whole.encode(bscan, 512, 688, PixelLayout::rgb));
+  WorkerPool pool(3);
+  BandedJpegEncoder render_encoder(85, 4, pool), bscan_encoder(85, 4, pool);
+  for (int round = 0; round < 2; ++round) {  // the second with the encoders' buffers reused
+    const std::uint32_t render_bands = render_encoder.cut(render, 1024, 768, PixelLayout::rgba);
+    const std::uint32_t bscan_bands = bscan_encoder.cut(bscan, 512, 688, PixelLayout::rgb);
+    ASSERT_EQ(render_bands, 4u);
+    ASSERT_EQ(bscan_bands, 4u);
+    pool.run(render_bands + bscan_bands, [&](std::uint32_t k, unsigned) {
+      // Interleaved, from the last: B-scan 3, render 3, B-scan 2, ...
+      const std::uint32_t band = 3 - k / 2;
+      (k % 2 == 0 ? bscan_encoder : render_encoder).encode_band(band);
+    });
+    const Decoded render_got = decode(render_encoder.joined());
+    const Decoded bscan_got = decode(bscan_encoder.joined());
+    ASSERT_FALSE(render_got.pixels.empty());
+    ASSERT_FALSE(bscan_got.pixels.empty());
+    EXPECT_TRUE(render_got.pixels == render_alone.pixels) << "round " << round;
+    EXPECT_TRUE(bscan_got.pixels == bscan_alone.pixels) << "round " << round;
+  }
+  // Out of turn: a band past the cut, a join with nothing cut.
+  EXPECT_EQ(render_encoder.cut(render, 1024, 768, PixelLayout::rgba), 4u);
+  EXPECT_THROW(render_encoder.encode_band(4), std::logic_error);
+  for (std::uint32_t k = 0; k < 4; ++k) render_encoder.encode_band(k);
+  EXPECT_FALSE(render_encoder.joined().empty());
+  EXPECT_THROW(render_encoder.joined(), std::logic_error);
+}
+
 TEST(BandedJpeg, BandsThatCannotBeJoinedAreRefused) {
   const std::vector<std::uint8_t> p = picture(128, 64, 3, 3);
   JpegEncoder q85(85);

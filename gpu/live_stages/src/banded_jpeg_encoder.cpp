@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace ioct::gpu::live {
 namespace {
@@ -124,25 +125,60 @@ BandedJpegEncoder::BandedJpegEncoder(int quality, unsigned bands, WorkerPool& po
 std::span<const std::byte> BandedJpegEncoder::encode(std::span<const std::uint8_t> pixels,
                                                      std::uint32_t width, std::uint32_t height,
                                                      PixelLayout layout) {
+  const std::uint32_t band_count = cut(pixels, width, height, layout);
+  if (band_count == 1) {
+    encode_band(0);
+  } else {
+    pool_.run(band_count, [&](std::uint32_t k, unsigned) { encode_band(k); });
+  }
+  return joined();
+}
+
+std::uint32_t BandedJpegEncoder::cut(std::span<const std::uint8_t> pixels, std::uint32_t width,
+                                     std::uint32_t height, PixelLayout layout) {
   const McuSize mcu = mcu_size(layout);
   const std::uint32_t mcu_rows = (height + mcu.height - 1) / mcu.height;
   const std::uint32_t rows_per_band =
       (mcu_rows + bands() - 1) / bands() * mcu.height;  // whole MCU rows
-  const std::uint32_t band_count = (height + rows_per_band - 1) / rows_per_band;
+  const std::uint32_t band_count = height == 0 ? 1 : (height + rows_per_band - 1) / rows_per_band;
   const std::uint64_t interval =
       std::uint64_t{rows_per_band / mcu.height} * ((width + mcu.width - 1) / mcu.width);
+  cut_ = Cut{pixels,
+             width,
+             height,
+             layout,
+             band_count,
+             rows_per_band,
+             static_cast<std::uint32_t>(interval)};
   if (band_count <= 1 || interval > 65535 || height == 0 || pixels.size() % height != 0) {
-    return encoders_[0]->encode(pixels, width, height, layout);  // it checks the size
+    cut_.band_count = 1;  // encoded whole: JpegEncoder checks the size
+    cut_.rows_per_band = height;
   }
-  const std::size_t row_bytes = pixels.size() / height;
-  pool_.run(band_count, [&](std::uint32_t k, unsigned) {
-    const std::uint32_t first = k * rows_per_band;
-    const std::uint32_t rows = std::min(rows_per_band, height - first);
-    encoded_[k] = encoders_[k]->encode(pixels.subspan(first * row_bytes, rows * row_bytes), width,
-                                       rows, layout);
-  });
-  join_jpeg_bands(std::span(encoded_.data(), band_count), height,
-                  static_cast<std::uint32_t>(interval), joined_);
+  return cut_.band_count;
+}
+
+void BandedJpegEncoder::encode_band(std::uint32_t band) {
+  if (band >= cut_.band_count) {
+    throw std::logic_error("JPEG band " + std::to_string(band) + " of " +
+                           std::to_string(cut_.band_count) + " cut");
+  }
+  if (cut_.band_count == 1) {
+    encoded_[0] = encoders_[0]->encode(cut_.pixels, cut_.width, cut_.height, cut_.layout);
+    return;
+  }
+  const std::size_t row_bytes = cut_.pixels.size() / cut_.height;
+  const std::uint32_t first = band * cut_.rows_per_band;
+  const std::uint32_t rows = std::min(cut_.rows_per_band, cut_.height - first);
+  encoded_[band] = encoders_[band]->encode(cut_.pixels.subspan(first * row_bytes, rows * row_bytes),
+                                           cut_.width, rows, cut_.layout);
+}
+
+std::span<const std::byte> BandedJpegEncoder::joined() {
+  if (cut_.band_count == 0) throw std::logic_error("JPEG bands joined before an image was cut");
+  const std::uint32_t band_count = std::exchange(cut_.band_count, 0);
+  if (band_count == 1) return encoded_[0];
+  join_jpeg_bands(std::span(encoded_.data(), band_count), cut_.height, cut_.restart_interval,
+                  joined_);
   return joined_;
 }
 

@@ -1,6 +1,7 @@
 #include "ioct/gpu/live_stages/frame_publisher.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <utility>
 
@@ -151,32 +152,6 @@ void FramePublisher::set_tip_bscans(const instruments::TipBscans* pair) {
   new_tip_bscans_ = pair != nullptr ? *pair : instruments::TipBscans{};
 }
 
-void FramePublisher::encode_bscans(std::optional<NewBscan> bscan,
-                                   std::optional<instruments::TipBscans> tip_bscans) {
-  if (bscan) {
-    const segmentation::RgbImage& image = bscan->image;
-    const std::span<const std::byte> jpeg =
-        bscan_encoder_.encode(image.pixels, image.width, image.height, PixelLayout::rgb);
-    std::lock_guard lock(mutex_);
-    bscan_jpeg_.assign(jpeg.begin(), jpeg.end());
-    bscan_width_ = image.width;
-    bscan_height_ = image.height;
-    bscan_index_ = bscan->index;
-    bscans_ = bscan->bscans;
-  }
-  if (tip_bscans) {
-    const instruments::TipBscans& pair = *tip_bscans;
-    std::span<const std::byte> jpeg;
-    if (pair.width != 0 && pair.height != 0) {
-      jpeg = tip_bscans_encoder_.encode(pair.pixels, pair.stride(), pair.height, PixelLayout::gray);
-    }
-    std::lock_guard lock(mutex_);
-    tip_bscans_jpeg_.assign(jpeg.begin(), jpeg.end());
-    tip_bscan_width_ = jpeg.empty() ? 0 : pair.width;
-    tip_bscan_height_ = jpeg.empty() ? 0 : pair.height;
-  }
-}
-
 void FramePublisher::publish(shm::FrameMeta meta, render::RgbaImage& render) {
   {
     std::lock_guard lock(frame_mutex_);
@@ -239,8 +214,7 @@ void FramePublisher::encode_frames() {
     lock.unlock();
     const std::uint64_t started_ns = ioct::monotonic_ns();
     try {
-      encode_bscans(std::move(bscan), std::move(tip_bscans));
-      write_frame(meta, encoding_);
+      write_frame(meta, encoding_, bscan ? &*bscan : nullptr, tip_bscans ? &*tip_bscans : nullptr);
     } catch (const std::exception& e) {
       // A frame that cannot be encoded, or is too large for the ring, costs the viewers that
       // frame, never the pipeline.
@@ -253,14 +227,64 @@ void FramePublisher::encode_frames() {
   }
 }
 
-void FramePublisher::write_frame(shm::FrameMeta meta, const render::RgbaImage& render) {
-  const std::span<const std::byte> jpeg =
-      render_encoder_.encode(render.rgba, render.width, render.height, PixelLayout::rgba);
+void FramePublisher::write_frame(shm::FrameMeta meta, const render::RgbaImage& render,
+                                 const NewBscan* bscan, const instruments::TipBscans* tip_bscans) {
+  // The render and the pictures new with it, cut into bands that share one run of the pool (the
+  // render's first): a frame that brings a new B-scan does not wait for the B-scan's encoding
+  // before its own begins.
+  struct Picture {
+    BandedJpegEncoder* encoder;
+    std::uint32_t bands;
+  };
+  std::array<Picture, 3> pictures{};
+  std::size_t count = 0;
+  pictures[count++] = {&render_encoder_, render_encoder_.cut(render.rgba, render.width,
+                                                             render.height, PixelLayout::rgba)};
+  if (bscan != nullptr) {
+    const segmentation::RgbImage& image = bscan->image;
+    pictures[count++] = {&bscan_encoder_, bscan_encoder_.cut(image.pixels, image.width,
+                                                             image.height, PixelLayout::rgb)};
+  }
+  const bool tip_pair = tip_bscans != nullptr && tip_bscans->width != 0 && tip_bscans->height != 0;
+  if (tip_pair) {
+    pictures[count++] = {&tip_bscans_encoder_,
+                         tip_bscans_encoder_.cut(tip_bscans->pixels, tip_bscans->stride(),
+                                                 tip_bscans->height, PixelLayout::gray)};
+  }
+  std::uint32_t bands = 0;
+  for (std::size_t i = 0; i < count; ++i) bands += pictures[i].bands;
+  encode_pool_.run(bands, [&](std::uint32_t band, unsigned) {
+    for (std::size_t i = 0; i < count; ++i) {
+      if (band < pictures[i].bands) {
+        pictures[i].encoder->encode_band(band);
+        return;
+      }
+      band -= pictures[i].bands;
+    }
+  });
+  const std::span<const std::byte> jpeg = render_encoder_.joined();
+  std::lock_guard lock(mutex_);
+  if (bscan != nullptr) {
+    const std::span<const std::byte> bscan_jpeg = bscan_encoder_.joined();
+    bscan_jpeg_.assign(bscan_jpeg.begin(), bscan_jpeg.end());
+    bscan_width_ = bscan->image.width;
+    bscan_height_ = bscan->image.height;
+    bscan_index_ = bscan->index;
+    bscans_ = bscan->bscans;
+  }
+  if (tip_bscans != nullptr) {  // a new pair, or none any more
+    tip_bscans_jpeg_.clear();
+    if (tip_pair) {
+      const std::span<const std::byte> pair_jpeg = tip_bscans_encoder_.joined();
+      tip_bscans_jpeg_.assign(pair_jpeg.begin(), pair_jpeg.end());
+    }
+    tip_bscan_width_ = tip_pair ? tip_bscans->width : 0;
+    tip_bscan_height_ = tip_pair ? tip_bscans->height : 0;
+  }
+  if (closed_) return;
   meta.format = static_cast<std::uint32_t>(shm::FrameFormat::jpeg);
   meta.width = render.width;
   meta.height = render.height;
-  std::lock_guard lock(mutex_);
-  if (closed_) return;
   meta.bscan_width = bscan_width_;
   meta.bscan_height = bscan_height_;
   meta.bscan_index = bscan_index_;

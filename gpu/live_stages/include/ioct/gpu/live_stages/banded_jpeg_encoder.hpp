@@ -36,11 +36,33 @@ class BandedJpegEncoder {
   std::span<const std::byte> encode(std::span<const std::uint8_t> pixels, std::uint32_t width,
                                     std::uint32_t height, PixelLayout layout);
 
+  // encode() in three steps, so that the bands of several images can share one run of a pool:
+  // cut() takes the image (its pixels must stay valid until joined()) and returns how many bands
+  // it is encoded in; encode_band(k) encodes band k, for each k in [0, cut()) once, from any
+  // thread; joined() returns the JPEG, valid until the next cut(). Pixels that do not fit the
+  // size make encode_band throw, as encode() does; encode_band and joined() out of turn throw
+  // std::logic_error.
+  std::uint32_t cut(std::span<const std::uint8_t> pixels, std::uint32_t width, std::uint32_t height,
+                    PixelLayout layout);
+  void encode_band(std::uint32_t band);
+  std::span<const std::byte> joined();
+
   unsigned bands() const noexcept { return static_cast<unsigned>(encoders_.size()); }
 
  private:
+  // The image being encoded, from cut() to joined().
+  struct Cut {
+    std::span<const std::uint8_t> pixels;
+    std::uint32_t width = 0, height = 0;
+    PixelLayout layout = PixelLayout::rgb;
+    std::uint32_t band_count = 0;  // 0: none cut
+    std::uint32_t rows_per_band = 0;
+    std::uint32_t restart_interval = 0;  // MCUs per band
+  };
+
   std::vector<std::unique_ptr<JpegEncoder>> encoders_;  // one per band
   WorkerPool& pool_;
+  Cut cut_;
   std::vector<std::span<const std::byte>> encoded_;
   std::vector<std::byte> joined_;
 };

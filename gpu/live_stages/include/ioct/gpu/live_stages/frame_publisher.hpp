@@ -100,7 +100,6 @@ class FramePublisher {
  private:
   void beat();
   void encode_frames();
-  void write_frame(shm::FrameMeta meta, const render::RgbaImage& render);
   void push_status_locked();
 
   std::string name_;
@@ -152,8 +151,10 @@ class FramePublisher {
   std::optional<instruments::TipBscans> new_tip_bscans_;  // an empty pair: none
   int nice_ = 0;
   ViewSlot* next_waiting_locked();
-  void encode_bscans(std::optional<NewBscan> bscan,
-                     std::optional<instruments::TipBscans> tip_bscans);
+  // Encodes the frame with the B-scan and tip pair new with it (null: unchanged; a pair of no
+  // pixels: none any more) and writes it to the ring.
+  void write_frame(shm::FrameMeta meta, const render::RgbaImage& render, const NewBscan* bscan,
+                   const instruments::TipBscans* tip_bscans);
 
   std::thread heartbeat_;
   std::thread encoder_;
