@@ -34,8 +34,6 @@ void WorkerPool::run_erased(std::uint32_t count, void* context, Call call) {
     std::lock_guard lock(mutex_);
     job_ = job;
     generation = ++generation_;
-    posted_.store(generation, std::memory_order_release);
-    stand_by_until_ = 0;  // the run the workers stood by for
     first_error_ = nullptr;
     completed_.store(0, std::memory_order_relaxed);
     next_.store(std::uint64_t{generation} << 32, std::memory_order_release);
@@ -60,16 +58,6 @@ void WorkerPool::run_erased(std::uint32_t count, void* context, Call call) {
     error = std::exchange(first_error_, nullptr);
   }
   if (error) std::rethrow_exception(error);
-}
-
-void WorkerPool::stand_by(std::uint64_t until_ns) {
-  if (workers_.empty()) return;
-  {
-    std::lock_guard lock(mutex_);
-    if (until_ns <= stand_by_until_) return;  // awake for as long already
-    stand_by_until_ = until_ns;
-  }
-  job_posted_.notify_all();
 }
 
 void WorkerPool::work_on(const Job& job, std::uint32_t generation, unsigned worker) noexcept {
@@ -100,19 +88,8 @@ void WorkerPool::worker_loop(unsigned worker) noexcept {
     std::uint32_t generation = 0;
     {
       std::unique_lock lock(mutex_);
-      job_posted_.wait(lock, [&] {
-        return stopping_ || generation_ != seen || ioct::monotonic_ns() < stand_by_until_;
-      });
+      job_posted_.wait(lock, [&] { return stopping_ || generation_ != seen; });
       if (stopping_) return;
-      if (generation_ == seen) {
-        // Standing by: awake, without the lock, until the run is posted or the time is up.
-        const std::uint64_t until = stand_by_until_;
-        lock.unlock();
-        while (posted_.load(std::memory_order_acquire) == seen && ioct::monotonic_ns() < until) {
-          spin_pause();
-        }
-        continue;
-      }
       seen = generation = generation_;
       job = job_;
     }

@@ -10,9 +10,6 @@
 #include <thread>
 #include <vector>
 
-#include <time.h>
-
-#include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/latest_wins_worker.hpp"
 #include "ioct/gpu/worker_pool.hpp"
 
@@ -76,37 +73,6 @@ TEST(WorkerPool, RethrowsATaskErrorAfterTheOthersFinish) {
 // A task that blocks (a disk that does not answer) holds up neither the caller nor the newest
 // task: submit returns at once, the tasks waiting meanwhile are replaced by the newest, and stop()
 // still runs that one before it returns.
-// CPU time the process spends over `ms` milliseconds while this thread sleeps: the workers'.
-double cpu_ms_while_sleeping(int ms) {
-  const auto cpu = [] {
-    timespec t{};
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-    return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
-  };
-  const double before = cpu();
-  std::this_thread::sleep_for(std::chrono::milliseconds(ms));
-  return cpu() - before;
-}
-
-// Standing by keeps the workers awake (they spin: CPU time while the caller sleeps), and only
-// until the time given or the run they stood by for; asleep they cost none. The bounds leave room
-// for a loaded CI machine: awake, 2 workers spin for 150 ms; asleep, nothing runs.
-TEST(WorkerPool, StandingByKeepsTheWorkersAwakeUntilTheRunOrTheTime) {
-  WorkerPool pool(3);
-  EXPECT_LT(cpu_ms_while_sleeping(100), 20.0) << "idle workers sleep";
-  pool.stand_by(ioct::monotonic_ns() + 150'000'000);
-  EXPECT_GT(cpu_ms_while_sleeping(150), 40.0) << "standing by, the workers wait awake";
-  std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  EXPECT_LT(cpu_ms_while_sleeping(100), 20.0) << "past the time, they sleep again";
-
-  pool.stand_by(ioct::monotonic_ns() + 10'000'000'000);
-  std::atomic<int> ran{0};
-  pool.run(8, [&](std::uint32_t, unsigned) { ran.fetch_add(1); });
-  EXPECT_EQ(ran.load(), 8);
-  std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  EXPECT_LT(cpu_ms_while_sleeping(100), 20.0) << "the run ends the wait it stood by for";
-}
-
 TEST(LatestWinsWorker, TheCallerNeverWaitsAndOnlyTheNewestWaitingTaskRuns) {
   LatestWinsWorker worker;
   std::promise<void> release;

@@ -55,14 +55,6 @@ void FramePublisher::set_spin_window(double spin_window_s) noexcept {
   spin_ns_.store(ioct::seconds_to_ns(spin_window_s), std::memory_order_relaxed);
 }
 
-void FramePublisher::frame_coming() {
-  // A pass takes about a millisecond on the GPU host, 2-3 ms in its tail; a longer one finds the
-  // workers asleep again, as without this.
-  constexpr std::uint64_t kFrameComingNs = 3'000'000;
-  if (spin_ns_.load(std::memory_order_relaxed) == 0) return;
-  encode_pool_.stand_by(ioct::monotonic_ns() + kFrameComingNs);
-}
-
 FramePublisher::~FramePublisher() {
   close();
 }

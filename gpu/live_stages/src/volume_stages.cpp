@@ -597,7 +597,6 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
   const DueRender shared = take_shared_render(waiters);
   const bool frame_wanted =
       publisher_ != nullptr || !waiters.empty() || live_image_due(ioct::monotonic_ns());
-  if (publisher_ != nullptr) publisher_->frame_coming();
   const DeviceStageChain::PassTimes t =
       device_->run_pass(first, count, shared.config, frame_wanted ? &image_ : nullptr);
   if (detector_ != nullptr) {

@@ -29,12 +29,6 @@ class WorkerPool {
   // Calls task(index, worker) for every index in [0, count), spread over the threads; `worker`
   // (0 for the caller, then 1, 2, ...) lets a task use per-thread scratch memory. Returns when
   // every call has returned, then rethrows the first exception a call threw. Not reentrant.
-  // For a caller that knows a run is coming: the workers wait awake for it (spinning) until that
-  // run is posted or `until_ns` (CLOCK_MONOTONIC) passes, whichever comes first, so its
-  // iterations start on every thread at once instead of after the sleeping ones are woken.
-  // A later `until_ns` extends the wait; the run ends it.
-  void stand_by(std::uint64_t until_ns);
-
   template <class Task>
   void run(std::uint32_t count, Task&& task) {
     using T = std::remove_reference_t<Task>;
@@ -59,9 +53,7 @@ class WorkerPool {
   std::mutex mutex_;
   std::condition_variable job_posted_;
   std::condition_variable job_done_;
-  std::uint32_t generation_ = 0;          // bumped for every job
-  std::atomic<std::uint32_t> posted_{0};  // generation_, for workers standing by without the lock
-  std::uint64_t stand_by_until_ = 0;      // CLOCK_MONOTONIC; 0: none
+  std::uint32_t generation_ = 0;  // bumped for every job
   Job job_;
   bool stopping_ = false;
   std::exception_ptr first_error_;

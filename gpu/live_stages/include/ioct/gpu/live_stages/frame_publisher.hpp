@@ -46,10 +46,6 @@ class FramePublisher {
   // next frame is due (forecast from the last ones; 0: asleep only): the stages set it once they
   // know whether a GPU renders.
   void set_spin_window(double spin_window_s) noexcept;
-  // The stages' thread, as it begins a pass whose frame it will publish: with a spin window set,
-  // the encoding pool's workers wait awake for that frame (for at most a few milliseconds), so a
-  // group's frame is encoded on all of them at once instead of after sleeping ones are woken.
-  void frame_coming();
   ~FramePublisher();  // close()
   FramePublisher(const FramePublisher&) = delete;
   FramePublisher& operator=(const FramePublisher&) = delete;
