@@ -1,8 +1,9 @@
 // ioct-bench-view: how old a group is when its frame reaches the viewers of ioct-view, with 1 or
 // N viewers on the same machine, against the running appliance (ioct-rt, ioct-gpu, ioct-view).
 // Each viewer reads every frame it is sent, measures group published → frame received with
-// CLOCK_MONOTONIC (the frame carries the publish time) for the first frame of each group, and
-// reports "drawn" back as a page does.
+// CLOCK_MONOTONIC (the frame carries the publish time) for the first frame of each group (not
+// the group it joined in), and reports "drawn" back as a page does. The groups' figures are also
+// split by whether their first frame brought a new B-scan.
 // Printed beside the anchor from the same frames: group published → frame rendered by ioct-gpu,
 // so the view's own share reads as the difference; and where the time goes, hop by hop, from the
 // stamps each frame carries (processed, rendered, written to the frame ring, message made).
@@ -77,9 +78,16 @@ ViewerFigures watch(std::uint16_t port, double seconds, int own_view) {
     viewer.send({{"type", "drawn"}, {"frame", frame->description["frame"]}});
     const std::uint64_t group = frame->description.value("group", std::uint64_t{0});
     const std::uint64_t pictures = frame->description.value("pictures", std::uint64_t{0});
-    const bool new_pictures = f.frames == 1 || pictures != last_pictures;
+    const bool new_pictures = pictures != last_pictures;
     last_pictures = pictures;
-    if (published == 0 || now < published || (f.frames > 1 && group == last_group)) continue;
+    // The first frame a viewer gets shows a group published before it connected: its age says
+    // when the viewer joined, not how fast a group reaches it.
+    const bool first = f.frames == 1;
+    if (first || group == last_group) {
+      last_group = group;
+      continue;
+    }
+    if (published == 0 || now < published) continue;
     last_group = group;
     f.received_ns.push_back(now - published);
     (new_pictures ? f.received_new_pictures_ns : f.received_same_pictures_ns)
