@@ -17,8 +17,10 @@ namespace {
 constexpr auto kHeartbeatPeriod = std::chrono::milliseconds(50);
 
 // Bands a frame is encoded in, and the threads (the encoding one included) that encode them:
-// four bands of a 768-row render are 192 rows each; more threads than cores would only queue.
-constexpr unsigned kEncodeBands = 4;
+// eight bands of a 768-row render are 96 rows each; more threads than cores would only queue.
+// On the H100 host a 1024 x 768 render took 2.08 ms whole, 0.90 ms in 4 bands and 0.51 ms in 8
+// (docs/BENCHMARKS.md).
+constexpr unsigned kEncodeBands = 8;
 // Places for views beyond which the idle ones are dropped (see publish()): more than ioct-view's
 // default connection limit allows views.
 constexpr std::size_t kMaxViewSlots = 128;
