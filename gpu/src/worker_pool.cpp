@@ -8,10 +8,15 @@
 
 namespace ioct::gpu {
 
-WorkerPool::WorkerPool(unsigned threads) {
+WorkerPool::WorkerPool(unsigned threads, std::function<void()> worker_start) {
   if (threads == 0) throw std::invalid_argument("WorkerPool: threads must be at least 1");
   workers_.reserve(threads - 1);
-  for (unsigned w = 1; w < threads; ++w) workers_.emplace_back([this, w] { worker_loop(w); });
+  for (unsigned w = 1; w < threads; ++w) {
+    workers_.emplace_back([this, w, worker_start] {
+      if (worker_start) worker_start();
+      worker_loop(w);
+    });
+  }
 }
 
 WorkerPool::~WorkerPool() {

@@ -5,6 +5,8 @@
 #include <atomic>
 #include <chrono>
 #include <future>
+#include <mutex>
+#include <set>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -73,6 +75,27 @@ TEST(WorkerPool, RethrowsATaskErrorAfterTheOthersFinish) {
 // A task that blocks (a disk that does not answer) holds up neither the caller nor the newest
 // task: submit returns at once, the tasks waiting meanwhile are replaced by the newest, and stop()
 // still runs that one before it returns.
+// The start hook runs once on every worker thread (not on the caller), before any iteration.
+TEST(WorkerPool, EveryWorkerRunsTheStartHookFirst) {
+  std::mutex mutex;
+  std::set<std::thread::id> started;
+  {
+    WorkerPool pool(4, [&] {
+      std::lock_guard lock(mutex);
+      started.insert(std::this_thread::get_id());
+    });
+    std::atomic<int> ran_unstarted{0};
+    pool.run(64, [&](std::uint32_t, unsigned worker) {
+      if (worker == 0) return;
+      std::lock_guard lock(mutex);
+      if (started.count(std::this_thread::get_id()) == 0) ran_unstarted.fetch_add(1);
+    });
+    EXPECT_EQ(ran_unstarted.load(), 0);
+  }  // joined: every worker has started
+  EXPECT_EQ(started.size(), 3u);
+  EXPECT_EQ(started.count(std::this_thread::get_id()), 0u);
+}
+
 TEST(LatestWinsWorker, TheCallerNeverWaitsAndOnlyTheNewestWaitingTaskRuns) {
   LatestWinsWorker worker;
   std::promise<void> release;

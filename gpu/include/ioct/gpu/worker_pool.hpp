@@ -9,6 +9,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <exception>
+#include <functional>
 #include <mutex>
 #include <thread>
 #include <type_traits>
@@ -18,8 +19,9 @@ namespace ioct::gpu {
 
 class WorkerPool {
  public:
-  // threads >= 1, the caller included. Throws std::invalid_argument for 0.
-  explicit WorkerPool(unsigned threads);
+  // threads >= 1, the caller included. Throws std::invalid_argument for 0. `worker_start`, if
+  // given, runs first on each worker thread (e.g. to give the workers the owner's priority).
+  explicit WorkerPool(unsigned threads, std::function<void()> worker_start = {});
   WorkerPool(const WorkerPool&) = delete;
   WorkerPool& operator=(const WorkerPool&) = delete;
   ~WorkerPool();
