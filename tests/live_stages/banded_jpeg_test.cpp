@@ -140,6 +140,10 @@ TEST(BandedJpeg, TwoImagesBandsSharingOneRunDecodeAsEachAlone) {
   for (std::uint32_t k = 0; k < 4; ++k) render_encoder.encode_band(k);
   EXPECT_FALSE(render_encoder.joined().empty());
   EXPECT_THROW(render_encoder.joined(), std::logic_error);
+  // A band missing: no JPEG joined from another image's leftovers.
+  EXPECT_EQ(render_encoder.cut(render, 1024, 768, PixelLayout::rgba), 4u);
+  for (std::uint32_t k = 0; k < 3; ++k) render_encoder.encode_band(k);
+  EXPECT_THROW(render_encoder.joined(), std::logic_error);
 }
 
 TEST(BandedJpeg, BandsThatCannotBeJoinedAreRefused) {

@@ -13,6 +13,7 @@
 #include <thread>
 #include <vector>
 
+#include "ioct/gpu/instruments/tip_bscans.hpp"
 #include "ioct/gpu/live_stages/frame_publisher.hpp"
 #include "ioct/shm/frame_ring.hpp"
 
@@ -146,33 +147,100 @@ TEST(FramePublisher, EachViewsNewestFrameIsWritten) {
       << "every view's newest frame";
 }
 
-// A frame whose encoding fails (here its B-scan's pixels do not fill its size) is counted and the
-// encoding thread goes on with the next.
-TEST(FramePublisher, AFrameThatCannotBeEncodedIsCountedAndTheNextIsWritten) {
+// A B-scan that cannot be encoded (its pixels do not fill its size) is counted and its frame goes
+// out without one: never the older B-scan as if it were the new one. A render that cannot be
+// encoded is counted and its frame not written. The encoding thread goes on with the next.
+TEST(FramePublisher, APictureThatCannotBeEncodedIsCountedAndShownAsNone) {
   const shm::FrameRingConfig config = ring_config(8ull << 20);
   FramePublisher publisher(config);
   shm::FrameRingReader reader = shm::FrameRingReader::attach(config.name);
+  const auto publish = [&](std::uint64_t group, render::RgbaImage image) {
+    const auto done = [&] {
+      const FramePublisher::FrameCounts c = publisher.frame_counts();
+      return c.written + c.errors;
+    };
+    const std::uint64_t before = done();
+    shm::FrameMeta meta{};
+    meta.group_index = group;
+    publisher.publish(meta, image);
+    // One at a time, so that none replaces another.
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (done() == before && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  };
+  publisher.set_bscan(flat_bscan(64, 48), 1, 16);
+  publish(1, flat_image(64, 48, 10));  // with B-scan 1
   segmentation::RgbImage broken = flat_bscan(64, 48);
   broken.pixels.resize(10);
-  publisher.set_bscan(std::move(broken), 1, 16);
-  shm::FrameMeta meta{};
-  meta.group_index = 1;
-  render::RgbaImage image = flat_image(64, 48, 10);
-  publisher.publish(meta, image);
-  wait_for_an_error(publisher);
-  publisher.set_bscan(flat_bscan(64, 48), 2, 16);
-  meta.group_index = 2;
-  image = flat_image(64, 48, 20);
-  publisher.publish(meta, image);
+  publisher.set_bscan(std::move(broken), 2, 16);
+  publish(2, flat_image(64, 48, 20));
+  EXPECT_NE(publisher.frame_counts().problem.find("B-scan"), std::string::npos)
+      << publisher.frame_counts().problem;
+  render::RgbaImage broken_render = flat_image(64, 48, 30);
+  broken_render.rgba.resize(10);
+  publish(3, std::move(broken_render));
+  publisher.set_bscan(flat_bscan(64, 48), 4, 16);
+  publish(4, flat_image(64, 48, 40));
   publisher.close();
   const FramePublisher::FrameCounts counts = publisher.frame_counts();
-  EXPECT_EQ(counts.errors, 1u);
-  EXPECT_FALSE(counts.problem.empty());
-  EXPECT_EQ(counts.written, 1u);
+  EXPECT_EQ(counts.errors, 2u);
+  EXPECT_NE(counts.problem.find("render"), std::string::npos) << counts.problem;
+  EXPECT_EQ(counts.written, 3u);
+  std::vector<std::uint64_t> groups;
   shm::Frame frame;
-  ASSERT_TRUE(reader.read_next(frame));
-  EXPECT_EQ(frame.meta.group_index, 2u);
-  EXPECT_EQ(frame.meta.bscan_index, 2u);
+  while (reader.read_next(frame)) {
+    groups.push_back(frame.meta.group_index);
+    SCOPED_TRACE(testing::Message() << "group " << frame.meta.group_index);
+    if (frame.meta.group_index == 2) {
+      EXPECT_EQ(frame.meta.bscan_bytes, 0u) << "no B-scan rather than B-scan 1 as if new";
+      EXPECT_EQ(frame.meta.bscan_width, 0u);
+    } else {
+      EXPECT_GT(frame.meta.bscan_bytes, 0u);
+      EXPECT_EQ(frame.meta.bscan_index, frame.meta.group_index);
+    }
+  }
+  EXPECT_EQ(groups, (std::vector<std::uint64_t>{1, 2, 4})) << "the broken render's frame is lost";
+}
+
+// The instrument's tip B-scan pair goes with every frame from the pass that found it, and is gone
+// from the frames after the tool left (set to none); the B-scan stays.
+TEST(FramePublisher, TheTipPairGoesWithTheFramesUntilItIsNone) {
+  const shm::FrameRingConfig config = ring_config(8ull << 20);
+  FramePublisher publisher(config);
+  shm::FrameRingReader reader = shm::FrameRingReader::attach(config.name);
+  instruments::TipBscans pair;
+  pair.width = 40;
+  pair.height = 48;
+  pair.pixels.assign(std::size_t{pair.stride()} * pair.height, 120);
+  publisher.set_bscan(flat_bscan(64, 48), 7, 16);
+  publisher.set_tip_bscans(&pair);
+  shm::FrameMeta meta{};
+  const auto publish = [&](std::uint64_t group) {
+    meta.group_index = group;
+    render::RgbaImage image = flat_image(64, 48, static_cast<std::uint8_t>(group));
+    publisher.publish(meta, image);
+    // One at a time, so that none replaces another.
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (publisher.frame_counts().written < group &&
+           std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  };
+  publish(1);
+  publish(2);  // nothing new: the same pair again
+  publisher.set_tip_bscans(nullptr);
+  publish(3);
+  publisher.close();
+  std::vector<std::uint32_t> pair_widths, bscan_indices;
+  shm::Frame frame;
+  while (reader.read_next(frame)) {
+    pair_widths.push_back(frame.meta.tip_bscan_width);
+    bscan_indices.push_back(frame.meta.bscan_index);
+    EXPECT_EQ(frame.meta.tip_bscans_bytes > 0, frame.meta.tip_bscan_width > 0);
+  }
+  EXPECT_EQ(pair_widths, (std::vector<std::uint32_t>{40, 40, 0}));
+  EXPECT_EQ(bscan_indices, (std::vector<std::uint32_t>{7, 7, 7}));
 }
 
 }  // namespace

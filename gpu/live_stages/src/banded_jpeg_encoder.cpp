@@ -150,6 +150,7 @@ std::uint32_t BandedJpegEncoder::cut(std::span<const std::uint8_t> pixels, std::
              band_count,
              rows_per_band,
              static_cast<std::uint32_t>(interval)};
+  bands_encoded_.store(0, std::memory_order_relaxed);
   if (band_count <= 1 || interval > 65535 || height == 0 || pixels.size() % height != 0) {
     cut_.band_count = 1;  // encoded whole: JpegEncoder checks the size
     cut_.rows_per_band = height;
@@ -164,6 +165,7 @@ void BandedJpegEncoder::encode_band(std::uint32_t band) {
   }
   if (cut_.band_count == 1) {
     encoded_[0] = encoders_[0]->encode(cut_.pixels, cut_.width, cut_.height, cut_.layout);
+    bands_encoded_.fetch_add(1, std::memory_order_relaxed);
     return;
   }
   const std::size_t row_bytes = cut_.pixels.size() / cut_.height;
@@ -171,11 +173,18 @@ void BandedJpegEncoder::encode_band(std::uint32_t band) {
   const std::uint32_t rows = std::min(cut_.rows_per_band, cut_.height - first);
   encoded_[band] = encoders_[band]->encode(cut_.pixels.subspan(first * row_bytes, rows * row_bytes),
                                            cut_.width, rows, cut_.layout);
+  bands_encoded_.fetch_add(1, std::memory_order_relaxed);
 }
 
 std::span<const std::byte> BandedJpegEncoder::joined() {
   if (cut_.band_count == 0) throw std::logic_error("JPEG bands joined before an image was cut");
+  // Whoever ran the bands returned before this (a pool's run, say), so the count is complete.
+  const std::uint32_t encoded = bands_encoded_.exchange(0, std::memory_order_relaxed);
   const std::uint32_t band_count = std::exchange(cut_.band_count, 0);
+  if (encoded != band_count) {
+    throw std::logic_error("JPEG bands joined after " + std::to_string(encoded) + " of " +
+                           std::to_string(band_count) + " were encoded");
+  }
   if (band_count == 1) return encoded_[0];
   join_jpeg_bands(std::span(encoded_.data(), band_count), cut_.height, cut_.restart_interval,
                   joined_);

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <array>
 #include <chrono>
+#include <mutex>
+#include <string>
 #include <utility>
 
 #include "ioct/concurrency/monotonic_clock.hpp"
@@ -18,8 +20,8 @@ constexpr auto kHeartbeatPeriod = std::chrono::milliseconds(50);
 
 // Bands a frame is encoded in, and the threads (the encoding one included) that encode them:
 // eight bands of a 768-row render are 96 rows each; more threads than cores would only queue.
-// On the H100 host a 1024 x 768 render took 2.08 ms whole, 0.90 ms in 4 bands and 0.51 ms in 8
-// (docs/BENCHMARKS.md).
+// On the H100 host a 1024 x 768 render took 2.27 ms whole, 0.88 ms in 4 bands and 0.42 ms in 8
+// (ioct-bench-frame-encode, docs/BENCHMARKS.md).
 constexpr unsigned kEncodeBands = 8;
 // Places for views beyond which the idle ones are dropped (see publish()): more than ioct-view's
 // default connection limit allows views.
@@ -34,7 +36,8 @@ unsigned encode_threads() {
 FramePublisher::FramePublisher(const shm::FrameRingConfig& ring, int nice)
     : name_(ring.name),
       writer_(ring),
-      encode_pool_(encode_threads()),
+      // The workers encode for the encoding thread: the stages' priority, below the processing.
+      encode_pool_(encode_threads(), [nice] { set_this_thread_nice(nice); }),
       render_encoder_(85, kEncodeBands, encode_pool_),
       bscan_encoder_(90, kEncodeBands, encode_pool_),
       tip_bscans_encoder_(90, kEncodeBands, encode_pool_),
@@ -233,57 +236,86 @@ void FramePublisher::write_frame(shm::FrameMeta meta, const render::RgbaImage& r
                                  const NewBscan* bscan, const instruments::TipBscans* tip_bscans) {
   // The render and the pictures new with it, cut into bands that share one run of the pool (the
   // render's first): a frame that brings a new B-scan does not wait for the B-scan's encoding
-  // before its own begins.
+  // before its own begins. A picture that cannot be encoded is shown as none from then on, never
+  // an older one as if it were new; a render that cannot be encoded costs the viewers this frame.
   struct Picture {
+    const char* name;
     BandedJpegEncoder* encoder;
     std::uint32_t bands;
+    bool failed = false;
   };
   std::array<Picture, 3> pictures{};
   std::size_t count = 0;
-  pictures[count++] = {&render_encoder_, render_encoder_.cut(render.rgba, render.width,
-                                                             render.height, PixelLayout::rgba)};
+  pictures[count++] = {
+      "render", &render_encoder_,
+      render_encoder_.cut(render.rgba, render.width, render.height, PixelLayout::rgba)};
+  Picture* bscan_picture = nullptr;
   if (bscan != nullptr) {
     const segmentation::RgbImage& image = bscan->image;
-    pictures[count++] = {&bscan_encoder_, bscan_encoder_.cut(image.pixels, image.width,
-                                                             image.height, PixelLayout::rgb)};
+    bscan_picture = &pictures[count];
+    pictures[count++] = {
+        "B-scan", &bscan_encoder_,
+        bscan_encoder_.cut(image.pixels, image.width, image.height, PixelLayout::rgb)};
   }
-  const bool tip_pair = tip_bscans != nullptr && tip_bscans->width != 0 && tip_bscans->height != 0;
-  if (tip_pair) {
-    pictures[count++] = {&tip_bscans_encoder_,
+  Picture* tip_picture = nullptr;
+  if (tip_bscans != nullptr && tip_bscans->width != 0 && tip_bscans->height != 0) {
+    tip_picture = &pictures[count];
+    pictures[count++] = {"tip B-scan pair", &tip_bscans_encoder_,
                          tip_bscans_encoder_.cut(tip_bscans->pixels, tip_bscans->stride(),
                                                  tip_bscans->height, PixelLayout::gray)};
   }
+  std::mutex failures;  // the pool's threads report here
+  std::string problem;  // the first failure
+  const auto fail = [&](Picture& picture, const std::exception& e) {
+    std::lock_guard lock(failures);
+    picture.failed = true;
+    if (problem.empty()) problem = std::string(picture.name) + ": " + e.what();
+  };
   std::uint32_t bands = 0;
   for (std::size_t i = 0; i < count; ++i) bands += pictures[i].bands;
   encode_pool_.run(bands, [&](std::uint32_t band, unsigned) {
     for (std::size_t i = 0; i < count; ++i) {
       if (band < pictures[i].bands) {
-        pictures[i].encoder->encode_band(band);
+        try {
+          pictures[i].encoder->encode_band(band);
+        } catch (const std::exception& e) {
+          fail(pictures[i], e);
+        }
         return;
       }
       band -= pictures[i].bands;
     }
   });
-  const std::span<const std::byte> jpeg = render_encoder_.joined();
+  const auto joined = [&](Picture* picture) -> std::span<const std::byte> {
+    if (picture == nullptr || picture->failed) return {};
+    try {
+      return picture->encoder->joined();
+    } catch (const std::exception& e) {
+      fail(*picture, e);
+      return {};
+    }
+  };
+  const std::span<const std::byte> jpeg = joined(&pictures[0]);
   std::lock_guard lock(mutex_);
   if (bscan != nullptr) {
-    const std::span<const std::byte> bscan_jpeg = bscan_encoder_.joined();
+    const std::span<const std::byte> bscan_jpeg = joined(bscan_picture);
     bscan_jpeg_.assign(bscan_jpeg.begin(), bscan_jpeg.end());
-    bscan_width_ = bscan->image.width;
-    bscan_height_ = bscan->image.height;
+    bscan_width_ = bscan_jpeg.empty() ? 0 : bscan->image.width;
+    bscan_height_ = bscan_jpeg.empty() ? 0 : bscan->image.height;
     bscan_index_ = bscan->index;
     bscans_ = bscan->bscans;
   }
   if (tip_bscans != nullptr) {  // a new pair, or none any more
-    tip_bscans_jpeg_.clear();
-    if (tip_pair) {
-      const std::span<const std::byte> pair_jpeg = tip_bscans_encoder_.joined();
-      tip_bscans_jpeg_.assign(pair_jpeg.begin(), pair_jpeg.end());
-    }
-    tip_bscan_width_ = tip_pair ? tip_bscans->width : 0;
-    tip_bscan_height_ = tip_pair ? tip_bscans->height : 0;
+    const std::span<const std::byte> pair_jpeg = joined(tip_picture);
+    tip_bscans_jpeg_.assign(pair_jpeg.begin(), pair_jpeg.end());
+    tip_bscan_width_ = pair_jpeg.empty() ? 0 : tip_bscans->width;
+    tip_bscan_height_ = pair_jpeg.empty() ? 0 : tip_bscans->height;
   }
-  if (closed_) return;
+  if (!problem.empty()) {
+    ++frame_counts_.errors;
+    frame_counts_.problem = problem;
+  }
+  if (pictures[0].failed || closed_) return;
   meta.format = static_cast<std::uint32_t>(shm::FrameFormat::jpeg);
   meta.width = render.width;
   meta.height = render.height;

@@ -6,6 +6,7 @@
 // It costs a few bytes per band.
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -40,8 +41,8 @@ class BandedJpegEncoder {
   // cut() takes the image (its pixels must stay valid until joined()) and returns how many bands
   // it is encoded in; encode_band(k) encodes band k, for each k in [0, cut()) once, from any
   // thread; joined() returns the JPEG, valid until the next cut(). Pixels that do not fit the
-  // size make encode_band throw, as encode() does; encode_band and joined() out of turn throw
-  // std::logic_error.
+  // size make encode_band throw, as encode() does; encode_band out of turn, and joined() with
+  // nothing cut or not every band encoded once, throw std::logic_error.
   std::uint32_t cut(std::span<const std::uint8_t> pixels, std::uint32_t width, std::uint32_t height,
                     PixelLayout layout);
   void encode_band(std::uint32_t band);
@@ -63,6 +64,7 @@ class BandedJpegEncoder {
   std::vector<std::unique_ptr<JpegEncoder>> encoders_;  // one per band
   WorkerPool& pool_;
   Cut cut_;
+  std::atomic<std::uint32_t> bands_encoded_{0};  // of cut_, counted by encode_band
   std::vector<std::span<const std::byte>> encoded_;
   std::vector<std::byte> joined_;
 };

@@ -152,7 +152,8 @@ class FramePublisher {
   int nice_ = 0;
   ViewSlot* next_waiting_locked();
   // Encodes the frame with the B-scan and tip pair new with it (null: unchanged; a pair of no
-  // pixels: none any more) and writes it to the ring.
+  // pixels: none any more) and writes it to the ring. A picture that cannot be encoded is counted
+  // and shown as none; a render that cannot be, counted and not written.
   void write_frame(shm::FrameMeta meta, const render::RgbaImage& render, const NewBscan* bscan,
                    const instruments::TipBscans* tip_bscans);
 
