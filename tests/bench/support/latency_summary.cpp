@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 
 namespace ioct::bench {
@@ -44,6 +45,12 @@ nlohmann::json to_json(const LatencySummary& s) {
   return {{"count", s.count},   {"min_ns", s.min_ns},  {"p50_ns", s.p50_ns},
           {"p90_ns", s.p90_ns}, {"p99_ns", s.p99_ns},  {"p999_ns", s.p999_ns},
           {"max_ns", s.max_ns}, {"mean_ns", s.mean_ns}};
+}
+
+std::string format_ms(double ns, int decimals) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.*f", decimals, ns * 1e-6);
+  return text;
 }
 
 }  // namespace ioct::bench

@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -28,5 +29,8 @@ LatencySummary summarize(std::vector<std::uint64_t> samples_ns);
 double median(std::vector<double> values);
 
 nlohmann::json to_json(const LatencySummary& summary);
+
+// A time in ns printed as milliseconds with `decimals` places, for the benchmarks' tables.
+std::string format_ms(double ns, int decimals = 2);
 
 }  // namespace ioct::bench

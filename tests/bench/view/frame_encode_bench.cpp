@@ -48,9 +48,7 @@ std::vector<std::uint8_t> render_like_picture() {
 }
 
 std::string ms(double ns) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.3f", ns * 1e-6);
-  return text;
+  return ioct::bench::format_ms(ns, 3);
 }
 
 }  // namespace

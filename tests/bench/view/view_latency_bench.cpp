@@ -121,9 +121,7 @@ double gpu_renders(std::uint16_t port) {
 }
 
 std::string ms(double ns) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.2f", ns * 1e-6);
-  return text;
+  return ioct::bench::format_ms(ns, 2);
 }
 
 }  // namespace
