@@ -18,11 +18,13 @@
 #include <filesystem>
 #include <functional>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "ioct/gpu/live_stages/volume_stages.hpp"
 #include "ioct/gpu/processing/oct_processor.hpp"
+#include "ioct/shm/frame_ring.hpp"
 #include "layered_volume.hpp"
 
 #include "live_volumes.hpp"
@@ -42,6 +44,9 @@ struct StagesRun {
   std::vector<render::RgbaImage> switched;  // the shared view after each change of mode
   nlohmann::json summary;
   std::uint64_t passes = 0, folded_passes = 0;
+  // With a frame ring: the B-scan picture (JPEG) of the last frame written, and its index.
+  std::vector<std::byte> last_bscan_jpeg;
+  std::uint32_t last_bscan_index = 0;
 #if IOCT_GPU_WITH_CUDA
   cuda::BusTraffic traffic;         // during the passes
   cuda::BusTraffic switch_traffic;  // during the changes of mode and their frames
@@ -65,7 +70,8 @@ cuda::BusTraffic traffic_since(const cuda::BusTraffic& before) {
 // live view's mode changed to each of `switches` in turn, with no new group, and its frame taken.
 StagesRun run_stages(Backend backend, bool device_source, const std::filesystem::path& dir,
                      render::RenderMode mode = render::RenderMode::enhanced,
-                     const std::vector<std::string>& switches = {}) {
+                     const std::vector<std::string>& switches = {},
+                     const std::string& frame_ring = {}) {
   PassGate gate;
   VolumeStagesConfig config;
   config.backend = backend;
@@ -77,7 +83,10 @@ StagesRun run_stages(Backend backend, bool device_source, const std::filesystem:
   config.render.mode = mode;
   config.final_modes = {};
   config.on_pass = [&gate](const StagesPass& pass) { gate.on_pass(pass); };
+  config.frame_ring = frame_ring;
   VolumeStages stages(config);
+  std::optional<shm::FrameRingReader> frames;
+  if (!frame_ring.empty()) frames.emplace(shm::FrameRingReader::attach(frame_ring));
 
   FakeLiveVolume live(device_source);
   std::uint64_t handed = 0;
@@ -136,7 +145,16 @@ StagesRun run_stages(Backend backend, bool device_source, const std::filesystem:
 #if IOCT_GPU_WITH_CUDA
   run.switch_traffic = traffic_since(before_switches);
 #endif
-  run.summary = stages.finish(dir);
+  run.summary = stages.finish(dir);  // writes the frame still waiting
+  if (frames) {
+    shm::Frame frame;
+    while (frames->read_next(frame)) {
+      if (frame.meta.bscan_bytes == 0) continue;
+      const std::span<const std::byte> bscan = frame.bscan();
+      run.last_bscan_jpeg.assign(bscan.begin(), bscan.end());
+      run.last_bscan_index = frame.meta.bscan_index;
+    }
+  }
   run.filtered = stages.filtered();
   run.surfaces = stages.surfaces();
   run.frame = stages.frame();
@@ -248,6 +266,24 @@ TEST_F(DeviceChainTest, DeviceVolumeGivesTheCpuReferenceResultsWithoutCopyingThe
       static_cast<double>(cuda.traffic.other_to_host) / 1e3 / static_cast<double>(cuda.passes),
       static_cast<double>(cuda.traffic.other_to_device) / 1e3 / static_cast<double>(cuda.passes));
 #endif
+}
+
+// The B-scan beside the live frame, drawn on the device from the chain's filtered volume and
+// surfaces (DeviceStageChain::bscan_overlay), is the CPU reference's picture: the same JPEG bytes
+// in the last frame of the same passes (the encoder is deterministic, the surfaces identical).
+TEST_F(DeviceChainTest, TheFramesBscanDrawnOnTheDeviceIsTheCpuReferences) {
+  const std::string ring = "ioct-test-chain-bscan-" + std::to_string(::getpid());
+  const StagesRun cpu =
+      run_stages(Backend::cpu, false, dir("cpu"), render::RenderMode::enhanced, {}, ring + "-cpu");
+  const StagesRun cuda = run_stages(Backend::cuda, true, dir("cuda"), render::RenderMode::enhanced,
+                                    {}, ring + "-cuda");
+  expect_same_results(cpu, cuda, "with frames published");
+  ASSERT_FALSE(cpu.last_bscan_jpeg.empty()) << "no frame with a B-scan from the CPU stages";
+  ASSERT_FALSE(cuda.last_bscan_jpeg.empty()) << "no frame with a B-scan from the CUDA stages";
+  EXPECT_EQ(cuda.last_bscan_index, cpu.last_bscan_index);
+  EXPECT_TRUE(cuda.last_bscan_jpeg == cpu.last_bscan_jpeg)
+      << "B-scan " << cuda.last_bscan_index << ": " << cuda.last_bscan_jpeg.size() << " against "
+      << cpu.last_bscan_jpeg.size() << " JPEG bytes";
 }
 
 // Weiss's modes: the renderer's per-B-scan median on the render stream, through the same passes
