@@ -1,8 +1,5 @@
 #include "ioct/gpu/segmentation/cuda_overlay_image.hpp"
 
-#include <stdexcept>
-#include <string>
-
 #include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/segmentation/overlay_image.hpp"
 
@@ -37,15 +34,7 @@ __global__ void overlay_kernel(const std::uint8_t* __restrict__ bscan_voxels, st
 void make_overlay_on_device(const std::uint8_t* volume, const VolumeDims& dims, std::uint32_t bscan,
                             const DeviceSurfaceView& surfaces, std::uint8_t* rgb,
                             cudaStream_t stream) {
-  if (bscan >= dims.bscans) {
-    throw std::out_of_range("overlay: B-scan " + std::to_string(bscan) + " of a volume of " +
-                            std::to_string(dims.bscans));
-  }
-  if (surfaces.bscans != dims.bscans || surfaces.ascans != dims.ascans) {
-    throw std::invalid_argument("overlay: surfaces of " + std::to_string(surfaces.bscans) + " x " +
-                                std::to_string(surfaces.ascans) + " A-scans for a volume of " +
-                                std::to_string(dims.bscans) + " x " + std::to_string(dims.ascans));
-  }
+  check_overlay(dims, bscan, surfaces.bscans, surfaces.ascans);
   if (dims.ascans == 0 || dims.depth == 0) return;
   const std::size_t first = std::size_t{bscan} * dims.ascans;
   const dim3 block(32, 8);

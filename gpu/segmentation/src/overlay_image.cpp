@@ -9,24 +9,28 @@
 
 namespace ioct::gpu::segmentation {
 
-void mark(RgbImage& image, std::uint32_t x, float depth_px, std::uint8_t r, std::uint8_t g,
-          std::uint8_t b) noexcept {
+void mark(RgbImage& image, std::uint32_t x, float depth_px, OverlayColor color) noexcept {
   const long y = overlay_row(depth_px, image.height);
   if (y < 0 || x >= image.width) return;
-  image.set(x, static_cast<std::uint32_t>(y), r, g, b);
+  image.set(x, static_cast<std::uint32_t>(y), color.r, color.g, color.b);
+}
+
+void check_overlay(const VolumeDims& volume, std::uint32_t bscan, std::uint32_t surface_bscans,
+                   std::uint32_t surface_ascans) {
+  if (bscan >= volume.bscans) {
+    throw std::out_of_range("overlay: B-scan " + std::to_string(bscan) + " of a volume of " +
+                            std::to_string(volume.bscans));
+  }
+  if (surface_bscans != volume.bscans || surface_ascans != volume.ascans) {
+    throw std::invalid_argument("overlay: surfaces of " + std::to_string(surface_bscans) + " x " +
+                                std::to_string(surface_ascans) + " A-scans for a volume of " +
+                                std::to_string(volume.bscans) + " x " +
+                                std::to_string(volume.ascans));
+  }
 }
 
 RgbImage make_overlay(const Volume& volume, std::uint32_t bscan, const Surfaces& surfaces) {
-  if (bscan >= volume.bscans()) {
-    throw std::out_of_range("overlay: B-scan " + std::to_string(bscan) + " of a volume of " +
-                            std::to_string(volume.bscans()));
-  }
-  if (surfaces.bscans != volume.bscans() || surfaces.ascans != volume.ascans()) {
-    throw std::invalid_argument("overlay: surfaces of " + std::to_string(surfaces.bscans) + " x " +
-                                std::to_string(surfaces.ascans) + " A-scans for a volume of " +
-                                std::to_string(volume.bscans()) + " x " +
-                                std::to_string(volume.ascans()));
-  }
+  check_overlay(VolumeDims::of(volume), bscan, surfaces.bscans, surfaces.ascans);
   RgbImage image;
   image.width = volume.ascans();
   image.height = volume.depth();
@@ -55,9 +59,9 @@ RgbImage make_overlay(const Volume& volume, std::uint32_t bscan, const Surfaces&
     const std::size_t k = surfaces.index(bscan, a);
     if (!overlay_column_marked(surfaces.state[k], a)) continue;
     // In this order: where two lines meet, the later one shows.
-    mark(image, a, surfaces.bm[k], kBmColor.r, kBmColor.g, kBmColor.b);
-    mark(image, a, surfaces.rpe[k], kRpeColor.r, kRpeColor.g, kRpeColor.b);
-    mark(image, a, surfaces.ilm[k], kIlmColor.r, kIlmColor.g, kIlmColor.b);
+    mark(image, a, surfaces.bm[k], kBmColor);
+    mark(image, a, surfaces.rpe[k], kRpeColor);
+    mark(image, a, surfaces.ilm[k], kIlmColor);
   }
   return image;
 }

@@ -14,6 +14,7 @@
 #include "ioct/gpu/cuda/host_device_function.hpp"
 #include "ioct/gpu/segmentation/surfaces.hpp"
 #include "ioct/gpu/volume/volume.hpp"
+#include "ioct/gpu/volume/volume_ref.hpp"
 
 namespace ioct::gpu::segmentation {
 
@@ -62,9 +63,13 @@ struct RgbImage {
 // volume and std::invalid_argument when the surfaces have other dimensions.
 RgbImage make_overlay(const Volume& volume, std::uint32_t bscan, const Surfaces& surfaces);
 
+// make_overlay's checks, for it and its CUDA sibling: the volume's size against the B-scan asked
+// for and the surfaces' size. Throws as make_overlay does.
+void check_overlay(const VolumeDims& volume, std::uint32_t bscan, std::uint32_t surface_bscans,
+                   std::uint32_t surface_ascans);
+
 // A mark at depth `depth_px` (rounded) of column `x`; nothing when it is NaN or off the image.
-void mark(RgbImage& image, std::uint32_t x, float depth_px, std::uint8_t r, std::uint8_t g,
-          std::uint8_t b) noexcept;
+void mark(RgbImage& image, std::uint32_t x, float depth_px, OverlayColor color) noexcept;
 
 // Rows [first_row, first_row + rows) of `image` (clipped to it).
 RgbImage crop_rows(const RgbImage& image, std::uint32_t first_row, std::uint32_t rows);
