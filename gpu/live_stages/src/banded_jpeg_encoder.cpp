@@ -125,12 +125,8 @@ BandedJpegEncoder::BandedJpegEncoder(int quality, unsigned bands, WorkerPool& po
 std::span<const std::byte> BandedJpegEncoder::encode(std::span<const std::uint8_t> pixels,
                                                      std::uint32_t width, std::uint32_t height,
                                                      PixelLayout layout) {
-  const std::uint32_t band_count = cut(pixels, width, height, layout);
-  if (band_count == 1) {
-    encode_band(0);
-  } else {
-    pool_.run(band_count, [&](std::uint32_t k, unsigned) { encode_band(k); });
-  }
+  pool_.run(cut(pixels, width, height, layout),  // one band: on this thread
+            [&](std::uint32_t k, unsigned) { encode_band(k); });
   return joined();
 }
 

@@ -296,7 +296,7 @@ void DeviceStageChain::bscan_overlay(std::uint32_t bscan, segmentation::RgbImage
   const VolumeDims& d = m.input_dims;
   const std::size_t bytes = d.bscan_bytes() * 3;
   m.overlay.resize(bytes);
-  if (m.overlay_host.size() != bytes) m.overlay_host = cuda::PinnedArray<std::uint8_t>(bytes);
+  m.overlay_host.resize(bytes);
   segmentation::make_overlay_on_device(m.filtered.data(), d, bscan, m.segmenter.device_surfaces(),
                                        m.overlay.data(), m.stream.get());
   cuda::copy_async(m.overlay_host.data(), m.overlay.data(), bytes, cudaMemcpyDeviceToHost,

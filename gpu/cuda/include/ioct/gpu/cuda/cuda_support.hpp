@@ -134,6 +134,12 @@ class PinnedArray {
   }
   T* data() const noexcept { return data_; }
   std::size_t size() const noexcept { return count_; }
+  // `count` elements, reallocated (contents lost) only when the count changes.
+  void resize(std::size_t count) {
+    if (count == count_) return;
+    *this = PinnedArray();
+    *this = PinnedArray(count);
+  }
 
  private:
   T* data_ = nullptr;
