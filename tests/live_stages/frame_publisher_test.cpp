@@ -43,6 +43,23 @@ segmentation::RgbImage flat_bscan(std::uint32_t width, std::uint32_t height) {
   return image;
 }
 
+// Hands a frame of `group` over and waits (20 s at most) until the encoding thread has written
+// it or counted it an error: one at a time, so that none replaces another.
+void publish_one(FramePublisher& publisher, std::uint64_t group, render::RgbaImage image) {
+  const auto done = [&] {
+    const FramePublisher::FrameCounts c = publisher.frame_counts();
+    return c.written + c.errors;
+  };
+  const std::uint64_t before = done();
+  shm::FrameMeta meta{};
+  meta.group_index = group;
+  publisher.publish(meta, image);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (done() == before && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
 // Until the encoding thread has counted a frame error, or 20 s.
 void wait_for_an_error(const FramePublisher& publisher) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
@@ -155,19 +172,7 @@ TEST(FramePublisher, APictureThatCannotBeEncodedIsCountedAndShownAsNone) {
   FramePublisher publisher(config);
   shm::FrameRingReader reader = shm::FrameRingReader::attach(config.name);
   const auto publish = [&](std::uint64_t group, render::RgbaImage image) {
-    const auto done = [&] {
-      const FramePublisher::FrameCounts c = publisher.frame_counts();
-      return c.written + c.errors;
-    };
-    const std::uint64_t before = done();
-    shm::FrameMeta meta{};
-    meta.group_index = group;
-    publisher.publish(meta, image);
-    // One at a time, so that none replaces another.
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-    while (done() == before && std::chrono::steady_clock::now() < deadline) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    }
+    publish_one(publisher, group, image);
   };
   publisher.set_bscan(flat_bscan(64, 48), 1, 16);
   publish(1, flat_image(64, 48, 10));  // with B-scan 1
@@ -215,17 +220,8 @@ TEST(FramePublisher, TheTipPairGoesWithTheFramesUntilItIsNone) {
   pair.pixels.assign(std::size_t{pair.stride()} * pair.height, 120);
   publisher.set_bscan(flat_bscan(64, 48), 7, 16);
   publisher.set_tip_bscans(&pair);
-  shm::FrameMeta meta{};
   const auto publish = [&](std::uint64_t group) {
-    meta.group_index = group;
-    render::RgbaImage image = flat_image(64, 48, static_cast<std::uint8_t>(group));
-    publisher.publish(meta, image);
-    // One at a time, so that none replaces another.
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-    while (publisher.frame_counts().written < group &&
-           std::chrono::steady_clock::now() < deadline) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(1));
-    }
+    publish_one(publisher, group, flat_image(64, 48, static_cast<std::uint8_t>(group)));
   };
   publish(1);
   publish(2);  // nothing new: the same pair again
