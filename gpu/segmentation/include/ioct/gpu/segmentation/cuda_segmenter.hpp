@@ -62,7 +62,7 @@ class CudaSegmenter final : public Segmenter {
   void prepare(std::uint32_t bscans, std::uint32_t ascans, std::uint32_t depth);
   BscanSpan enqueue_group(const std::uint8_t* device_volume, BscanSpan group, cudaStream_t stream);
   DeviceSurfaceView device_surfaces() const noexcept;
-  // Copies every surface of the device into `surfaces` (reset to the volume's dimensions) once
+  // Copies every surface of the device into `surfaces` (sized to the volume's dimensions) once
   // `stream` has reached this point; returns when they are there.
   void download_surfaces(Surfaces& surfaces, cudaStream_t stream);
 
