@@ -205,8 +205,10 @@ class VolumeStages final : public LiveStage, public ViewControl {
   // The device's memory to the frame ring's status (CUDA stages only; at most once a second).
   void note_device_memory(std::uint64_t now_ns);
   // The instrument detection of the pass's new B-scans [first, first + count) of `input` (the
-  // unfiltered volume, host or device) with surfaces_; its figures. Returns when it ended.
+  // unfiltered volume, host or device) with surfaces_; its time. Returns when it ended.
   std::uint64_t detect_instruments(VolumeRef input, std::uint32_t first, std::uint32_t count);
+  // The findings' line and JSON for the status and the summary, once the pass's frame is out.
+  void note_instrument_findings();
   // Host path: the pass's new input B-scans [first, first + count) to the renderer, from the
   // volume `mode` renders from; [affected_first, + affected_count) are the B-scans whose filtered
   // pixels or surfaces the pass changed (the segmentation's reach, which contains the filter's).
