@@ -1,6 +1,8 @@
 #include "ioct/gpu/instruments/cuda_instrument_detector.hpp"
 
+#include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <string>
 
 #include "ioct/gpu/instruments/column_classification.hpp"
@@ -98,7 +100,8 @@ void CudaInstrumentDetector::classify(VolumeRef volume, BscanSpan group, const C
   reflexes_.resize(columns);
   fronts_.resize(columns);
   floors_.resize(group.count);
-  if (host_kinds_.size() < columns) host_kinds_ = cuda::PinnedArray<std::uint8_t>(columns);
+  const std::size_t staged_bytes = columns * (1 + 2 * sizeof(float)) + group.count;
+  if (staged_.size() < staged_bytes) staged_.resize(staged_bytes);
   cudaStream_t stream = stream_.get();
   const std::uint8_t* group_pixels = nullptr;
   if (volume.is_device()) {
@@ -128,22 +131,26 @@ void CudaInstrumentDetector::classify(VolumeRef volume, BscanSpan group, const C
       group_pixels, static_cast<std::uint32_t>(ascans), params, histograms_.data(), kinds_.data(),
       reflexes_.data(), fronts_.data(), floors_.data());
   cuda::check_launch("instruments: classify_columns");
-  const std::size_t offset = std::size_t{group.first} * ascans;
-  cuda::copy_async(host_kinds_.data(), kinds_.data(), columns, cudaMemcpyDeviceToHost, stream,
+  std::byte* const staged_kinds = staged_.data();
+  std::byte* const staged_reflexes = staged_kinds + columns;
+  std::byte* const staged_fronts = staged_reflexes + reflexes_.bytes();
+  std::byte* const staged_floors = staged_fronts + fronts_.bytes();
+  cuda::copy_async(staged_kinds, kinds_.data(), columns, cudaMemcpyDeviceToHost, stream,
                    cuda::Payload::other, "instruments: the A-scans' kinds to the host");
-  cuda::copy_async(findings.reflex_px.data() + offset, reflexes_.data(), reflexes_.bytes(),
-                   cudaMemcpyDeviceToHost, stream, cuda::Payload::other,
-                   "instruments: the reflexes to the host");
-  cuda::copy_async(findings.front_px.data() + offset, fronts_.data(), fronts_.bytes(),
-                   cudaMemcpyDeviceToHost, stream, cuda::Payload::other,
-                   "instruments: the translucent fronts to the host");
-  cuda::copy_async(findings.floor.data() + group.first, floors_.data(), group.count,
-                   cudaMemcpyDeviceToHost, stream, cuda::Payload::other,
-                   "instruments: the floors to the host");
+  cuda::copy_async(staged_reflexes, reflexes_.data(), reflexes_.bytes(), cudaMemcpyDeviceToHost,
+                   stream, cuda::Payload::other, "instruments: the reflexes to the host");
+  cuda::copy_async(staged_fronts, fronts_.data(), fronts_.bytes(), cudaMemcpyDeviceToHost, stream,
+                   cuda::Payload::other, "instruments: the translucent fronts to the host");
+  cuda::copy_async(staged_floors, floors_.data(), group.count, cudaMemcpyDeviceToHost, stream,
+                   cuda::Payload::other, "instruments: the floors to the host");
   IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
+  const std::size_t offset = std::size_t{group.first} * ascans;
   for (std::size_t i = 0; i < columns; ++i) {
-    findings.columns[offset + i] = static_cast<ColumnKind>(host_kinds_.data()[i]);
+    findings.columns[offset + i] = static_cast<ColumnKind>(staged_kinds[i]);
   }
+  std::memcpy(findings.reflex_px.data() + offset, staged_reflexes, reflexes_.bytes());
+  std::memcpy(findings.front_px.data() + offset, staged_fronts, fronts_.bytes());
+  std::memcpy(findings.floor.data() + group.first, staged_floors, group.count);
 }
 
 }  // namespace ioct::gpu::instruments

@@ -6,6 +6,7 @@
 // back (a few bytes per A-scan) and the tips are found on the host, as for the CPU.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 
 #include "ioct/gpu/cuda/cuda_support.hpp"
@@ -31,7 +32,9 @@ class CudaInstrumentDetector final : public InstrumentDetector {
   cuda::DeviceArray<float> fronts_;              // [bscan of the group][ascan]
   cuda::DeviceArray<std::uint8_t> floors_;       // [bscan of the group]
   cuda::DeviceArray<std::uint32_t> histograms_;  // [bscan of the group][256]
-  cuda::PinnedArray<std::uint8_t> host_kinds_;
+  // The group's kinds, reflexes, fronts and floors on their way to the host, in this order:
+  // copies into pageable memory are synchronous and several times slower.
+  cuda::PinnedArray<std::byte> staged_;
 };
 
 }  // namespace ioct::gpu::instruments
