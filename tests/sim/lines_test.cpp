@@ -51,14 +51,15 @@ TEST(SimulatedLines, BadWiringIsRefused) {
 }
 
 TEST(SimulatedLines, TheWatchdogCutsEmissionWhenTheHeartbeatStops) {
-  auto bench = bench_with_watchdog(40);
+  // 400 ms: far longer than this thread is ever preempted between a toggle and the next read.
+  auto bench = bench_with_watchdog(400);
   SimulatedLines lines(bench);
   lines.prepare(hal::LinesConfig{});
   lines.set_laser_emission(true);
   EXPECT_FALSE(lines.laser_emission()) << "no heartbeat yet";
   lines.toggle_watchdog();
   EXPECT_TRUE(lines.laser_emission());
-  std::this_thread::sleep_for(80ms);
+  std::this_thread::sleep_for(800ms);
   EXPECT_FALSE(lines.laser_emission()) << "the heartbeat stopped";
   lines.toggle_watchdog();
   EXPECT_TRUE(lines.laser_emission()) << "retriggered";
