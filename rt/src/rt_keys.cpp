@@ -213,7 +213,7 @@ void add_simulation_keys(config::KeyTable<RtConfig>& k) {
       .real_in("simulation.mirror_damping", IOCT_MEMBER(mirror_damping), 0.05, 5.0,
                "the simulated galvo servo's damping ratio")
       .integer("simulation.laser_watchdog_timeout_ms", IOCT_MEMBER(laser_watchdog_timeout_ms), 0,
-               60'000, "the simulated external laser watchdog's timeout")
+               60'000, "the simulated external laser watchdog's timeout", "--sim-laser-watchdog-ms")
       .integer_or_auto("simulation.workers", IOCT_MEMBER(simulation_workers), 0,
                        RtConfig::kMaxSimulationWorkers,
                        "threads synthesising the simulated groups ahead (sim/README.md); auto: "

@@ -155,10 +155,14 @@ class ViewServerTest : public ::testing::Test {
     writer_->publish(m, render, bscan);
   }
 
-  // Polls /api/state until `pred` holds or 3 s pass.
-  nlohmann::json state_when(const std::function<bool(const nlohmann::json&)>& pred) {
+  // Polls /api/state until `pred` holds or 3 s pass. `refresh`, when given, runs before each
+  // poll, as a live ioct-gpu reports every group: a state that holds only while the newest group
+  // is young (live) must not depend on this thread's timing.
+  nlohmann::json state_when(const std::function<bool(const nlohmann::json&)>& pred,
+                            const std::function<void()>& refresh = {}) {
     nlohmann::json state;
     for (int i = 0; i < 150; ++i) {
+      if (refresh) refresh();
       state = http_request(port_, "GET", "/api/state").json();
       if (pred(state)) return state;
       std::this_thread::sleep_for(20ms);
@@ -195,10 +199,11 @@ std::size_t count_cmd(const std::vector<nlohmann::json>& requests, const std::st
 
 TEST_F(ViewServerTest, StateIsLiveWithTheParametersAndTheScanStatus) {
   start();
-  report_live(3);
-  const auto state = state_when([](const nlohmann::json& s) {
-    return s.value("signal", "") == "live" && s["params"].is_object() && s["rt"].is_object();
-  });
+  const auto state = state_when(
+      [](const nlohmann::json& s) {
+        return s.value("signal", "") == "live" && s["params"].is_object() && s["rt"].is_object();
+      },
+      [&] { report_live(3); });
   EXPECT_EQ(state["signal"], "live");
   EXPECT_EQ(state["params"]["mode"], "enhanced");
   EXPECT_EQ(state["rt"]["state"], "scanning");
@@ -213,6 +218,7 @@ TEST_F(ViewServerTest, StaleAfterThreeGroupPeriodsAndNoSignalWhenTheWriterGoes) 
   EXPECT_EQ(state["signal"], "stale");
   EXPECT_GE(state["age_ms"].get<double>(), 300.0);
 
+  report_live(3, 300ms);  // its heartbeat fresh: the writer is alive until it goes below
   WsViewer viewer(port_);
   writer_.reset();  // ioct-gpu gone
   auto pushed = viewer.next_text("state", 2s);
@@ -222,7 +228,8 @@ TEST_F(ViewServerTest, StaleAfterThreeGroupPeriodsAndNoSignalWhenTheWriterGoes) 
 
   writer_ = std::make_unique<shm::FrameRingWriter>(frame_config());  // ioct-gpu back
   publish(10);
-  state = state_when([](const nlohmann::json& s) { return s["signal"] == "live"; });
+  state = state_when([](const nlohmann::json& s) { return s["signal"] == "live"; },
+                     [&] { report_live(10); });
   EXPECT_EQ(state["signal"], "live");
   auto frame = viewer.next_frame(2s);
   ASSERT_TRUE(frame) << "frames flow again after ioct-gpu restarted";
@@ -506,7 +513,8 @@ TEST_F(ViewServerTest, ARestartedViewServesFramesAgainAndTheWriterNeverWaits) {
     frame = viewer.next_frame(2s);
   } while (frame && frame->description["group"] != 40);
   ASSERT_TRUE(frame) << "the restarted view serves the new frames";
-  const auto state = state_when([](const nlohmann::json& s) { return s["signal"] == "live"; });
+  const auto state = state_when([](const nlohmann::json& s) { return s["signal"] == "live"; },
+                                [&] { report_live(40); });
   EXPECT_EQ(state["signal"], "live");
 }
 
