@@ -80,16 +80,17 @@ struct SimRig {
     return eventually([&] { return state() == s; }, t);
   }
   // Starts the scan and waits for three groups published while scanning; no fault is injected
-  // yet. Without real-time scheduling (a sanitizer's build, a loaded CI machine) a starved thread
-  // can miss deadlines or let the galvo FIFO run dry meanwhile, and the rig then stops safely for
-  // that true reason: the start is tried again, naming the cause. A real-time run gets one try,
-  // and a cause that persists fails the bound.
+  // yet. Without real-time scheduling (CI runs unprivileged; a sanitizer's build starves its
+  // threads) the acquisition thread can miss its deadlines, let the galvo FIFO run dry or stall
+  // meanwhile, and the rig then stops safely for that true reason: the start is tried again, up
+  // to four times, naming the cause. Any other cause, or any stop of a real-time run, fails.
   ::testing::AssertionResult arms() {
-    const auto until = std::chrono::steady_clock::now() + 20s;
-    while (true) {
+    constexpr std::uint32_t kStarvation =
+        kFaultDeadlineMisses | kFaultGalvoUnderrun | kFaultAcquisitionStalled | kFaultArmingTimeout;
+    for (int attempt = 1;; ++attempt) {
       supervisor->request_start();
       const std::uint64_t before = loop->counters().groups_published;
-      if (reaches(SafetyState::scanning, 2s) &&
+      if (reaches(SafetyState::scanning, 10s) &&
           eventually(
               [&] {
                 return state() != SafetyState::scanning ||
@@ -99,10 +100,12 @@ struct SimRig {
           state() == SafetyState::scanning) {
         return ::testing::AssertionSuccess();
       }
-      const std::string why = std::string(to_string(state())) + " " +
-                              describe_faults(supervisor->status().record.faults);
-      if (realtime() || std::chrono::steady_clock::now() >= until)
-        return ::testing::AssertionFailure() << "did not arm: " << why;
+      // A start is taken only once the rig has settled safe.
+      reaches(SafetyState::safe, 5s);
+      const std::uint32_t faults = supervisor->status().record.faults;
+      const std::string why = std::string(to_string(state())) + " " + describe_faults(faults);
+      if (realtime() || attempt == 4 || faults == 0 || (faults & ~kStarvation) != 0)
+        return ::testing::AssertionFailure() << "did not arm (try " << attempt << "): " << why;
       std::printf("[ re-arm   ] not real-time, the start stopped: %s\n", why.c_str());
     }
   }
@@ -239,11 +242,12 @@ TEST(SimulatedBenchSafety, TheExternalWatchdogCutsEmissionWhenTheHeartbeatStops)
   rig.supervisor->stop();  // the safety thread is gone (and, as it leaves, drives emission off) ...
   rig.bench->command_emission(true);  // ... but suppose the enable line were stuck on
   const auto stopped = std::chrono::steady_clock::now();
-  EXPECT_TRUE(eventually([&] { return !rig.bench->emission_on(); }, 2s));
-  // The simulated watchdog is a thread too: without real-time scheduling it gets the same
-  // allowance as the bounds above.
+  // The watchdog is judged whenever emission is read; this thread's polling of it gets the same
+  // allowance as the bounds above when it runs without real-time scheduling.
   const auto bound = std::chrono::milliseconds(rig.bench->config().watchdog_timeout_ms + 50) +
                      std::chrono::nanoseconds(rig.realtime() ? 0 : test::kNotRealtimeAllowanceNs);
+  EXPECT_TRUE(eventually([&] { return !rig.bench->emission_on(); },
+                         std::chrono::duration_cast<std::chrono::milliseconds>(bound) + 1s));
   EXPECT_LT(std::chrono::steady_clock::now() - stopped, bound);
 }
 
