@@ -16,6 +16,7 @@
 #include "ioct/gpu/instruments/tip_bscans.hpp"
 #include "ioct/gpu/live_stages/frame_publisher.hpp"
 #include "ioct/shm/frame_ring.hpp"
+#include "ioct/test_support/eventually.hpp"
 
 namespace ioct::gpu::live {
 namespace {
@@ -54,18 +55,13 @@ void publish_one(FramePublisher& publisher, std::uint64_t group, render::RgbaIma
   shm::FrameMeta meta{};
   meta.group_index = group;
   publisher.publish(meta, image);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (done() == before && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
+  test_support::eventually([&] { return done() != before; }, std::chrono::seconds(20));
 }
 
 // Until the encoding thread has counted a frame error, or 20 s.
 void wait_for_an_error(const FramePublisher& publisher) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
-  while (publisher.frame_counts().errors == 0 && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
+  test_support::eventually([&] { return publisher.frame_counts().errors != 0; },
+                           std::chrono::seconds(20));
 }
 
 TEST(FramePublisher, EveryFrameIsWrittenOrReplacedAndTheNewestIsWritten) {

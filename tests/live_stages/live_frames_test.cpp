@@ -16,6 +16,7 @@
 #include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/live_stages/volume_stages.hpp"
 #include "ioct/shm/frame_ring.hpp"
+#include "ioct/test_support/eventually.hpp"
 #include "live_volumes.hpp"
 
 namespace ioct::gpu::live {
@@ -234,13 +235,13 @@ TEST_F(LiveFramesTest, TheHeartbeatGoesOnWithoutGroupsAndASnapshotIsTheNextFrame
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   // Beats every 50 ms: a fresh one (under 100 ms old) long after the start, looked for a while so
   // that one beat late on a loaded machine does not count as none.
-  shm::FrameWriterHealth health = reader.health();
-  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-  while (health.alive && health.heartbeat_age_ns >= 100'000'000u &&
-         std::chrono::steady_clock::now() < give_up) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    health = reader.health();
-  }
+  shm::FrameWriterHealth health;
+  test_support::eventually(
+      [&] {
+        health = reader.health();
+        return !health.alive || health.heartbeat_age_ns < 100'000'000u;
+      },
+      std::chrono::seconds(5));
   EXPECT_TRUE(health.alive);
   EXPECT_LT(health.heartbeat_age_ns, 100'000'000u);
 

@@ -17,6 +17,7 @@
 #include "ioct/scan/scan_builder.hpp"
 #include "ioct/shm/ring_reader.hpp"
 #include "ioct/shm/ring_writer.hpp"
+#include "ioct/test_support/eventually.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"
 #include "safety_supervisor.hpp"
 
@@ -49,15 +50,7 @@ inline int test_rt_priority() {
   return text == nullptr ? IOCT_TEST_RT_PRIORITY_DEFAULT : std::atoi(text);
 }
 
-template <typename Predicate>
-bool eventually(Predicate done, std::chrono::milliseconds timeout) {
-  const auto end = std::chrono::steady_clock::now() + timeout;
-  while (!done()) {
-    if (std::chrono::steady_clock::now() > end) return false;
-    std::this_thread::sleep_for(std::chrono::microseconds(200));
-  }
-  return true;
-}
+using test_support::eventually;
 
 // 64 samples, 32 A-scans + 4 flyback, 4 B-scans per group, 8 per volume, 20 kHz.
 inline hal::DigitizerConfig small_geometry() {
