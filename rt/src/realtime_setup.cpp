@@ -6,6 +6,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <fstream>
 
 namespace ioct::rt {
 
@@ -33,6 +34,12 @@ void prefault_stack(std::size_t bytes) noexcept {
   // page of it is touched.
   volatile unsigned char* area = static_cast<unsigned char*>(__builtin_alloca(bytes));
   for (std::size_t offset = 0; offset < bytes; offset += 4096) area[offset] = 0;
+}
+
+bool kernel_is_preempt_rt() {
+  std::ifstream in("/sys/kernel/realtime");
+  std::string line;
+  return in && std::getline(in, line) && line == "1";
 }
 
 std::string describe_shortfall(const RealtimeRequest& request, const RealtimeOutcome& outcome) {

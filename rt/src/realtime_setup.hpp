@@ -33,6 +33,11 @@ void make_current_thread_realtime(const RealtimeRequest& request,
 // Touches `bytes` of the calling thread's stack now, so the loop never faults on it later.
 void prefault_stack(std::size_t bytes) noexcept;
 
+// Whether the running kernel is PREEMPT_RT (/sys/kernel/realtime reads 1). Only there does
+// SCHED_FIFO bound a thread's wake-up: a stock kernel grants the priority and still lets a busy
+// machine wake it milliseconds late.
+bool kernel_is_preempt_rt();
+
 // The one warning for an incomplete outcome (empty when complete): what was refused, why, and
 // what to grant.
 std::string describe_shortfall(const RealtimeRequest& request, const RealtimeOutcome& outcome);

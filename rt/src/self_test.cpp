@@ -85,8 +85,7 @@ SelfTestResult run_self_test(const SelfTestSettings& settings) {
 std::string format_self_test(const SelfTestSettings& settings, const SelfTestResult& r) {
   utsname name{};
   ::uname(&name);
-  const std::string rt_kernel =
-      first_line("/sys/kernel/realtime") == "1" ? "PREEMPT_RT" : "not PREEMPT_RT";
+  const std::string rt_kernel = kernel_is_preempt_rt() ? "PREEMPT_RT" : "not PREEMPT_RT";
   std::string isolated = first_line("/sys/devices/system/cpu/isolated");
   if (isolated.empty()) isolated = "none";
   std::string text;

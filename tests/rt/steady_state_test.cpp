@@ -5,9 +5,11 @@
 // misses, no heap allocation and no page fault on the acquisition thread after start; the
 // stalled reader's losses are counted as its drops.
 //
-// Real-time priority comes from $IOCT_TEST_RT_PRIORITY or the build's default (80). Where it is
-// granted, misses and drops are asserted to be zero; where it is refused (an unprivileged CI box
-// sharing two cores with the whole suite), deadline misses are reported, not judged.
+// Real-time priority comes from $IOCT_TEST_RT_PRIORITY or the build's default (80). Drops are
+// asserted to be zero everywhere. Deadline misses are asserted to be zero on a real-time machine,
+// a PREEMPT_RT kernel that granted SCHED_FIFO (as the soak judges them); elsewhere they are
+// reported, not judged: a stock kernel grants the priority too, yet on a shared two-core box it
+// has woken the thread 2.6 ms late with nothing else under test.
 #include <signal.h>
 
 #include <gtest/gtest.h>
@@ -22,6 +24,7 @@
 #include "ioct/test_support/allocation_counter.hpp"
 #include "ioct/test_support/child_process.hpp"
 #include "ioct/test_support/page_fault_counter.hpp"
+#include "realtime_setup.hpp"
 #include "rig.hpp"
 
 namespace ioct::rt {
@@ -108,6 +111,7 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
   const RealtimeOutcome safety_outcome = supervisor.start();
   const bool realtime =
       priority > 0 && loop_outcome.fifo_error == 0 && safety_outcome.fifo_error == 0;
+  const bool judge_deadlines = realtime && kernel_is_preempt_rt();
 
   // The live reader: every group, copied whole.
   std::atomic<bool> done{false};
@@ -228,16 +232,18 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
   EXPECT_GT(restarted_consumed, 0u);
   EXPECT_GE(dead, 1u) << "the killed reader shows as dead";
   EXPECT_GE(live_counters.consumed + live_counters.dropped(), c.groups_published - 1);
-  if (realtime) {
+  // Everywhere the schedule must hold (late groups catch up, the count stays on time) and the
+  // live reader, with 690 ms of ring behind it, loses nothing.
+  EXPECT_EQ(live_counters.dropped(), 0u) << "the live reader keeps up";
+  if (judge_deadlines) {
     EXPECT_EQ(c.deadline_misses, 0u);
-    EXPECT_EQ(live_counters.dropped(), 0u) << "the live reader keeps up";
   } else {
-    // Unprivileged on a shared box: the schedule must still hold (late groups catch up, the
-    // count stays on time) and the live reader, with 690 ms of ring behind it, loses nothing.
-    EXPECT_EQ(live_counters.dropped(), 0u) << "the live reader keeps up";
     std::printf(
-        "[ note     ] not real-time (%llu deadline misses reported, not judged): set "
-        "IOCT_TEST_RT_PRIORITY (e.g. 80) where SCHED_FIFO is allowed to judge them\n",
+        "[ note     ] not a real-time machine (%s, %s): %llu deadline misses reported, not "
+        "judged; they are judged on a PREEMPT_RT kernel with SCHED_FIFO granted "
+        "($IOCT_TEST_RT_PRIORITY, e.g. 80)\n",
+        kernel_is_preempt_rt() ? "PREEMPT_RT" : "not PREEMPT_RT",
+        realtime ? "SCHED_FIFO granted" : "SCHED_FIFO not granted",
         static_cast<unsigned long long>(c.deadline_misses));
   }
 }
