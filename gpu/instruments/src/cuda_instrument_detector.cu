@@ -3,6 +3,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <span>
 #include <string>
 
 #include "ioct/gpu/instruments/column_classification.hpp"
@@ -100,8 +101,6 @@ void CudaInstrumentDetector::classify(VolumeRef volume, BscanSpan group, const C
   reflexes_.resize(columns);
   fronts_.resize(columns);
   floors_.resize(group.count);
-  const std::size_t staged_bytes = columns * (1 + 2 * sizeof(float)) + group.count;
-  if (staged_.size() < staged_bytes) staged_.resize(staged_bytes);
   cudaStream_t stream = stream_.get();
   const std::uint8_t* group_pixels = nullptr;
   if (volume.is_device()) {
@@ -131,26 +130,22 @@ void CudaInstrumentDetector::classify(VolumeRef volume, BscanSpan group, const C
       group_pixels, static_cast<std::uint32_t>(ascans), params, histograms_.data(), kinds_.data(),
       reflexes_.data(), fronts_.data(), floors_.data());
   cuda::check_launch("instruments: classify_columns");
-  std::byte* const staged_kinds = staged_.data();
-  std::byte* const staged_reflexes = staged_kinds + columns;
-  std::byte* const staged_fronts = staged_reflexes + reflexes_.bytes();
-  std::byte* const staged_floors = staged_fronts + fronts_.bytes();
-  cuda::copy_async(staged_kinds, kinds_.data(), columns, cudaMemcpyDeviceToHost, stream,
-                   cuda::Payload::other, "instruments: the A-scans' kinds to the host");
-  cuda::copy_async(staged_reflexes, reflexes_.data(), reflexes_.bytes(), cudaMemcpyDeviceToHost,
-                   stream, cuda::Payload::other, "instruments: the reflexes to the host");
-  cuda::copy_async(staged_fronts, fronts_.data(), fronts_.bytes(), cudaMemcpyDeviceToHost, stream,
-                   cuda::Payload::other, "instruments: the translucent fronts to the host");
-  cuda::copy_async(staged_floors, floors_.data(), group.count, cudaMemcpyDeviceToHost, stream,
-                   cuda::Payload::other, "instruments: the floors to the host");
-  IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
+  const std::size_t kinds = download_.add(kinds_.data(), kinds_.bytes());
+  const std::size_t reflexes = download_.add(reflexes_.data(), reflexes_.bytes());
+  const std::size_t fronts = download_.add(fronts_.data(), fronts_.bytes());
+  const std::size_t floors = download_.add(floors_.data(), floors_.bytes());
+  download_.fetch(stream, cuda::Payload::other,
+                  "instruments: the A-scans' kinds, reflexes, fronts and floors to the host");
   const std::size_t offset = std::size_t{group.first} * ascans;
-  for (std::size_t i = 0; i < columns; ++i) {
-    findings.columns[offset + i] = static_cast<ColumnKind>(staged_kinds[i]);
-  }
-  std::memcpy(findings.reflex_px.data() + offset, staged_reflexes, reflexes_.bytes());
-  std::memcpy(findings.front_px.data() + offset, staged_fronts, fronts_.bytes());
-  std::memcpy(findings.floor.data() + group.first, staged_floors, group.count);
+  const auto place = [&](std::size_t piece, void* destination) {
+    const std::span<const std::byte> bytes = download_.piece(piece);
+    std::memcpy(destination, bytes.data(), bytes.size());
+  };
+  static_assert(sizeof(ColumnKind) == 1, "the kernel writes one byte per A-scan's kind");
+  place(kinds, findings.columns.data() + offset);
+  place(reflexes, findings.reflex_px.data() + offset);
+  place(fronts, findings.front_px.data() + offset);
+  place(floors, findings.floor.data() + group.first);
 }
 
 }  // namespace ioct::gpu::instruments

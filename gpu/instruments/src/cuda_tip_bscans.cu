@@ -3,6 +3,7 @@
 #include <cstring>
 
 #include "ioct/gpu/cuda/cuda_support.hpp"
+#include "ioct/gpu/cuda/pinned_download.hpp"
 
 namespace ioct::gpu::instruments {
 namespace {
@@ -23,21 +24,18 @@ void cut_tip_bscans_on_device(const VolumeRef& volume, const TipCut& cut, TipBsc
   const VolumeDims& dims = volume.dims();
   cudaStream_t stream = volume.stream();
   // Kept per thread (the stages' thread cuts once per pass): no allocation, no implicit
-  // synchronisation of the device, after the first cut. The pair comes back through pinned
-  // memory: a copy into pageable memory is synchronous and several times slower.
+  // synchronisation of the device, after the first cut.
   thread_local cuda::DeviceArray<std::uint8_t> pair;
-  thread_local cuda::PinnedArray<std::uint8_t> staged;
+  thread_local cuda::PinnedDownload download;
   if (pair.size() < out.pixels.size()) pair.resize(out.pixels.size());
-  if (staged.size() < out.pixels.size()) staged.resize(out.pixels.size());
   constexpr unsigned kThreads = 128;
   const dim3 grid((dims.depth + kThreads - 1) / kThreads, out.stride());
   cut_pair<<<grid, kThreads, 0, stream>>>(volume.device(), dims.bscans, dims.ascans, dims.depth,
                                           cut, pair.data());
   cuda::check_launch("instruments: cut_pair");
-  cuda::copy_async(staged.data(), pair.data(), out.pixels.size(), cudaMemcpyDeviceToHost, stream,
-                   cuda::Payload::other, "instruments: the tip's B-scan pair to the host");
-  IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
-  std::memcpy(out.pixels.data(), staged.data(), out.pixels.size());
+  download.add(pair.data(), out.pixels.size());
+  download.fetch(stream, cuda::Payload::other, "instruments: the tip's B-scan pair to the host");
+  std::memcpy(out.pixels.data(), download.piece(0).data(), out.pixels.size());
 }
 
 }  // namespace ioct::gpu::instruments

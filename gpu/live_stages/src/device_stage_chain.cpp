@@ -14,6 +14,7 @@
 #define IOCT_LIVE_DEVICE_CHAIN 1
 #include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/cuda/cuda_support.hpp"
+#include "ioct/gpu/cuda/pinned_download.hpp"
 #include "ioct/gpu/filters/cuda_volume_filter.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
 #include "ioct/gpu/segmentation/cuda_overlay_image.hpp"
@@ -59,7 +60,7 @@ struct DeviceStageChain::Impl {
   bool render_input_read_recorded = false;
   // The B-scan shown, drawn with its surfaces (bscan_overlay), and its way to the host.
   cuda::DeviceArray<std::uint8_t> overlay;
-  cuda::PinnedArray<std::uint8_t> overlay_host;
+  cuda::PinnedDownload overlay_download;
 
   Impl(filters::CudaVolumeFilter& f, filters::CudaVolumeFilter* bscan,
        segmentation::CudaSegmenter& s, render::CudaRenderer& r)
@@ -296,15 +297,14 @@ void DeviceStageChain::bscan_overlay(std::uint32_t bscan, segmentation::RgbImage
   const VolumeDims& d = m.input_dims;
   const std::size_t bytes = d.bscan_bytes() * 3;
   m.overlay.resize(bytes);
-  m.overlay_host.resize(bytes);
   segmentation::make_overlay_on_device(m.filtered.data(), d, bscan, m.segmenter.device_surfaces(),
                                        m.overlay.data(), m.stream.get());
-  cuda::copy_async(m.overlay_host.data(), m.overlay.data(), bytes, cudaMemcpyDeviceToHost,
-                   m.stream.get(), cuda::Payload::other, "copy of the B-scan shown to the host");
-  IOCT_CUDA_CHECK(cudaStreamSynchronize(m.stream.get()));
+  m.overlay_download.add(m.overlay.data(), bytes);
+  m.overlay_download.fetch(m.stream.get(), cuda::Payload::other,
+                           "copy of the B-scan shown to the host");
   image.width = d.ascans;
   image.height = d.depth;
-  image.pixels.assign(m.overlay_host.data(), m.overlay_host.data() + bytes);
+  m.overlay_download.take(0, image.pixels);
 }
 
 void DeviceStageChain::download_surfaces(segmentation::Surfaces& surfaces) {

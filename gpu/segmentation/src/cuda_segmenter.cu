@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "ioct/gpu/cuda/cuda_support.hpp"
+#include "ioct/gpu/cuda/pinned_download.hpp"
 #include "ioct/gpu/segmentation/column_math.hpp"
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"
 #include "ioct/gpu/segmentation/finishing.hpp"
@@ -677,10 +678,8 @@ struct CudaSegmenter::DeviceState {
   cuda::DeviceArray<float> ilm, rpe, bm, confidence;
   cuda::DeviceArray<SurfaceState> state;
   cuda::DeviceArray<BscanVerdict> verdict;
-  // download_surfaces' staging: a copy into pageable memory is synchronous and several times
-  // slower (0.6 ms for a 128 x 512 volume's surfaces on the H100 host, on every live pass with
-  // instruments).
-  cuda::PinnedArray<std::byte> surfaces_host;
+  // download_surfaces' way to the host.
+  cuda::PinnedDownload surfaces_download;
   // Scratch of one group (sized for a whole volume).
   cuda::DeviceArray<std::uint32_t> histograms;
   cuda::DeviceArray<std::int32_t> coarse_cost, coarse_path, band_origin, band_cost, ilm_px, rpe_px;
@@ -1169,37 +1168,23 @@ void CudaSegmenter::download_surfaces(Surfaces& surfaces, cudaStream_t stream) {
   DeviceState& d = *state_;
   const std::size_t n = static_cast<std::size_t>(d.bscans) * d.ascans;
   const std::size_t floats = n * sizeof(float);
-  d.surfaces_host.resize(4 * floats + n + d.bscans);
-  std::byte* const staged = d.surfaces_host.data();
-  std::size_t offset = 0;
-  const auto copy = [&](const void* device, std::size_t bytes) {
-    cuda::copy_async(staged + offset, device, bytes, cudaMemcpyDeviceToHost, stream,
-                     cuda::Payload::other, "copy of the surfaces to the host");
-    offset += bytes;
-  };
-  copy(d.ilm.data(), floats);
-  copy(d.rpe.data(), floats);
-  copy(d.bm.data(), floats);
-  copy(d.confidence.data(), floats);
-  copy(d.state.data(), n);
-  copy(d.verdict.data(), d.bscans);
-  IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
-  // Every value is overwritten: sized to the volume, not reset.
+  cuda::PinnedDownload& download = d.surfaces_download;
+  download.add(d.ilm.data(), floats);
+  download.add(d.rpe.data(), floats);
+  download.add(d.bm.data(), floats);
+  download.add(d.confidence.data(), floats);
+  download.add(d.state.data(), n);
+  download.add(d.verdict.data(), d.bscans);
+  download.fetch(stream, cuda::Payload::other, "copy of the surfaces to the host");
   surfaces.bscans = d.bscans;
   surfaces.ascans = d.ascans;
   surfaces.depth = d.depth;
-  offset = 0;
-  const auto take = [&](auto& values, std::size_t count) {
-    values.resize(count);
-    std::memcpy(values.data(), staged + offset, count * sizeof(values[0]));
-    offset += count * sizeof(values[0]);
-  };
-  take(surfaces.ilm, n);
-  take(surfaces.rpe, n);
-  take(surfaces.bm, n);
-  take(surfaces.confidence, n);
-  take(surfaces.state, n);
-  take(surfaces.verdict, d.bscans);
+  download.take(0, surfaces.ilm);
+  download.take(1, surfaces.rpe);
+  download.take(2, surfaces.bm);
+  download.take(3, surfaces.confidence);
+  download.take(4, surfaces.state);
+  download.take(5, surfaces.verdict);
 }
 
 void CudaSegmenter::download_memory(VolumeMemory& memory) {

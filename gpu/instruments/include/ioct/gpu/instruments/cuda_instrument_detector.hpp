@@ -10,6 +10,7 @@
 #include <cstdint>
 
 #include "ioct/gpu/cuda/cuda_support.hpp"
+#include "ioct/gpu/cuda/pinned_download.hpp"
 #include "ioct/gpu/instruments/instrument_detector.hpp"
 
 namespace ioct::gpu::instruments {
@@ -32,9 +33,7 @@ class CudaInstrumentDetector final : public InstrumentDetector {
   cuda::DeviceArray<float> fronts_;              // [bscan of the group][ascan]
   cuda::DeviceArray<std::uint8_t> floors_;       // [bscan of the group]
   cuda::DeviceArray<std::uint32_t> histograms_;  // [bscan of the group][256]
-  // The group's kinds, reflexes, fronts and floors on their way to the host, in this order:
-  // copies into pageable memory are synchronous and several times slower.
-  cuda::PinnedArray<std::byte> staged_;
+  cuda::PinnedDownload download_;  // the group's kinds, reflexes, fronts and floors to the host
 };
 
 }  // namespace ioct::gpu::instruments
