@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 #include <tuple>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -251,52 +252,90 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
   const std::int32_t* own_costs = cost + s;  // column a's cost of this state: own_costs[a * S]
   __syncthreads();
 
-  std::int32_t* previous = buffer0;  // this half's totals so far
-  std::int32_t* next = buffer1;
+  // Iteration i reads the row of iteration i - 1 and writes its own, the rows alternating by the
+  // iteration's parity. A chunk starts at an odd iteration and holds an even number of them, so
+  // within it the parity, and with it the two rows, is known at compile time: a step spends no
+  // instructions on swapping them. A half that is done writes nothing more: its last row stays
+  // in the row of its own last iteration's parity, where the join looks for it.
   constexpr int kColumns = kChunk<kMaxThreads>;
-  for (int first = 1; first <= iterations; first += kColumns) {
-    // The chunk's costs and band shifts, loaded together: one wait for memory per chunk, none
-    // between the barriers of its steps.
-    std::int32_t costs[kColumns];
-    int shifts[kColumns];
+  static_assert(kColumns % 2 == 0);
+  // Iteration i's column is end + direction x i; its cost of this state own_costs[column x S].
+  const int cost_stride = direction * S;
+  const int step_stride = direction * S;            // of the steps' places, likewise
+  const int own_step_place = (end + half) * S + s;  // iteration 0's
+  // One step of the search: iteration i, into the row of parity kOdd, with the band's shift from
+  // the column before and this column's cost. Every thread reaches its barrier.
+  const auto search_step = [&](auto odd, int i, int shift, std::int32_t cost) {
+    const std::int32_t* const previous = decltype(odd)::value ? buffer0 : buffer1;
+    std::int32_t* const next = decltype(odd)::value ? buffer1 : buffer0;
+    if (active && i <= own_iterations) {
+      int kept = 0;  // the step, or (with keys) its place in the order tried
+      if constexpr (kKeys) {
+        const int from = detail::step_key_base<kFixedStep>(S, s, shift);
+        next[s] = detail::add_cost_key(
+            detail::best_step_key<kFixedStep>(previous, from, offsets, &kept), cost);
+      } else {
+        const std::int32_t best =
+            detail::best_step(previous, S, s, shift, job.max_step, job.penalty, &kept);
+        next[s] = detail::add_cost(best, cost);
+      }
+      // Shared or global memory, chosen for the whole block: each store of its own kind.
+      const int at = own_step_place + i * step_stride;
+      if (job.shared_steps) {
+        shared_steps[at] = static_cast<std::int8_t>(kept);
+      } else {
+        global_steps[at] = static_cast<std::int8_t>(kept);
+      }
+    }
+    __syncthreads();
+  };
+  using Odd = std::integral_constant<bool, true>;
+  using Even = std::integral_constant<bool, false>;
+  // Whole chunks: the chunk's costs and band shifts loaded together (one wait for memory per
+  // chunk, none between the barriers of its steps), the next chunk's costs while this one runs,
+  // and no test of the iteration count per step.
+  const int whole_chunks = iterations / kColumns;
+  std::int32_t costs[kColumns];
+  std::int32_t next_costs[kColumns];
+  const auto load_costs = [&](int first, std::int32_t(&into)[kColumns]) {
+    const int column_place = (end + direction * first) * S;
 #pragma unroll
     for (int k = 0; k < kColumns; ++k) {
-      const int i = first + k;
-      const int a = end + direction * i;
-      costs[k] = active && i <= own_iterations ? __ldg(own_costs + a * S) : 0;
-      shifts[k] = i <= own_iterations ? origin[a] - origin[a - direction] : 0;
+      into[k] = active && first + k <= own_iterations
+                    ? __ldg(own_costs + (column_place + k * cost_stride))
+                    : 0;
+    }
+  };
+  if (whole_chunks > 0) load_costs(1, costs);
+  for (int chunk = 0; chunk < whole_chunks; ++chunk) {
+    const int first = 1 + chunk * kColumns;
+    if (chunk + 1 < whole_chunks) load_costs(first + kColumns, next_costs);
+    // The chunk's columns and the one before it are all within the B-scan.
+    int origins[kColumns + 1];
+#pragma unroll
+    for (int k = 0; k <= kColumns; ++k) origins[k] = origin[end + direction * (first - 1 + k)];
+#pragma unroll
+    for (int k = 0; k < kColumns; k += 2) {
+      search_step(Odd{}, first + k, origins[k + 1] - origins[k], costs[k]);
+      search_step(Even{}, first + k + 1, origins[k + 2] - origins[k + 1], costs[k + 1]);
     }
 #pragma unroll
-    for (int k = 0; k < kColumns; ++k) {
-      const int i = first + k;
-      if (i <= iterations) {  // the same for every thread: the barrier below is reached by all
-        const bool working = i <= own_iterations;
-        if (active && working) {
-          int kept = 0;  // the step, or (with keys) its place in the order tried
-          if constexpr (kKeys) {
-            const int from = detail::step_key_base<kFixedStep>(S, s, shifts[k]);
-            next[s] = detail::add_cost_key(
-                detail::best_step_key<kFixedStep>(previous, from, offsets, &kept), costs[k]);
-          } else {
-            const std::int32_t best =
-                detail::best_step(previous, S, s, shifts[k], job.max_step, job.penalty, &kept);
-            next[s] = detail::add_cost(best, costs[k]);
-          }
-          // Shared or global memory, chosen for the whole block: each store of its own kind.
-          const int at = (end + direction * i + half) * S + s;
-          if (job.shared_steps) {
-            shared_steps[at] = static_cast<std::int8_t>(kept);
-          } else {
-            global_steps[at] = static_cast<std::int8_t>(kept);
-          }
-        }
-        __syncthreads();
-        if (working) {  // a half that is done keeps its last row where it is
-          std::int32_t* t = previous;
-          previous = next;
-          next = t;
-        }
-      }
+    for (int k = 0; k < kColumns; ++k) costs[k] = next_costs[k];
+  }
+  // The rest, a step at a time (odd iterations first, as in a chunk).
+  for (int i = 1 + whole_chunks * kColumns; i <= iterations; i += 2) {
+    const auto shift_cost = [&](int at, std::int32_t& cost) {
+      const int a = end + direction * at;
+      const bool working = at <= own_iterations;
+      cost = active && working ? __ldg(own_costs + a * S) : 0;
+      return working ? origin[a] - origin[a - direction] : 0;
+    };
+    std::int32_t cost = 0;
+    int shift = shift_cost(i, cost);
+    search_step(Odd{}, i, shift, cost);
+    if (i + 1 <= iterations) {
+      shift = shift_cost(i + 1, cost);
+      search_step(Even{}, i + 1, shift, cost);
     }
   }
   __syncthreads();  // (no iteration at all for a single column)

@@ -284,10 +284,12 @@ IOCT_HD std::int32_t best_step_key(const std::int32_t* row, int base,
     best[i % kChains] = add_min(keys[i], offsets.of[i], best[i % kChains]);
   }
   const std::int32_t key = min_int(min_int(best[0], best[1]), min_int(best[2], best[3]));
-  const bool reached = key < kUnreachableKey;
-  *order = reached ? key & (kStepKeyScale - 1) : 0;
+  // The minima start at kUnreachableKey, whose place bits are 0, so a state no candidate reaches
+  // comes out as kUnreachableKey and the step 0 (best_step's answer) without a test.
+  static_assert((kUnreachableKey & (kStepKeyScale - 1)) == 0);
+  *order = key & (kStepKeyScale - 1);
   // The candidate's total, its step's penalty included, as a key.
-  return reached ? key - *order : kUnreachableKey;
+  return key - *order;
 }
 
 // A key plus a state's cost, staying unreachable.
