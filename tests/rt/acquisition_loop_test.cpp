@@ -1,7 +1,7 @@
 // The acquisition loop in-process, commanded directly (no supervisor): it arms followers before
 // the trigger, feeds the DAC ahead with the lead-shifted trajectory, publishes each group once
 // its sweeps have ended, switches patterns at a volume boundary, parks on command, neither
-// allocates nor faults in steady state, and posts what goes wrong.
+// allocates nor faults nor takes a lock in steady state, and posts what goes wrong.
 #include "acquisition_loop.hpp"
 
 #include <gtest/gtest.h>
@@ -16,6 +16,7 @@
 
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "ioct/test_support/allocation_counter.hpp"
+#include "ioct/test_support/lock_counter.hpp"
 #include "ioct/test_support/page_fault_counter.hpp"
 #include "rig.hpp"
 #include "safety_state_machine.hpp"
@@ -216,13 +217,15 @@ TEST(AcquisitionLoop, AScanChangeTakesEffectAtAVolumeBoundaryAndTheOldPatternCom
   // The DAC got the old trajectory up to the switch and the new one from there.
 }
 
-// A backend that notes, each time the loop asks it for a group, how many allocations and page
-// faults the loop's thread has made so far: the differences cover whole iterations of the loop.
+// A backend that notes, each time the loop asks it for a group, how many allocations, page faults
+// and lock acquisitions the loop's thread has made so far: the differences cover whole iterations
+// of the loop.
 class ProbeDigitizer final : public hal::Digitizer {
  public:
   static constexpr std::size_t kProbes = 40;
   std::array<std::atomic<std::uint64_t>, kProbes> allocations{};
   std::array<std::atomic<std::uint64_t>, kProbes> page_faults{};
+  std::array<std::atomic<std::uint64_t>, kProbes> locks{};
   std::atomic<std::size_t> calls{0};
   std::string_view backend() const noexcept override { return "probe"; }
 
@@ -236,6 +239,7 @@ class ProbeDigitizer final : public hal::Digitizer {
       allocations[call].store(test_support::thread_allocations(), std::memory_order_relaxed);
       page_faults[call].store(test_support::thread_page_faults().total(),
                               std::memory_order_relaxed);
+      locks[call].store(test_support::thread_lock_acquisitions(), std::memory_order_relaxed);
     }
     std::fill(group.begin(), group.end(), static_cast<std::uint16_t>(call));
     info = {};
@@ -248,7 +252,7 @@ class ProbeDigitizer final : public hal::Digitizer {
   std::uint64_t sweep_ = 0;
 };
 
-TEST(AcquisitionLoop, SteadyStateIterationsNeitherAllocateNorFault) {
+TEST(AcquisitionLoop, SteadyStateIterationsNeitherAllocateNorFaultNorLock) {
   Rig rig("rt-steady");
   ProbeDigitizer digitizer;
   digitizer.prepare(rig.geometry);
@@ -263,6 +267,10 @@ TEST(AcquisitionLoop, SteadyStateIterationsNeitherAllocateNorFault) {
   EXPECT_EQ(digitizer.allocations[last] - digitizer.allocations[first], 0u)
       << test_support::allocation_counting_method();
   EXPECT_EQ(digitizer.page_faults[last] - digitizer.page_faults[first], 0u);
+  if (test_support::locks_are_counted_or_say_why()) {
+    EXPECT_EQ(digitizer.locks[last] - digitizer.locks[first], 0u)
+        << test_support::lock_counting_method();
+  }
 #if !defined(__SANITIZE_THREAD__)
   // The loop's own counter starts after the first lap. ThreadSanitizer maps the shadow of the
   // ring's memory lazily and keeps faulting it in well into the second lap, so under it only the
@@ -278,6 +286,7 @@ class ProbedSimulator final : public hal::Digitizer {
   explicit ProbedSimulator(const sim::SimulationConfig& c) : inner(c) {}
   std::array<std::atomic<std::uint64_t>, kProbes> allocations{};
   std::array<std::atomic<std::uint64_t>, kProbes> page_faults{};
+  std::array<std::atomic<std::uint64_t>, kProbes> locks{};
   std::atomic<std::size_t> calls{0};
   sim::SimulatedDigitizer inner;
   std::string_view backend() const noexcept override { return "probed simulator"; }
@@ -292,13 +301,14 @@ class ProbedSimulator final : public hal::Digitizer {
       allocations[call].store(test_support::thread_allocations(), std::memory_order_relaxed);
       page_faults[call].store(test_support::thread_page_faults().total(),
                               std::memory_order_relaxed);
+      locks[call].store(test_support::thread_lock_acquisitions(), std::memory_order_relaxed);
     }
     inner.acquire_group(group, info);
     calls.store(call + 1, std::memory_order_release);
   }
 };
 
-TEST(AcquisitionLoop, WithSimulatorWorkersSteadyStateIterationsNeitherAllocateNorFault) {
+TEST(AcquisitionLoop, WithSimulatorWorkersSteadyStateIterationsNeitherAllocateNorFaultNorLock) {
   const hal::DigitizerConfig geometry = test::small_geometry();
   Rig rig("rt-steady-workers", geometry);
   sim::SimulationConfig simulation;
@@ -312,11 +322,15 @@ TEST(AcquisitionLoop, WithSimulatorWorkersSteadyStateIterationsNeitherAllocateNo
   ASSERT_TRUE(eventually([&] { return digitizer.calls.load() >= ProbedSimulator::kProbes; }, 30s));
   rig.loop->stop();
   // Taking the bench's state, handing the B-scans to the workers, waiting for and copying out
-  // their group: none of it allocates or faults on the loop's thread.
+  // their group: none of it allocates, faults or takes a lock on the loop's thread.
   const std::size_t first = 16;
   const std::size_t last = ProbedSimulator::kProbes - 1;
   EXPECT_EQ(digitizer.allocations[last] - digitizer.allocations[first], 0u)
       << test_support::allocation_counting_method();
+  if (test_support::locks_are_counted_or_say_why()) {
+    EXPECT_EQ(digitizer.locks[last] - digitizer.locks[first], 0u)
+        << test_support::lock_counting_method();
+  }
 #if !defined(__SANITIZE_THREAD__)
   // Under ThreadSanitizer the copy out of the workers' buffers faults pages in every group (80
   // in 23 groups seen): the sanitizer's shadow of those buffers, which the workers' writes

@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "ioct/concurrency/monotonic_clock.hpp"
+#include "ioct/test_support/lock_counter.hpp"
 
 namespace ioct::rt::test {
 namespace {
@@ -161,6 +162,8 @@ hal::LineInputs FakeLines::read_inputs() noexcept {
   hal::LineInputs read;
   std::function<void()> then;
   {
+    // This mutex stands in for the GPIO chip's read: a lock of the fake, not of the supervisor.
+    const test_support::LocksNotCounted fake_hardware;
     const std::lock_guard lock(mutex_);
     read = inputs_;
     then = std::exchange(after_next_read_, nullptr);
@@ -180,6 +183,8 @@ bool FakeLines::after_next_read_pending() const {
 }
 
 std::optional<hal::LineEvent> FakeLines::wait_event(std::chrono::nanoseconds timeout) {
+  // The wait the real lines make in poll() on their line events, not a lock of the supervisor.
+  const test_support::LocksNotCounted fake_hardware;
   std::unique_lock lock(mutex_);
   if (pending_.empty()) changed_.wait_for(lock, timeout, [&] { return !pending_.empty(); });
   if (pending_.empty()) return std::nullopt;

@@ -2,8 +2,8 @@
 // group, 128 per volume) with the physical simulator, a live reader that must see every group,
 // and a second reader, in its own process, that is stalled, killed and restarted meanwhile. The
 // acquisition's timing and counters must not notice: no drops for the live reader, no deadline
-// misses, no heap allocation and no page fault on the acquisition thread after start; the
-// stalled reader's losses are counted as its drops.
+// misses, no heap allocation, no page fault and no lock on the acquisition thread after start;
+// the stalled reader's losses are counted as its drops.
 //
 // Real-time priority comes from $IOCT_TEST_RT_PRIORITY or the build's default (80). Drops are
 // asserted to be zero everywhere. Deadline misses are asserted to be zero on a real-time machine,
@@ -23,6 +23,7 @@
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "ioct/test_support/allocation_counter.hpp"
 #include "ioct/test_support/child_process.hpp"
+#include "ioct/test_support/lock_counter.hpp"
 #include "ioct/test_support/page_fault_counter.hpp"
 #include "realtime_setup.hpp"
 #include "rig.hpp"
@@ -35,14 +36,15 @@ using test::eventually;
 
 using test::kSanitized;
 
-// Forwards to the simulator and notes, at each group, the acquisition thread's allocations and
-// page faults so far.
+// Forwards to the simulator and notes, at each group, the acquisition thread's allocations, page
+// faults and lock acquisitions so far.
 class ProbedSimulator final : public hal::Digitizer {
  public:
   static constexpr std::size_t kProbes = 256;
   explicit ProbedSimulator(const sim::SimulationConfig& c) : inner_(c) {}
   std::array<std::atomic<std::uint64_t>, kProbes> allocations{};
   std::array<std::atomic<std::uint64_t>, kProbes> page_faults{};
+  std::array<std::atomic<std::uint64_t>, kProbes> locks{};
   std::atomic<std::size_t> calls{0};
   std::string_view backend() const noexcept override { return "probed simulator"; }
 
@@ -56,6 +58,7 @@ class ProbedSimulator final : public hal::Digitizer {
       allocations[call].store(test_support::thread_allocations(), std::memory_order_relaxed);
       page_faults[call].store(test_support::thread_page_faults().total(),
                               std::memory_order_relaxed);
+      locks[call].store(test_support::thread_lock_acquisitions(), std::memory_order_relaxed);
     }
     inner_.acquire_group(group, info);
     calls.store(call + 1, std::memory_order_release);
@@ -184,12 +187,14 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
                          << c.generation_ns_max << " ns";
   const std::uint64_t allocations = digitizer.allocations[probes - 1] - digitizer.allocations[16];
   const std::uint64_t faults = digitizer.page_faults[probes - 1] - digitizer.page_faults[16];
+  const std::uint64_t locks = digitizer.locks[probes - 1] - digitizer.locks[16];
   std::printf(
       "[ stats    ] %s: %llu groups in 10 s, deadline misses %llu (worst %.2f ms late), wake "
       "latency mean %.1f us max %.1f us over %llu groups, generation %.1f ms mean %.1f ms max of "
       "86.08 ms, DAC fill min %llu samples, live reader consumed %llu dropped %llu, stalled reader "
-      "dropped %llu, restarted reader consumed %llu, acquisition thread: %llu allocations and "
-      "%llu page faults after the first two laps (%llu page faults in steady state counted by "
+      "dropped %llu, restarted reader consumed %llu, acquisition thread: %llu allocations, "
+      "%llu page faults and %llu locks after the first two laps (%llu page faults in steady state "
+      "counted by "
       "the loop), %u synthesis workers, simulator late groups %llu (worst %.2f ms)\n",
       realtime ? "SCHED_FIFO" : "not real-time",
       static_cast<unsigned long long>(c.groups_published),
@@ -204,8 +209,8 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
       static_cast<unsigned long long>(stalled_drops),
       static_cast<unsigned long long>(restarted_consumed),
       static_cast<unsigned long long>(allocations), static_cast<unsigned long long>(faults),
-      static_cast<unsigned long long>(c.page_faults_steady), simulation.workers,
-      static_cast<unsigned long long>(c.simulator_late_groups),
+      static_cast<unsigned long long>(locks), static_cast<unsigned long long>(c.page_faults_steady),
+      simulation.workers, static_cast<unsigned long long>(c.simulator_late_groups),
       static_cast<double>(c.simulator_worst_lateness_ns) * 1e-6);
 
   EXPECT_EQ(safety.state, SafetyState::scanning) << describe_faults(safety.record.faults);
@@ -226,6 +231,9 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
   }
   EXPECT_EQ(allocations, 0u) << test_support::allocation_counting_method();
   EXPECT_EQ(faults, 0u);
+  if (test_support::locks_are_counted_or_say_why()) {
+    EXPECT_EQ(locks, 0u) << test_support::lock_counting_method();
+  }
   EXPECT_GT(stalled_drops, 0u) << "a reader stalled for 2 s loses groups, counted as its drops";
   EXPECT_GE(restarted_consumed + 2, c.groups_published - published_at_restart)
       << "the restarted reader reads everything from where the ring was when it attached";
