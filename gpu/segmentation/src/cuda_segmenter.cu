@@ -216,7 +216,6 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
   std::int8_t* const shared_steps = reinterpret_cast<std::int8_t*>(keys + 32);
   std::int8_t* const global_steps =
       job.shared_steps ? nullptr : job.global_steps + static_cast<std::size_t>(g) * N * S;
-  std::int8_t* const steps = job.shared_steps ? shared_steps : global_steps;
   const std::int32_t* cost = job.cost + static_cast<std::size_t>(g) * N * S;
 
   if (job.stage == PathStage::coarse) sum_background(job, g, b);
@@ -263,20 +262,29 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
   const int cost_stride = direction * S;
   const int step_stride = direction * S;            // of the steps' places, likewise
   const int own_step_place = (end + half) * S + s;  // iteration 0's
-  // One step of the search: iteration i, into the row of parity kOdd, with the band's shift from
-  // the column before and this column's cost. Every thread reaches its barrier.
-  const auto search_step = [&](auto odd, int i, int shift, std::int32_t cost) {
+  // Where a step reads the row before, from the band's shift between the two columns: with keys
+  // step_key_base's place (worked out before the step's barrier, off its chain of dependent
+  // instructions), else the shift itself.
+  const auto read_of = [&](int shift) {
+    if constexpr (kKeys) {
+      return detail::step_key_base<kFixedStep>(S, s, shift);
+    } else {
+      return shift;
+    }
+  };
+  // One step of the search: iteration i, into the row of parity kOdd, reading the row before at
+  // read_of's answer, with this column's cost. Every thread reaches its barrier.
+  const auto search_step = [&](auto odd, int i, int read, std::int32_t cost) {
     const std::int32_t* const previous = decltype(odd)::value ? buffer0 : buffer1;
     std::int32_t* const next = decltype(odd)::value ? buffer1 : buffer0;
     if (active && i <= own_iterations) {
       int kept = 0;  // the step, or (with keys) its place in the order tried
       if constexpr (kKeys) {
-        const int from = detail::step_key_base<kFixedStep>(S, s, shift);
         next[s] = detail::add_cost_key(
-            detail::best_step_key<kFixedStep>(previous, from, offsets, &kept), cost);
+            detail::best_step_key<kFixedStep>(previous, read, offsets, &kept), cost);
       } else {
         const std::int32_t best =
-            detail::best_step(previous, S, s, shift, job.max_step, job.penalty, &kept);
+            detail::best_step(previous, S, s, read, job.max_step, job.penalty, &kept);
         next[s] = detail::add_cost(best, cost);
       }
       // Shared or global memory, chosen for the whole block: each store of its own kind.
@@ -311,13 +319,18 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
     const int first = 1 + chunk * kColumns;
     if (chunk + 1 < whole_chunks) load_costs(first + kColumns, next_costs);
     // The chunk's columns and the one before it are all within the B-scan.
-    int origins[kColumns + 1];
+    int reads[kColumns];
+    int before = origin[end + direction * (first - 1)];
 #pragma unroll
-    for (int k = 0; k <= kColumns; ++k) origins[k] = origin[end + direction * (first - 1 + k)];
+    for (int k = 0; k < kColumns; ++k) {
+      const int here = origin[end + direction * (first + k)];
+      reads[k] = read_of(here - before);
+      before = here;
+    }
 #pragma unroll
     for (int k = 0; k < kColumns; k += 2) {
-      search_step(Odd{}, first + k, origins[k + 1] - origins[k], costs[k]);
-      search_step(Even{}, first + k + 1, origins[k + 2] - origins[k + 1], costs[k + 1]);
+      search_step(Odd{}, first + k, reads[k], costs[k]);
+      search_step(Even{}, first + k + 1, reads[k + 1], costs[k + 1]);
     }
 #pragma unroll
     for (int k = 0; k < kColumns; ++k) costs[k] = next_costs[k];
@@ -332,10 +345,10 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
     };
     std::int32_t cost = 0;
     int shift = shift_cost(i, cost);
-    search_step(Odd{}, i, shift, cost);
+    search_step(Odd{}, i, read_of(shift), cost);
     if (i + 1 <= iterations) {
       shift = shift_cost(i + 1, cost);
-      search_step(Even{}, i + 1, shift, cost);
+      search_step(Even{}, i + 1, read_of(shift), cost);
     }
   }
   __syncthreads();  // (no iteration at all for a single column)
@@ -370,25 +383,34 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
   __syncthreads();
   const int best_state = keys[0] == ~0ull ? 0 : static_cast<int>(keys[0] & 0xffffffffull);
 
-  // Back along the steps taken: one thread to the left end, one (another warp) to the right.
-  const auto step_at = [&](int column, int state) {
-    const int kept = steps[static_cast<std::size_t>(column) * S + state];
-    return kKeys ? detail::nearest_first(kept) : kept;
-  };
+  // Back along the steps taken: one thread to the left end, one (another warp) to the right. A
+  // trace is a chain of dependent reads, so each runs on the steps' own kind of memory (shared
+  // memory's loads, where they fit, are the shortest links).
   std::int32_t* path = job.path + static_cast<std::size_t>(g) * N;
-  if (threadIdx.x == 0) {
-    int state = best_state;
-    path[middle] = origin[middle] + state;
-    for (int a = middle; a >= 1; --a) {
-      state = detail::state_before(state, origin[a] - origin[a - 1], step_at(a, state), S);
-      path[a - 1] = origin[a - 1] + state;
+  const auto trace = [&](const std::int8_t* steps) {
+    const auto step_at = [&](int column, int state) {
+      const int kept = steps[column * S + state];
+      return kKeys ? detail::nearest_first(kept) : kept;
+    };
+    if (threadIdx.x == 0) {
+      int state = best_state;
+      path[middle] = origin[middle] + state;
+      for (int a = middle; a >= 1; --a) {
+        state = detail::state_before(state, origin[a] - origin[a - 1], step_at(a, state), S);
+        path[a - 1] = origin[a - 1] + state;
+      }
+    } else if (threadIdx.x == job.half_threads) {
+      int state = best_state;
+      for (int a = middle; a <= N - 2; ++a) {
+        state = detail::state_before(state, origin[a] - origin[a + 1], step_at(a + 1, state), S);
+        path[a + 1] = origin[a + 1] + state;
+      }
     }
-  } else if (threadIdx.x == job.half_threads) {
-    int state = best_state;
-    for (int a = middle; a <= N - 2; ++a) {
-      state = detail::state_before(state, origin[a] - origin[a + 1], step_at(a + 1, state), S);
-      path[a + 1] = origin[a + 1] + state;
-    }
+  };
+  if (job.shared_steps) {
+    trace(shared_steps);
+  } else {
+    trace(global_steps);
   }
   if (job.stage != PathStage::coarse) return;
   __syncthreads();
