@@ -3,6 +3,7 @@
 #include <cstddef>
 #include <cstring>
 #include <cub/warp/warp_reduce.cuh>
+#include <cub/warp/warp_scan.cuh>
 #include <cuda/functional>
 #include <map>
 #include <stdexcept>
@@ -262,12 +263,14 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
   const int cost_stride = direction * S;
   const int step_stride = direction * S;            // of the steps' places, likewise
   const int own_step_place = (end + half) * S + s;  // iteration 0's
-  // Where a step reads the row before, from the band's shift between the two columns: with keys
-  // step_key_base's place (worked out before the step's barrier, off its chain of dependent
-  // instructions), else the shift itself.
-  const auto read_of = [&](int shift) {
+  // Where a step reads the row before, from the band's shift between the two columns and the
+  // parity of the step: with keys the place in `rows` of step_key_base's state in that row
+  // (worked out before the step's barrier, off its chain of dependent instructions), else the
+  // shift itself.
+  const int own_row = static_cast<int>(buffer0 - rows);  // state 0 of this half's row 0
+  const auto read_of = [&](int shift, bool odd) {
     if constexpr (kKeys) {
-      return detail::step_key_base<kFixedStep>(S, s, shift);
+      return own_row + (odd ? 0 : R) + detail::step_key_base<kFixedStep>(S, s, shift);
     } else {
       return shift;
     }
@@ -275,14 +278,14 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
   // One step of the search: iteration i, into the row of parity kOdd, reading the row before at
   // read_of's answer, with this column's cost. Every thread reaches its barrier.
   const auto search_step = [&](auto odd, int i, int read, std::int32_t cost) {
-    const std::int32_t* const previous = decltype(odd)::value ? buffer0 : buffer1;
     std::int32_t* const next = decltype(odd)::value ? buffer1 : buffer0;
     if (active && i <= own_iterations) {
       int kept = 0;  // the step, or (with keys) its place in the order tried
       if constexpr (kKeys) {
         next[s] = detail::add_cost_key(
-            detail::best_step_key<kFixedStep>(previous, read, offsets, &kept), cost);
+            detail::best_step_key<kFixedStep>(rows, read, offsets, &kept), cost);
       } else {
+        const std::int32_t* const previous = decltype(odd)::value ? buffer0 : buffer1;
         const std::int32_t best =
             detail::best_step(previous, S, s, read, job.max_step, job.penalty, &kept);
         next[s] = detail::add_cost(best, cost);
@@ -324,7 +327,7 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
 #pragma unroll
     for (int k = 0; k < kColumns; ++k) {
       const int here = origin[end + direction * (first + k)];
-      reads[k] = read_of(here - before);
+      reads[k] = read_of(here - before, (k & 1) == 0);
       before = here;
     }
 #pragma unroll
@@ -345,10 +348,10 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
     };
     std::int32_t cost = 0;
     int shift = shift_cost(i, cost);
-    search_step(Odd{}, i, read_of(shift), cost);
+    search_step(Odd{}, i, read_of(shift, true), cost);
     if (i + 1 <= iterations) {
       shift = shift_cost(i + 1, cost);
-      search_step(Even{}, i + 1, read_of(shift), cost);
+      search_step(Even{}, i + 1, read_of(shift, false), cost);
     }
   }
   __syncthreads();  // (no iteration at all for a single column)
@@ -539,7 +542,8 @@ __global__ void verdict_kernel(FitJob job) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Fine costs: the ILM band above the neighbours' coarse RPE, or the RPE band below the ILM.
+// Fine costs: the ILM band above the neighbours' coarse RPE (ilm_cost_kernel), the RPE band below
+// the ILM (rpe_cost_kernel).
 
 struct BandCostJob {
   const std::uint8_t* volume;
@@ -552,10 +556,9 @@ struct BandCostJob {
   int first;
   int bscans;
   SegmentationParams p;
-  bool rpe;
 };
 
-__global__ void band_cost_kernel(BandCostJob job) {
+__global__ void rpe_cost_kernel(BandCostJob job) {
   extern __shared__ __align__(16) std::uint8_t columns[];  // [kColumnsPerCostBlock][depth]
   __shared__ std::int32_t origins[kColumnsPerCostBlock];
   const SegmentationParams& p = job.p;
@@ -570,16 +573,7 @@ __global__ void band_cost_kernel(BandCostJob job) {
     const int a = first_column + threadIdx.x;
     std::int32_t o = 0;
     if (a < p.ascans) {
-      if (job.rpe) {
-        o = job.ilm_px[static_cast<std::size_t>(g) * p.ascans + a];
-      } else {
-        const std::int32_t* own = job.coarse + static_cast<std::size_t>(b) * p.ascans;
-        const bool has_before = b > 0 && job.coarse_valid[b - 1] != 0;
-        const bool has_after = b + 1 < job.bscans && job.coarse_valid[b + 1] != 0;
-        const std::int32_t before = has_before ? own[a - p.ascans] : own[a];
-        const std::int32_t after = has_after ? own[a + p.ascans] : own[a];
-        o = detail::ilm_band_origin(detail::median3(before, own[a], after), p.band);
-      }
+      o = job.ilm_px[static_cast<std::size_t>(g) * p.ascans + a];
       job.origin[static_cast<std::size_t>(g) * p.ascans + a] = o;
     }
     origins[threadIdx.x] = o;
@@ -593,9 +587,97 @@ __global__ void band_cost_kernel(BandCostJob job) {
     if (a >= p.ascans) continue;
     const std::uint8_t* column = columns + k * p.depth;
     const int d = origins[k] + s;
-    const std::int32_t c = job.rpe ? detail::rpe_cost(column, p.depth, d, s, p.rpe_depth_cap, floor)
-                                   : detail::ilm_cost(column, p.depth, d, floor);
-    job.cost[(static_cast<std::size_t>(g) * p.ascans + a) * p.band + s] = c;
+    job.cost[(static_cast<std::size_t>(g) * p.ascans + a) * p.band + s] =
+        detail::rpe_cost(column, p.depth, d, s, p.rpe_depth_cap, floor);
+  }
+}
+
+// The ILM band's costs from prefix sums: every cost of the band is three sums of levels over
+// windows of up to 12 px (ilm_score), so each column's levels over the band and the windows'
+// reach are summed once (a warp scan) and every cost takes its sums as differences: the same
+// integers as ilm_cost's px-by-px sums, in a fraction of the reads. Shared memory: per column of
+// the block, the prefix sums (ilm_window_length(band) + 1 ints, the first 0).
+constexpr int kIlmWindowBefore = detail::kIlmAboveLast;  // px of the window above state 0
+constexpr int kIlmWindowAfter = detail::kIlmBelowLast;   // and below the band's last state
+static_assert(kIlmWindowBefore >= detail::kIlmRiseAbove &&
+              kIlmWindowAfter >= detail::kIlmRiseBelow);
+__host__ __device__ constexpr int ilm_window_length(int band) {
+  return kIlmWindowBefore + band + kIlmWindowAfter;
+}
+
+__global__ void ilm_cost_kernel(BandCostJob job) {
+  extern __shared__ __align__(16) std::int32_t prefix[];  // [kColumnsPerCostBlock][length + 1]
+  __shared__ std::int32_t origins[kColumnsPerCostBlock];
+  const SegmentationParams& p = job.p;
+  const int g = blockIdx.y;
+  const int b = job.first + g;
+  const int first_column = blockIdx.x * kColumnsPerCostBlock;
+  const int columns = min(kColumnsPerCostBlock, p.ascans - first_column);
+  const int length = ilm_window_length(p.band);
+  const int stride = length + 1;
+  if (threadIdx.x < kColumnsPerCostBlock) {
+    const int a = first_column + threadIdx.x;
+    std::int32_t o = 0;
+    if (a < p.ascans) {
+      const std::int32_t* own = job.coarse + static_cast<std::size_t>(b) * p.ascans;
+      const bool has_before = b > 0 && job.coarse_valid[b - 1] != 0;
+      const bool has_after = b + 1 < job.bscans && job.coarse_valid[b + 1] != 0;
+      const std::int32_t before = has_before ? own[a - p.ascans] : own[a];
+      const std::int32_t after = has_after ? own[a + p.ascans] : own[a];
+      o = detail::ilm_band_origin(detail::median3(before, own[a], after), p.band);
+      job.origin[static_cast<std::size_t>(g) * p.ascans + a] = o;
+    }
+    origins[threadIdx.x] = o;
+  }
+  __syncthreads();
+  // The levels of each column's window, the edge px repeated outside the column (px()).
+  const int floor = job.floors[b];
+  const std::uint8_t* pixels = job.volume + static_cast<std::size_t>(b) * p.ascans * p.depth;
+  for (int i = threadIdx.x; i < columns * length; i += blockDim.x) {
+    const int k = i / length;
+    const int x = i % length;
+    const std::uint8_t* column = pixels + static_cast<std::size_t>(first_column + k) * p.depth;
+    const int d = origins[k] - kIlmWindowBefore + x;
+    prefix[k * stride + 1 + x] =
+        detail::above_floor(__ldg(column + detail::clamp_int(d, 0, p.depth - 1)), floor);
+  }
+  __syncthreads();
+  // Each column's inclusive scan, a warp per column, 32 levels at a time.
+  using WarpScan = cub::WarpScan<std::int32_t>;
+  __shared__ typename WarpScan::TempStorage scan_storage[kCostThreads / 32];
+  const int warp = static_cast<int>(threadIdx.x / 32);
+  const int lane = static_cast<int>(threadIdx.x % 32);
+  for (int k = warp; k < columns; k += kCostThreads / 32) {
+    std::int32_t* sums = prefix + k * stride;
+    if (lane == 0) sums[0] = 0;
+    std::int32_t carry = 0;
+    for (int x0 = 0; x0 < length; x0 += 32) {
+      const int x = x0 + lane;
+      std::int32_t value = x < length ? sums[1 + x] : 0;
+      std::int32_t total = 0;
+      WarpScan(scan_storage[warp]).InclusiveSum(value, value, total);
+      if (x < length) sums[1 + x] = carry + value;
+      carry += total;
+      __syncwarp();
+    }
+  }
+  __syncthreads();
+  // Each cost from its sums: sum(first, last) holds the levels from d + first to d + last.
+  for (int i = threadIdx.x; i < columns * p.band; i += blockDim.x) {
+    const int k = i / p.band;
+    const int s = i % p.band;
+    const int d = origins[k] + s;
+    std::int32_t c = detail::kOutsideCost;
+    if (d >= 0 && d < p.depth) {
+      const std::int32_t* sums = prefix + k * stride;
+      const int at = kIlmWindowBefore + s;  // d's index in the window
+      const auto sum = [&](int first, int last) { return sums[at + last + 1] - sums[at + first]; };
+      const int rise = sum(0, detail::kIlmRiseBelow) - sum(-detail::kIlmRiseAbove, -1);
+      const int above = sum(-detail::kIlmAboveLast, -detail::kIlmAboveFirst);
+      const int below = sum(detail::kIlmBelowFirst, detail::kIlmBelowLast);
+      c = detail::ilm_cost_of_score(detail::ilm_score_of_sums(rise, above, below));
+    }
+    job.cost[(static_cast<std::size_t>(g) * p.ascans + first_column + k) * p.band + s] = c;
   }
 }
 
@@ -1054,6 +1136,8 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
       static_cast<unsigned>((p.ascans + kColumnsPerCostBlock - 1) / kColumnsPerCostBlock),
       static_cast<unsigned>(count));
   const std::size_t band_shared = static_cast<std::size_t>(kColumnsPerCostBlock) * p.depth;
+  const std::size_t ilm_shared = static_cast<std::size_t>(kColumnsPerCostBlock) *
+                                 (ilm_window_length(p.band) + 1) * sizeof(std::int32_t);
   for (const bool rpe : {false, true}) {
     const BandCostJob job{device_volume,
                           d.floors.data(),
@@ -1064,10 +1148,14 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
                           d.band_cost.data(),
                           first,
                           static_cast<int>(d.bscans),
-                          p,
-                          rpe};
-    band_cost_kernel<<<band_grid, kCostThreads, band_shared, stream>>>(job);
-    cuda::check_launch("band_cost_kernel");
+                          p};
+    if (rpe) {
+      rpe_cost_kernel<<<band_grid, kCostThreads, band_shared, stream>>>(job);
+      cuda::check_launch("rpe_cost_kernel");
+    } else {
+      ilm_cost_kernel<<<band_grid, kCostThreads, ilm_shared, stream>>>(job);
+      cuda::check_launch("ilm_cost_kernel");
+    }
     stage_done();
     PathJob path{};
     path.cost = d.band_cost.data();

@@ -81,6 +81,17 @@ IOCT_HD int rpe_score(const std::uint8_t* column, int depth, int d, int floor) {
   return 2 * above_floor(px(column, depth, d), floor) - above / 2 - below / 2;
 }
 
+// The ILM evidence from its three sums of levels (above the background) around depth d: the rise
+// (d..d+2 less d-3..d-1), the vitreous above (d-kIlmAboveLast..d-kIlmAboveFirst) and the retina
+// below (d+kIlmBelowFirst..d+kIlmBelowLast). Summed px by px (ilm_score) or from prefix sums (the
+// GPU's cost kernel), the same integers.
+inline constexpr int kIlmRiseAbove = 3;  // px above d in the rise
+inline constexpr int kIlmRiseBelow = 2;  // px below d in it
+IOCT_HD int ilm_score_of_sums(int rise, int above, int below) {
+  return rise / 3 - above / (kIlmAboveLast - kIlmAboveFirst + 1) +
+         min_int(below / (kIlmBelowLast - kIlmBelowFirst + 1), kIlmBelowCap) / 2;
+}
+
 IOCT_HD int ilm_score(const std::uint8_t* column, int depth, int d, int floor) {
   // Levels above the background: a dark border (no data) above the vitreous is no edge.
   const auto level = [&](int x) { return above_floor(px(column, depth, x), floor); };
@@ -90,8 +101,7 @@ IOCT_HD int ilm_score(const std::uint8_t* column, int depth, int d, int floor) {
   for (int k = kIlmAboveFirst; k <= kIlmAboveLast; ++k) above += level(d - k);
   int below = 0;
   for (int k = kIlmBelowFirst; k <= kIlmBelowLast; ++k) below += level(d + k);
-  return rise / 3 - above / (kIlmAboveLast - kIlmAboveFirst + 1) +
-         min_int(below / (kIlmBelowLast - kIlmBelowFirst + 1), kIlmBelowCap) / 2;
+  return ilm_score_of_sums(rise, above, below);
 }
 
 // The coarse search works on cells of kCoarseCellPx px (a cell's level is its brightest px; the
@@ -131,9 +141,12 @@ IOCT_HD std::int32_t rpe_cost(const std::uint8_t* column, int depth, int d, int 
   if (d < 0 || d >= depth) return kOutsideCost;
   return -(rpe_score(column, depth, d, floor) + kDepthPriorWeight * min_int(below_ilm, depth_cap));
 }
+IOCT_HD std::int32_t ilm_cost_of_score(int score) {
+  return -clamp_int(score, -255, 255);
+}
 IOCT_HD std::int32_t ilm_cost(const std::uint8_t* column, int depth, int d, int floor) {
   if (d < 0 || d >= depth) return kOutsideCost;
-  return -clamp_int(ilm_score(column, depth, d, floor), -255, 255);
+  return ilm_cost_of_score(ilm_score(column, depth, d, floor));
 }
 // The median of three coarse cells: the prior a B-scan takes from itself and its neighbours.
 IOCT_HD std::int32_t median3(std::int32_t a, std::int32_t b, std::int32_t c) {
@@ -288,8 +301,8 @@ IOCT_HD std::int32_t best_step_key(const std::int32_t* row, int base,
   // comes out as kUnreachableKey and the step 0 (best_step's answer) without a test.
   static_assert((kUnreachableKey & (kStepKeyScale - 1)) == 0);
   *order = key & (kStepKeyScale - 1);
-  // The candidate's total, its step's penalty included, as a key.
-  return key - *order;
+  // The candidate's total, its step's penalty included, as a key (the key less its place).
+  return key & ~(kStepKeyScale - 1);
 }
 
 // A key plus a state's cost, staying unreachable.
