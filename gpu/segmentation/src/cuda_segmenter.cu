@@ -280,10 +280,14 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
   const auto search_step = [&](auto odd, int i, int read, std::int32_t cost) {
     std::int32_t* const next = decltype(odd)::value ? buffer1 : buffer0;
     if (active && i <= own_iterations) {
-      int kept = 0;  // the step, or (with keys) its place in the order tried
+      int kept = 0;  // the step taken
       if constexpr (kKeys) {
+        int order = 0;
         next[s] = detail::add_cost_key(
-            detail::best_step_key<kFixedStep>(rows, read, offsets, &kept), cost);
+            detail::best_step_key<kFixedStep>(rows, read, offsets, &order), cost);
+        // Kept as the step, not its place in the order tried: the decoding then sits beside
+        // the step's chain, not in the trace back's, whose every link waits on it.
+        kept = detail::nearest_first(order);
       } else {
         const std::int32_t* const previous = decltype(odd)::value ? buffer0 : buffer1;
         const std::int32_t best =
@@ -391,10 +395,7 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
   // memory's loads, where they fit, are the shortest links).
   std::int32_t* path = job.path + static_cast<std::size_t>(g) * N;
   const auto trace = [&](const std::int8_t* steps) {
-    const auto step_at = [&](int column, int state) {
-      const int kept = steps[column * S + state];
-      return kKeys ? detail::nearest_first(kept) : kept;
-    };
+    const auto step_at = [&](int column, int state) { return steps[column * S + state]; };
     if (threadIdx.x == 0) {
       int state = best_state;
       path[middle] = origin[middle] + state;
@@ -558,17 +559,25 @@ struct BandCostJob {
   SegmentationParams p;
 };
 
+// The RPE band's costs from each column's levels (above the background) over the band and its
+// windows' reach, worked out once into shared memory: a cost then reads levels, not px with
+// their clamps and background. Shared memory: per column of the block, rpe_window_length(band)
+// levels.
+constexpr int kRpeWindowBefore = detail::kRpeAboveLast;  // px of the window above state 0
+constexpr int kRpeWindowAfter = detail::kRpeBelowLast;   // and below the band's last state
+__host__ __device__ constexpr int rpe_window_length(int band) {
+  return kRpeWindowBefore + band + kRpeWindowAfter;
+}
+
 __global__ void rpe_cost_kernel(BandCostJob job) {
-  extern __shared__ __align__(16) std::uint8_t columns[];  // [kColumnsPerCostBlock][depth]
+  extern __shared__ __align__(16) std::uint8_t levels[];  // [kColumnsPerCostBlock][length]
   __shared__ std::int32_t origins[kColumnsPerCostBlock];
   const SegmentationParams& p = job.p;
   const int g = blockIdx.y;
   const int b = job.first + g;
   const int first_column = blockIdx.x * kColumnsPerCostBlock;
-  const std::uint8_t* pixels = job.volume + static_cast<std::size_t>(b) * p.ascans * p.depth;
-  stage_bytes(
-      columns, pixels + static_cast<std::size_t>(first_column) * p.depth,
-      static_cast<std::size_t>(min(kColumnsPerCostBlock, p.ascans - first_column)) * p.depth);
+  const int columns = min(kColumnsPerCostBlock, p.ascans - first_column);
+  const int length = rpe_window_length(p.band);
   if (threadIdx.x < kColumnsPerCostBlock) {
     const int a = first_column + threadIdx.x;
     std::int32_t o = 0;
@@ -579,16 +588,39 @@ __global__ void rpe_cost_kernel(BandCostJob job) {
     origins[threadIdx.x] = o;
   }
   __syncthreads();
+  // The levels of each column's window, the edge px repeated outside the column (px()).
   const int floor = job.floors[b];
-  for (int i = threadIdx.x; i < kColumnsPerCostBlock * p.band; i += blockDim.x) {
+  const std::uint8_t* pixels = job.volume + static_cast<std::size_t>(b) * p.ascans * p.depth;
+  for (int i = threadIdx.x; i < columns * length; i += blockDim.x) {
+    const int k = i / length;
+    const int x = i % length;
+    const std::uint8_t* column = pixels + static_cast<std::size_t>(first_column + k) * p.depth;
+    const int d = origins[k] - kRpeWindowBefore + x;
+    levels[k * length + x] = static_cast<std::uint8_t>(
+        detail::above_floor(__ldg(column + detail::clamp_int(d, 0, p.depth - 1)), floor));
+  }
+  __syncthreads();
+  for (int i = threadIdx.x; i < columns * p.band; i += blockDim.x) {
     const int k = i / p.band;
     const int s = i % p.band;
-    const int a = first_column + k;
-    if (a >= p.ascans) continue;
-    const std::uint8_t* column = columns + k * p.depth;
     const int d = origins[k] + s;
-    job.cost[(static_cast<std::size_t>(g) * p.ascans + a) * p.band + s] =
-        detail::rpe_cost(column, p.depth, d, s, p.rpe_depth_cap, floor);
+    std::int32_t c = detail::kOutsideCost;
+    if (d >= 0 && d < p.depth) {
+      const std::uint8_t* at = levels + k * length + kRpeWindowBefore + s;  // d's level
+      int above = 0;
+#pragma unroll
+      for (int j = detail::kRpeAboveFirst; j <= detail::kRpeAboveLast; ++j) {
+        above = max(above, static_cast<int>(at[-j]));
+      }
+      int below = 0;
+#pragma unroll
+      for (int j = detail::kRpeBelowFirst; j <= detail::kRpeBelowLast; ++j) {
+        below = max(below, static_cast<int>(at[j]));
+      }
+      c = detail::rpe_cost_of_score(detail::rpe_score_of_levels(at[0], above, below), s,
+                                    p.rpe_depth_cap);
+    }
+    job.cost[(static_cast<std::size_t>(g) * p.ascans + first_column + k) * p.band + s] = c;
   }
 }
 
@@ -1135,7 +1167,8 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
   const dim3 band_grid(
       static_cast<unsigned>((p.ascans + kColumnsPerCostBlock - 1) / kColumnsPerCostBlock),
       static_cast<unsigned>(count));
-  const std::size_t band_shared = static_cast<std::size_t>(kColumnsPerCostBlock) * p.depth;
+  const std::size_t rpe_shared =
+      static_cast<std::size_t>(kColumnsPerCostBlock) * rpe_window_length(p.band);
   const std::size_t ilm_shared = static_cast<std::size_t>(kColumnsPerCostBlock) *
                                  (ilm_window_length(p.band) + 1) * sizeof(std::int32_t);
   for (const bool rpe : {false, true}) {
@@ -1150,7 +1183,7 @@ BscanSpan CudaSegmenter::enqueue_direct(const std::uint8_t* device_volume, Bscan
                           static_cast<int>(d.bscans),
                           p};
     if (rpe) {
-      rpe_cost_kernel<<<band_grid, kCostThreads, band_shared, stream>>>(job);
+      rpe_cost_kernel<<<band_grid, kCostThreads, rpe_shared, stream>>>(job);
       cuda::check_launch("rpe_cost_kernel");
     } else {
       ilm_cost_kernel<<<band_grid, kCostThreads, ilm_shared, stream>>>(job);

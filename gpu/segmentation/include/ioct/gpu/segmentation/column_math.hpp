@@ -69,6 +69,13 @@ IOCT_HD int above_floor(int value, int floor) {
   return value > floor ? value - floor : 0;
 }
 
+// The RPE evidence from the level at d and the brightest levels of its two windows (above the
+// background): px by px (rpe_score) or from a column's levels kept in shared memory (the GPU's
+// cost kernel), the same integers.
+IOCT_HD int rpe_score_of_levels(int level, int brightest_above, int brightest_below) {
+  return 2 * level - brightest_above / 2 - brightest_below / 2;
+}
+
 IOCT_HD int rpe_score(const std::uint8_t* column, int depth, int d, int floor) {
   int above = 0;
   for (int k = kRpeAboveFirst; k <= kRpeAboveLast; ++k) {
@@ -78,7 +85,7 @@ IOCT_HD int rpe_score(const std::uint8_t* column, int depth, int d, int floor) {
   for (int k = kRpeBelowFirst; k <= kRpeBelowLast; ++k) {
     below = max_int(below, above_floor(px(column, depth, d + k), floor));
   }
-  return 2 * above_floor(px(column, depth, d), floor) - above / 2 - below / 2;
+  return rpe_score_of_levels(above_floor(px(column, depth, d), floor), above, below);
 }
 
 // The ILM evidence from its three sums of levels (above the background) around depth d: the rise
@@ -136,10 +143,13 @@ IOCT_HD int coarse_score(const std::uint8_t* levels, int cells, int k) {
 // above it and can be as bright as the RPE, but the RPE lies deeper; where the retina is missing
 // (a macular hole) the RPE's evidence still wins against the dimmer choroid beneath it.
 inline constexpr int kDepthPriorWeight = 2;
+IOCT_HD std::int32_t rpe_cost_of_score(int score, int below_ilm, int depth_cap) {
+  return -(score + kDepthPriorWeight * min_int(below_ilm, depth_cap));
+}
 IOCT_HD std::int32_t rpe_cost(const std::uint8_t* column, int depth, int d, int below_ilm,
                               int depth_cap, int floor) {
   if (d < 0 || d >= depth) return kOutsideCost;
-  return -(rpe_score(column, depth, d, floor) + kDepthPriorWeight * min_int(below_ilm, depth_cap));
+  return rpe_cost_of_score(rpe_score(column, depth, d, floor), below_ilm, depth_cap);
 }
 IOCT_HD std::int32_t ilm_cost_of_score(int score) {
   return -clamp_int(score, -255, 255);
@@ -276,9 +286,8 @@ IOCT_HD StepKeyOffsets<kFixedStep> step_key_offsets(std::int32_t penalty) {
 // best_step over keys, for a step bound of kFixedStep: `row` points at state 0 of a padded row of
 // keys, `base` is step_key_base's; returns the best total reaching the state as a key
 // (kUnreachableKey if none) and the place of the step taken in the order tried (0, the step 0,
-// if none): the step is nearest_first(*order). The place, not the step, so that a search step
-// spends no instructions on turning one into the other; only the trace back does, once per
-// column.
+// if none): the step is nearest_first(*order). The GPU's search decodes it beside the step's
+// chain and keeps the step, so that the trace back, a chain of dependent reads, need not.
 template <int kFixedStep>
 IOCT_HD std::int32_t best_step_key(const std::int32_t* row, int base,
                                    const StepKeyOffsets<kFixedStep>& offsets, int* order) {
