@@ -63,6 +63,42 @@ __device__ void stage_bytes(std::uint8_t* shared, const std::uint8_t* global, st
   for (std::size_t i = done + threadIdx.x; i < n; i += blockDim.x) shared[i] = __ldg(global + i);
 }
 
+// histogram_quantile by one warp: each lane sums 8 neighbouring bins, a warp scan gives every
+// lane the count before its bins, and the first lane whose bins reach the quantile finds the bin
+// among its 8. The same bin as the serial walk (whose 256 dependent steps cost a few us on one
+// thread), in every lane of the warp.
+__device__ int warp_histogram_quantile(const std::uint32_t* histogram, std::uint32_t count,
+                                       std::uint32_t numerator, std::uint32_t denominator) {
+  static_assert(kHistogramBins == 32 * 8);
+  if (count == 0) return 0;
+  const int lane = static_cast<int>(threadIdx.x % 32);
+  const std::uint32_t* own = histogram + lane * 8;
+  std::uint64_t own_sum = 0;
+#pragma unroll
+  for (int i = 0; i < 8; ++i) own_sum += own[i];
+  using WarpScan = cub::WarpScan<std::uint64_t>;
+  __shared__ typename WarpScan::TempStorage storage[1024 / 32];  // a warp's own, up to 1024 threads
+  std::uint64_t before = 0;
+  WarpScan(storage[threadIdx.x / 32]).ExclusiveSum(own_sum, before);
+  const std::uint64_t target = std::uint64_t{count} * numerator;
+  const bool reaches = (before + own_sum) * denominator >= target;
+  const unsigned lanes = __ballot_sync(0xffffffffu, reaches);
+  if (lanes == 0) return kHistogramBins - 1;
+  const int first = __ffs(lanes) - 1;
+  int bin = kHistogramBins - 1;
+  if (lane == first) {
+    std::uint64_t cumulative = before;
+    for (int i = 0; i < 8; ++i) {
+      cumulative += own[i];
+      if (cumulative * denominator >= target) {
+        bin = lane * 8 + i;
+        break;
+      }
+    }
+  }
+  return __shfl_sync(0xffffffffu, bin, first);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Coarse costs: per pair of A-scans and cell, the better column's negated cell evidence; and the
 // histogram of the background samples (histogram.hpp) of the block's columns, for the B-scan's
@@ -185,12 +221,13 @@ __device__ void sum_background(const PathJob& job, int g, int b) {
     bins[v] = sum;
   }
   __syncthreads();
-  if (threadIdx.x == 0) {
+  if (threadIdx.x < 32) {
     const std::size_t bscan_px = static_cast<std::size_t>(job.p.ascans) * job.p.depth;
     const auto samples = static_cast<std::uint32_t>((bscan_px + detail::kFloorSampleStride - 1) /
                                                     detail::kFloorSampleStride);
-    job.floors[b] = static_cast<std::uint8_t>(detail::histogram_quantile(
-        bins, samples, detail::kFloorNumerator, detail::kFloorDenominator));
+    const int floor =
+        warp_histogram_quantile(bins, samples, detail::kFloorNumerator, detail::kFloorDenominator);
+    if (threadIdx.x == 0) job.floors[b] = static_cast<std::uint8_t>(floor);
   }
 }
 
@@ -511,12 +548,13 @@ __global__ void verdict_kernel(FitJob job) {
   }
   __syncthreads();
   const auto count = static_cast<std::uint32_t>(p.ascans);
-  // Three medians, by threads of different warps where there are enough.
+  // Three medians, a warp each.
+  static_assert(kVerdictThreads >= 3 * 32);
   const std::uint32_t* histograms[3] = {rpe_histogram, ilm_histogram, thickness_histogram};
-  for (int k = 0; k < 3; ++k) {
-    if (threadIdx.x == (32u * k) % blockDim.x) {
-      typical[k] = detail::histogram_quantile(histograms[k], count, 1, 2);
-    }
+  const int warp = static_cast<int>(threadIdx.x / 32);
+  if (warp < 3) {
+    const int median = warp_histogram_quantile(histograms[warp], count, 1, 2);
+    if (threadIdx.x % 32 == 0) typical[warp] = median;
   }
   __syncthreads();
   int mine = 0;
