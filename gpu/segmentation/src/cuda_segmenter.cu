@@ -597,6 +597,24 @@ struct BandCostJob {
   SegmentationParams p;
 };
 
+// The levels (above the background) of the block's columns of B-scan b over their windows: from
+// `before` px above each band's origin, `length` px, the edge px repeated outside the column (as
+// px() does); column k's level x goes to into[k * row + offset + x].
+template <class Level>
+__device__ void window_levels(const std::uint8_t* volume, const SegmentationParams& p, int b,
+                              int first_column, int columns, const std::int32_t* origins,
+                              int before, int length, int floor, Level* into, int row, int offset) {
+  const std::uint8_t* pixels = volume + static_cast<std::size_t>(b) * p.ascans * p.depth;
+  for (int i = threadIdx.x; i < columns * length; i += blockDim.x) {
+    const int k = i / length;
+    const int x = i % length;
+    const std::uint8_t* column = pixels + static_cast<std::size_t>(first_column + k) * p.depth;
+    const int d = origins[k] - before + x;
+    into[k * row + offset + x] = static_cast<Level>(
+        detail::above_floor(__ldg(column + detail::clamp_int(d, 0, p.depth - 1)), floor));
+  }
+}
+
 // The RPE band's costs from each column's levels (above the background) over the band and its
 // windows' reach, worked out once into shared memory: a cost then reads levels, not px with
 // their clamps and background. Shared memory: per column of the block, rpe_window_length(band)
@@ -626,17 +644,9 @@ __global__ void rpe_cost_kernel(BandCostJob job) {
     origins[threadIdx.x] = o;
   }
   __syncthreads();
-  // The levels of each column's window, the edge px repeated outside the column (px()).
   const int floor = job.floors[b];
-  const std::uint8_t* pixels = job.volume + static_cast<std::size_t>(b) * p.ascans * p.depth;
-  for (int i = threadIdx.x; i < columns * length; i += blockDim.x) {
-    const int k = i / length;
-    const int x = i % length;
-    const std::uint8_t* column = pixels + static_cast<std::size_t>(first_column + k) * p.depth;
-    const int d = origins[k] - kRpeWindowBefore + x;
-    levels[k * length + x] = static_cast<std::uint8_t>(
-        detail::above_floor(__ldg(column + detail::clamp_int(d, 0, p.depth - 1)), floor));
-  }
+  window_levels(job.volume, p, b, first_column, columns, origins, kRpeWindowBefore, length, floor,
+                levels, length, 0);
   __syncthreads();
   for (int i = threadIdx.x; i < columns * p.band; i += blockDim.x) {
     const int k = i / p.band;
@@ -700,17 +710,9 @@ __global__ void ilm_cost_kernel(BandCostJob job) {
     origins[threadIdx.x] = o;
   }
   __syncthreads();
-  // The levels of each column's window, the edge px repeated outside the column (px()).
   const int floor = job.floors[b];
-  const std::uint8_t* pixels = job.volume + static_cast<std::size_t>(b) * p.ascans * p.depth;
-  for (int i = threadIdx.x; i < columns * length; i += blockDim.x) {
-    const int k = i / length;
-    const int x = i % length;
-    const std::uint8_t* column = pixels + static_cast<std::size_t>(first_column + k) * p.depth;
-    const int d = origins[k] - kIlmWindowBefore + x;
-    prefix[k * stride + 1 + x] =
-        detail::above_floor(__ldg(column + detail::clamp_int(d, 0, p.depth - 1)), floor);
-  }
+  window_levels(job.volume, p, b, first_column, columns, origins, kIlmWindowBefore, length, floor,
+                prefix, stride, 1);
   __syncthreads();
   // Each column's inclusive scan, a warp per column, 32 levels at a time.
   using WarpScan = cub::WarpScan<std::int32_t>;
