@@ -242,8 +242,7 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
   const int S = job.states;
   const int N = job.columns;
   // With the step bound fixed, the rows hold keys with unreachable padding (column_math.hpp,
-  // best_step_key) and the steps are kept as their places in the order tried; else plain totals
-  // and the steps themselves.
+  // best_step_key); else plain totals. Either way the steps taken are kept as steps.
   constexpr bool kKeys = kFixedStep > 0;
   constexpr int kPad = kKeys ? detail::kStepKeyPad : 0;
   const int R = S + 2 * kPad;  // a row's length

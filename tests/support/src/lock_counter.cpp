@@ -168,7 +168,9 @@ bool futex_op_sleeps(long op) noexcept {
     case FUTEX_WAIT:
     case FUTEX_WAIT_BITSET:
     case FUTEX_LOCK_PI:
+#ifdef FUTEX_LOCK_PI2  // kernel headers from 5.14 on
     case FUTEX_LOCK_PI2:
+#endif
     case FUTEX_WAIT_REQUEUE_PI:
       return true;
     default:

@@ -12,6 +12,7 @@
 #include <cstring>
 #include <span>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include "ioct/gpu/cuda/cuda_support.hpp"
@@ -25,27 +26,31 @@ class PinnedDownload {
   // is read aligned.
   static constexpr std::size_t kAlignment = 16;
 
-  // Queues `bytes` from `device` (not copied until fetch()); returns the piece's index.
+  // Queues `bytes` from `device` (not copied until fetch()); returns the piece's index. The
+  // first add() after a fetch() begins the next download: the last one's pieces are gone.
   std::size_t add(const void* device, std::size_t bytes) {
+    fetched_ = 0;
     if (count_ == kMaxPieces) throw std::logic_error("PinnedDownload: more than 8 pieces");
     const std::size_t offset = count_ == 0 ? 0 : aligned(end_of(count_ - 1));
     pieces_[count_] = {device, offset, bytes};
     return count_++;
   }
 
-  // Copies every queued piece on `stream` into the block and waits for them; the queue is
-  // emptied for the next download, the pieces stay readable until then.
+  // Copies every queued piece on `stream` into the block and waits for them. The queue is
+  // emptied whatever happens (a failed download leaves nothing behind for the next one); the
+  // pieces stay readable until the next add().
   void fetch(cudaStream_t stream, Payload payload, const char* what) {
-    const std::size_t total = count_ == 0 ? 0 : end_of(count_ - 1);
+    fetched_ = 0;
+    const std::size_t count = std::exchange(count_, 0);
+    const std::size_t total = count == 0 ? 0 : end_of(count - 1);
     if (block_.size() < total) block_.resize(total);
-    for (std::size_t i = 0; i < count_; ++i) {
+    for (std::size_t i = 0; i < count; ++i) {
       if (pieces_[i].bytes == 0) continue;
       copy_async(block_.data() + pieces_[i].offset, pieces_[i].device, pieces_[i].bytes,
                  cudaMemcpyDeviceToHost, stream, payload, what);
     }
     IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
-    fetched_ = count_;
-    count_ = 0;
+    fetched_ = count;
   }
 
   // The bytes of piece `i` of the last fetch().
@@ -58,6 +63,9 @@ class PinnedDownload {
   template <class T>
   void take(std::size_t i, std::vector<T>& values) const {
     const std::span<const std::byte> bytes = piece(i);
+    if (bytes.size() % sizeof(T) != 0) {
+      throw std::logic_error("PinnedDownload: a piece is not a whole number of values");
+    }
     values.resize(bytes.size() / sizeof(T));
     if (!bytes.empty()) std::memcpy(values.data(), bytes.data(), values.size() * sizeof(T));
   }
