@@ -295,9 +295,9 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
   // in the row of its own last iteration's parity, where the join looks for it.
   constexpr int kColumns = kChunk<kMaxThreads>;
   static_assert(kColumns % 2 == 0);
-  // Iteration i's column is end + direction x i; its cost of this state own_costs[column x S].
-  const int cost_stride = direction * S;
-  const int step_stride = direction * S;            // of the steps' places, likewise
+  // Iteration i's column is end + direction x i: its cost of this state own_costs[column x S],
+  // its step's place own_step_place + i x column_stride.
+  const int column_stride = direction * S;
   const int own_step_place = (end + half) * S + s;  // iteration 0's
   // Where a step reads the row before, from the band's shift between the two columns and the
   // parity of the step: with keys the place in `rows` of step_key_base's state in that row
@@ -331,7 +331,7 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
         next[s] = detail::add_cost(best, cost);
       }
       // Shared or global memory, chosen for the whole block: each store of its own kind.
-      const int at = own_step_place + i * step_stride;
+      const int at = own_step_place + i * column_stride;
       if (job.shared_steps) {
         shared_steps[at] = static_cast<std::int8_t>(kept);
       } else {
@@ -353,7 +353,7 @@ __global__ void __launch_bounds__(kMaxThreads) path_kernel(PathJob job) {
 #pragma unroll
     for (int k = 0; k < kColumns; ++k) {
       into[k] = active && first + k <= own_iterations
-                    ? __ldg(own_costs + (column_place + k * cost_stride))
+                    ? __ldg(own_costs + (column_place + k * column_stride))
                     : 0;
     }
   };
@@ -596,6 +596,36 @@ struct BandCostJob {
   SegmentationParams p;
 };
 
+// The band's origin (origin_of(a), its state 0's depth) of each of the block's columns, noted in
+// the job for the search and kept in `origins` for the block; 0 past the B-scan's last A-scan.
+template <class OriginOf>
+__device__ void band_origins(const BandCostJob& job, int g, int first_column, std::int32_t* origins,
+                             OriginOf origin_of) {
+  if (threadIdx.x >= kColumnsPerCostBlock) return;
+  const int a = first_column + static_cast<int>(threadIdx.x);
+  std::int32_t o = 0;
+  if (a < job.p.ascans) {
+    o = origin_of(a);
+    job.origin[static_cast<std::size_t>(g) * job.p.ascans + a] = o;
+  }
+  origins[threadIdx.x] = o;
+}
+
+// Every cost of the block's columns' bands into the job: cost_of(k, s) for column k's state s
+// where its depth lies in the image, kOutsideCost where it does not (as ilm_cost and rpe_cost).
+template <class CostOf>
+__device__ void band_costs(const BandCostJob& job, int g, int first_column, int columns,
+                           const std::int32_t* origins, CostOf cost_of) {
+  const SegmentationParams& p = job.p;
+  for (int i = threadIdx.x; i < columns * p.band; i += blockDim.x) {
+    const int k = i / p.band;
+    const int s = i % p.band;
+    const int d = origins[k] + s;
+    job.cost[(static_cast<std::size_t>(g) * p.ascans + first_column + k) * p.band + s] =
+        d >= 0 && d < p.depth ? cost_of(k, s) : detail::kOutsideCost;
+  }
+}
+
 // The levels (above the background) of the block's columns of B-scan b over their windows: from
 // `before` px above each band's origin, `length` px, the edge px repeated outside the column (as
 // px() does); column k's level x goes to into[k * row + offset + x].
@@ -633,42 +663,28 @@ __global__ void rpe_cost_kernel(BandCostJob job) {
   const int first_column = blockIdx.x * kColumnsPerCostBlock;
   const int columns = min(kColumnsPerCostBlock, p.ascans - first_column);
   const int length = rpe_window_length(p.band);
-  if (threadIdx.x < kColumnsPerCostBlock) {
-    const int a = first_column + threadIdx.x;
-    std::int32_t o = 0;
-    if (a < p.ascans) {
-      o = job.ilm_px[static_cast<std::size_t>(g) * p.ascans + a];
-      job.origin[static_cast<std::size_t>(g) * p.ascans + a] = o;
-    }
-    origins[threadIdx.x] = o;
-  }
+  band_origins(job, g, first_column, origins,
+               [&](int a) { return job.ilm_px[static_cast<std::size_t>(g) * p.ascans + a]; });
   __syncthreads();
   const int floor = job.floors[b];
   window_levels(job.volume, p, b, first_column, columns, origins, kRpeWindowBefore, length, floor,
                 levels, length, 0);
   __syncthreads();
-  for (int i = threadIdx.x; i < columns * p.band; i += blockDim.x) {
-    const int k = i / p.band;
-    const int s = i % p.band;
-    const int d = origins[k] + s;
-    std::int32_t c = detail::kOutsideCost;
-    if (d >= 0 && d < p.depth) {
-      const std::uint8_t* at = levels + k * length + kRpeWindowBefore + s;  // d's level
-      int above = 0;
+  band_costs(job, g, first_column, columns, origins, [&](int k, int s) {
+    const std::uint8_t* at = levels + k * length + kRpeWindowBefore + s;  // d's level
+    int above = 0;
 #pragma unroll
-      for (int j = detail::kRpeAboveFirst; j <= detail::kRpeAboveLast; ++j) {
-        above = max(above, static_cast<int>(at[-j]));
-      }
-      int below = 0;
-#pragma unroll
-      for (int j = detail::kRpeBelowFirst; j <= detail::kRpeBelowLast; ++j) {
-        below = max(below, static_cast<int>(at[j]));
-      }
-      c = detail::rpe_cost_of_score(detail::rpe_score_of_levels(at[0], above, below), s,
-                                    p.rpe_depth_cap);
+    for (int j = detail::kRpeAboveFirst; j <= detail::kRpeAboveLast; ++j) {
+      above = max(above, static_cast<int>(at[-j]));
     }
-    job.cost[(static_cast<std::size_t>(g) * p.ascans + first_column + k) * p.band + s] = c;
-  }
+    int below = 0;
+#pragma unroll
+    for (int j = detail::kRpeBelowFirst; j <= detail::kRpeBelowLast; ++j) {
+      below = max(below, static_cast<int>(at[j]));
+    }
+    return detail::rpe_cost_of_score(detail::rpe_score_of_levels(at[0], above, below), s,
+                                     p.rpe_depth_cap);
+  });
 }
 
 // The ILM band's costs from prefix sums: every cost of the band is three sums of levels over
@@ -694,20 +710,14 @@ __global__ void ilm_cost_kernel(BandCostJob job) {
   const int columns = min(kColumnsPerCostBlock, p.ascans - first_column);
   const int length = ilm_window_length(p.band);
   const int stride = length + 1;
-  if (threadIdx.x < kColumnsPerCostBlock) {
-    const int a = first_column + threadIdx.x;
-    std::int32_t o = 0;
-    if (a < p.ascans) {
-      const std::int32_t* own = job.coarse + static_cast<std::size_t>(b) * p.ascans;
-      const bool has_before = b > 0 && job.coarse_valid[b - 1] != 0;
-      const bool has_after = b + 1 < job.bscans && job.coarse_valid[b + 1] != 0;
-      const std::int32_t before = has_before ? own[a - p.ascans] : own[a];
-      const std::int32_t after = has_after ? own[a + p.ascans] : own[a];
-      o = detail::ilm_band_origin(detail::median3(before, own[a], after), p.band);
-      job.origin[static_cast<std::size_t>(g) * p.ascans + a] = o;
-    }
-    origins[threadIdx.x] = o;
-  }
+  band_origins(job, g, first_column, origins, [&](int a) {
+    const std::int32_t* own = job.coarse + static_cast<std::size_t>(b) * p.ascans;
+    const bool has_before = b > 0 && job.coarse_valid[b - 1] != 0;
+    const bool has_after = b + 1 < job.bscans && job.coarse_valid[b + 1] != 0;
+    const std::int32_t before = has_before ? own[a - p.ascans] : own[a];
+    const std::int32_t after = has_after ? own[a + p.ascans] : own[a];
+    return detail::ilm_band_origin(detail::median3(before, own[a], after), p.band);
+  });
   __syncthreads();
   const int floor = job.floors[b];
   window_levels(job.volume, p, b, first_column, columns, origins, kIlmWindowBefore, length, floor,
@@ -734,22 +744,15 @@ __global__ void ilm_cost_kernel(BandCostJob job) {
   }
   __syncthreads();
   // Each cost from its sums: sum(first, last) holds the levels from d + first to d + last.
-  for (int i = threadIdx.x; i < columns * p.band; i += blockDim.x) {
-    const int k = i / p.band;
-    const int s = i % p.band;
-    const int d = origins[k] + s;
-    std::int32_t c = detail::kOutsideCost;
-    if (d >= 0 && d < p.depth) {
-      const std::int32_t* sums = prefix + k * stride;
-      const int at = kIlmWindowBefore + s;  // d's index in the window
-      const auto sum = [&](int first, int last) { return sums[at + last + 1] - sums[at + first]; };
-      const int rise = sum(0, detail::kIlmRiseBelow) - sum(-detail::kIlmRiseAbove, -1);
-      const int above = sum(-detail::kIlmAboveLast, -detail::kIlmAboveFirst);
-      const int below = sum(detail::kIlmBelowFirst, detail::kIlmBelowLast);
-      c = detail::ilm_cost_of_score(detail::ilm_score_of_sums(rise, above, below));
-    }
-    job.cost[(static_cast<std::size_t>(g) * p.ascans + first_column + k) * p.band + s] = c;
-  }
+  band_costs(job, g, first_column, columns, origins, [&](int k, int s) {
+    const std::int32_t* sums = prefix + k * stride;
+    const int at = kIlmWindowBefore + s;  // d's index in the window
+    const auto sum = [&](int first, int last) { return sums[at + last + 1] - sums[at + first]; };
+    const int rise = sum(0, detail::kIlmRiseBelow) - sum(-detail::kIlmRiseAbove, -1);
+    const int above = sum(-detail::kIlmAboveLast, -detail::kIlmAboveFirst);
+    const int below = sum(detail::kIlmBelowFirst, detail::kIlmBelowLast);
+    return detail::ilm_cost_of_score(detail::ilm_score_of_sums(rise, above, below));
+  });
 }
 
 // ---------------------------------------------------------------------------------------------
