@@ -18,6 +18,7 @@
 #include "ioct/test_support/allocation_counter.hpp"
 #include "ioct/test_support/lock_counter.hpp"
 #include "ioct/test_support/page_fault_counter.hpp"
+#include "probed_simulator.hpp"
 #include "rig.hpp"
 #include "safety_state_machine.hpp"
 
@@ -223,9 +224,7 @@ TEST(AcquisitionLoop, AScanChangeTakesEffectAtAVolumeBoundaryAndTheOldPatternCom
 class ProbeDigitizer final : public hal::Digitizer {
  public:
   static constexpr std::size_t kProbes = 40;
-  std::array<std::atomic<std::uint64_t>, kProbes> allocations{};
-  std::array<std::atomic<std::uint64_t>, kProbes> page_faults{};
-  std::array<std::atomic<std::uint64_t>, kProbes> locks{};
+  test::ThreadCostProbes<kProbes> probes;
   std::atomic<std::size_t> calls{0};
   std::string_view backend() const noexcept override { return "probe"; }
 
@@ -235,12 +234,7 @@ class ProbeDigitizer final : public hal::Digitizer {
   void do_stop() noexcept override {}
   void do_acquire_group(std::span<std::uint16_t> group, hal::GroupInfo& info) override {
     const std::size_t call = calls.load(std::memory_order_relaxed);
-    if (call < kProbes) {
-      allocations[call].store(test_support::thread_allocations(), std::memory_order_relaxed);
-      page_faults[call].store(test_support::thread_page_faults().total(),
-                              std::memory_order_relaxed);
-      locks[call].store(test_support::thread_lock_acquisitions(), std::memory_order_relaxed);
-    }
+    probes.note(call);
     std::fill(group.begin(), group.end(), static_cast<std::uint16_t>(call));
     info = {};
     info.first_sweep_counter = sweep_;
@@ -264,12 +258,11 @@ TEST(AcquisitionLoop, SteadyStateIterationsNeitherAllocateNorFaultNorLock) {
   // ring all in their steady state).
   const std::size_t first = 16;
   const std::size_t last = ProbeDigitizer::kProbes - 1;
-  EXPECT_EQ(digitizer.allocations[last] - digitizer.allocations[first], 0u)
-      << test_support::allocation_counting_method();
-  EXPECT_EQ(digitizer.page_faults[last] - digitizer.page_faults[first], 0u);
+  const test::ThreadCosts spent = digitizer.probes.between(first, last);
+  EXPECT_EQ(spent.allocations, 0u) << test_support::allocation_counting_method();
+  EXPECT_EQ(spent.page_faults, 0u);
   if (test_support::locks_are_counted_or_say_why()) {
-    EXPECT_EQ(digitizer.locks[last] - digitizer.locks[first], 0u)
-        << test_support::lock_counting_method();
+    EXPECT_EQ(spent.locks, 0u) << test_support::lock_counting_method();
   }
 #if !defined(__SANITIZE_THREAD__)
   // The loop's own counter starts after the first lap. ThreadSanitizer maps the shadow of the
@@ -280,33 +273,7 @@ TEST(AcquisitionLoop, SteadyStateIterationsNeitherAllocateNorFaultNorLock) {
 }
 
 // The simulator with synthesis workers, noting at each group what ProbeDigitizer notes.
-class ProbedSimulator final : public hal::Digitizer {
- public:
-  static constexpr std::size_t kProbes = 40;
-  explicit ProbedSimulator(const sim::SimulationConfig& c) : inner(c) {}
-  std::array<std::atomic<std::uint64_t>, kProbes> allocations{};
-  std::array<std::atomic<std::uint64_t>, kProbes> page_faults{};
-  std::array<std::atomic<std::uint64_t>, kProbes> locks{};
-  std::atomic<std::size_t> calls{0};
-  sim::SimulatedDigitizer inner;
-  std::string_view backend() const noexcept override { return "probed simulator"; }
-
- protected:
-  void do_prepare(const hal::DigitizerConfig& c) override { inner.prepare(c); }
-  void do_start() override { inner.start(); }
-  void do_stop() noexcept override { inner.stop(); }
-  void do_acquire_group(std::span<std::uint16_t> group, hal::GroupInfo& info) override {
-    const std::size_t call = calls.load(std::memory_order_relaxed);
-    if (call < kProbes) {
-      allocations[call].store(test_support::thread_allocations(), std::memory_order_relaxed);
-      page_faults[call].store(test_support::thread_page_faults().total(),
-                              std::memory_order_relaxed);
-      locks[call].store(test_support::thread_lock_acquisitions(), std::memory_order_relaxed);
-    }
-    inner.acquire_group(group, info);
-    calls.store(call + 1, std::memory_order_release);
-  }
-};
+using ProbedSimulator = test::ProbedSimulator<40>;
 
 TEST(AcquisitionLoop, WithSimulatorWorkersSteadyStateIterationsNeitherAllocateNorFaultNorLock) {
   const hal::DigitizerConfig geometry = test::small_geometry();
@@ -325,17 +292,16 @@ TEST(AcquisitionLoop, WithSimulatorWorkersSteadyStateIterationsNeitherAllocateNo
   // their group: none of it allocates, faults or takes a lock on the loop's thread.
   const std::size_t first = 16;
   const std::size_t last = ProbedSimulator::kProbes - 1;
-  EXPECT_EQ(digitizer.allocations[last] - digitizer.allocations[first], 0u)
-      << test_support::allocation_counting_method();
+  const test::ThreadCosts spent = digitizer.probes.between(first, last);
+  EXPECT_EQ(spent.allocations, 0u) << test_support::allocation_counting_method();
   if (test_support::locks_are_counted_or_say_why()) {
-    EXPECT_EQ(digitizer.locks[last] - digitizer.locks[first], 0u)
-        << test_support::lock_counting_method();
+    EXPECT_EQ(spent.locks, 0u) << test_support::lock_counting_method();
   }
 #if !defined(__SANITIZE_THREAD__)
   // Under ThreadSanitizer the copy out of the workers' buffers faults pages in every group (80
   // in 23 groups seen): the sanitizer's shadow of those buffers, which the workers' writes
   // renew, not memory of ours. There only the allocations are judged.
-  EXPECT_EQ(digitizer.page_faults[last] - digitizer.page_faults[first], 0u);
+  EXPECT_EQ(spent.page_faults, 0u);
 #endif
   EXPECT_FALSE(rig.loop->failed());
 }

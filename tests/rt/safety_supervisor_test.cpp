@@ -14,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <atomic>
 #include <cstdio>
 #include <functional>
@@ -23,6 +24,7 @@
 #include "ioct/test_support/allocation_counter.hpp"
 #include "ioct/test_support/lock_counter.hpp"
 #include "ioct/test_support/page_fault_counter.hpp"
+#include "probed_simulator.hpp"
 #include "rig.hpp"
 
 namespace ioct::rt {
@@ -321,34 +323,32 @@ TEST(SafetySupervisor, StartsWithinOnePollShareTheirRefusal) {
 TEST(SafetySupervisor, ItsPollsAllocateNothingFaultNoPageAndTakeNoLockWhileScanning) {
   Rig rig("rt-safe-steady");
   start_scanning(rig);
-  struct Sample {
-    std::atomic<std::uint64_t> allocations{0}, page_faults{0}, locks{0};
-    std::atomic<bool> taken{false};
-  };
-  const auto sample = [&](Sample& into) {
-    rig.lines.after_next_read([&into] {
-      into.allocations = test_support::thread_allocations();
-      into.page_faults = test_support::thread_page_faults().total();
-      into.locks = test_support::thread_lock_acquisitions();
-      into.taken = true;
+  test::ThreadCostProbes<2> probes;  // 0: before, 1: after
+  std::array<std::atomic<bool>, 2> taken{};
+  const auto sample = [&](std::size_t probe) {
+    // Two references only: the hook stays within std::function's own storage, so handing it
+    // over and dropping it on the safety thread frees no heap block there.
+    rig.lines.after_next_read([&probes, &taken] {
+      const std::size_t next = taken[0] ? 1 : 0;
+      probes.note(next);
+      taken[next] = true;
     });
-    ASSERT_TRUE(eventually([&] { return into.taken.load(); }, 5s));
+    ASSERT_TRUE(eventually([&] { return taken[probe].load(); }, 5s));
   };
   std::this_thread::sleep_for(100ms);  // past the first polls of scanning
-  Sample before, after;
-  sample(before);
+  sample(0);
   std::this_thread::sleep_for(300ms);
-  sample(after);
+  sample(1);
   EXPECT_EQ(rig.state(), SafetyState::scanning);
   EXPECT_GT(rig.lines.toggles.load(), 0u);
-  EXPECT_EQ(after.allocations - before.allocations, 0u)
-      << test_support::allocation_counting_method();
+  const test::ThreadCosts spent = probes.between(0, 1);
+  EXPECT_EQ(spent.allocations, 0u) << test_support::allocation_counting_method();
   if (test_support::locks_are_counted_or_say_why()) {
-    EXPECT_EQ(after.locks - before.locks, 0u) << test_support::lock_counting_method();
+    EXPECT_EQ(spent.locks, 0u) << test_support::lock_counting_method();
   }
 #if !defined(__SANITIZE_THREAD__)
   // (ThreadSanitizer faults its shadow memory in lazily: there only the allocations are judged.)
-  EXPECT_EQ(after.page_faults - before.page_faults, 0u);
+  EXPECT_EQ(spent.page_faults, 0u);
 #endif
 }
 

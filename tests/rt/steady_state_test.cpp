@@ -25,6 +25,7 @@
 #include "ioct/test_support/child_process.hpp"
 #include "ioct/test_support/lock_counter.hpp"
 #include "ioct/test_support/page_fault_counter.hpp"
+#include "probed_simulator.hpp"
 #include "realtime_setup.hpp"
 #include "rig.hpp"
 
@@ -36,37 +37,8 @@ using test::eventually;
 
 using test::kSanitized;
 
-// Forwards to the simulator and notes, at each group, the acquisition thread's allocations, page
-// faults and lock acquisitions so far.
-class ProbedSimulator final : public hal::Digitizer {
- public:
-  static constexpr std::size_t kProbes = 256;
-  explicit ProbedSimulator(const sim::SimulationConfig& c) : inner_(c) {}
-  std::array<std::atomic<std::uint64_t>, kProbes> allocations{};
-  std::array<std::atomic<std::uint64_t>, kProbes> page_faults{};
-  std::array<std::atomic<std::uint64_t>, kProbes> locks{};
-  std::atomic<std::size_t> calls{0};
-  std::string_view backend() const noexcept override { return "probed simulator"; }
-
- protected:
-  void do_prepare(const hal::DigitizerConfig& c) override { inner_.prepare(c); }
-  void do_start() override { inner_.start(); }
-  void do_stop() noexcept override { inner_.stop(); }
-  void do_acquire_group(std::span<std::uint16_t> group, hal::GroupInfo& info) override {
-    const std::size_t call = calls.load(std::memory_order_relaxed);
-    if (call < kProbes) {
-      allocations[call].store(test_support::thread_allocations(), std::memory_order_relaxed);
-      page_faults[call].store(test_support::thread_page_faults().total(),
-                              std::memory_order_relaxed);
-      locks[call].store(test_support::thread_lock_acquisitions(), std::memory_order_relaxed);
-    }
-    inner_.acquire_group(group, info);
-    calls.store(call + 1, std::memory_order_release);
-  }
-
- private:
-  sim::SimulatedDigitizer inner_;
-};
+// The simulator, noting at each group the acquisition thread's costs so far.
+using ProbedSimulator = test::ProbedSimulator<256>;
 
 TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestarted) {
   if (kSanitized) GTEST_SKIP() << "a timing test: it needs an optimised build without sanitizers";
@@ -185,9 +157,10 @@ TEST(SteadyState, TenSecondsAtTheDefaultRateWhileAReaderIsStalledKilledAndRestar
                          << " groups, " << c.deadline_misses << " misses, worst "
                          << c.worst_lateness_ns << " ns late, generation max "
                          << c.generation_ns_max << " ns";
-  const std::uint64_t allocations = digitizer.allocations[probes - 1] - digitizer.allocations[16];
-  const std::uint64_t faults = digitizer.page_faults[probes - 1] - digitizer.page_faults[16];
-  const std::uint64_t locks = digitizer.locks[probes - 1] - digitizer.locks[16];
+  const test::ThreadCosts spent = digitizer.probes.between(16, probes - 1);
+  const std::uint64_t allocations = spent.allocations;
+  const std::uint64_t faults = spent.page_faults;
+  const std::uint64_t locks = spent.locks;
   std::printf(
       "[ stats    ] %s: %llu groups in 10 s, deadline misses %llu (worst %.2f ms late), wake "
       "latency mean %.1f us max %.1f us over %llu groups, generation %.1f ms mean %.1f ms max of "
