@@ -18,27 +18,14 @@
 #include "ioct/shm/ring_reader.hpp"
 #include "ioct/shm/ring_writer.hpp"
 #include "ioct/test_support/eventually.hpp"
+#include "ioct/test_support/not_realtime.hpp"
 #include "ioct/test_support/scoped_shm_name.hpp"
 #include "safety_supervisor.hpp"
 
 namespace ioct::rt::test {
 
-#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
-inline constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-#if __has_feature(thread_sanitizer) || __has_feature(address_sanitizer)
-inline constexpr bool kSanitized = true;
-#else
-inline constexpr bool kSanitized = false;
-#endif
-#else
-inline constexpr bool kSanitized = false;
-#endif
-
-// What a timing bound allows on top of its real-time figure when the threads run without
-// real-time scheduling: a loaded CI machine delays a thread by tens of ms, a sanitizer's build
-// starved on two cores by hundreds. A thread that never acts still fails.
-inline constexpr std::uint64_t kNotRealtimeAllowanceNs = kSanitized ? 1'000'000'000 : 100'000'000;
+using test_support::kNotRealtimeAllowanceNs;
+using test_support::kSanitized;
 
 #ifndef IOCT_TEST_RT_PRIORITY_DEFAULT
 #define IOCT_TEST_RT_PRIORITY_DEFAULT 0

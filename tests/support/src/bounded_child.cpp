@@ -7,6 +7,8 @@
 
 #include <thread>
 
+#include "ioct/test_support/not_realtime.hpp"
+
 namespace ioct::test_support {
 
 std::string to_string(ChildOutcome outcome) {
@@ -51,11 +53,7 @@ ChildOutcome run_in_child(const std::function<bool()>& action, ChildLimits limit
 }
 
 bool built_with_sanitizer() noexcept {
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-  return true;
-#else
-  return false;
-#endif
+  return kSanitized;
 }
 
 }  // namespace ioct::test_support
