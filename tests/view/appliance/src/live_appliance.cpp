@@ -127,9 +127,24 @@ LiveAppliance::~LiveAppliance() {
 }
 
 void LiveAppliance::start_all(std::chrono::milliseconds timeout) {
+  const auto deadline = Clock::now() + timeout;
   rt_->start();
   gpu_->start();
   start_view(timeout);
+  // ioct-view answers before it has heard from ioct-gpu; the appliance is up once the view
+  // knows the render parameters (GET /api/params answers 503 until then).
+  HttpReply reply;
+  while (Clock::now() < deadline) {
+    reply = http("GET", "/api/params");
+    if (reply.status == 200) return;
+    if (!gpu_->running() || !view_->running()) break;
+    std::this_thread::sleep_for(50ms);
+  }
+  keep_ = true;
+  throw std::runtime_error(
+      "ioct-view had no render parameters from ioct-gpu (GET /api/params, last: " +
+      (reply.status ? std::to_string(reply.status) + " " + reply.body : reply.problem) + ")\n" +
+      logs());
 }
 
 void LiveAppliance::stop_all() {

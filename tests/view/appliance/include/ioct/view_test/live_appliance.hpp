@@ -42,7 +42,8 @@ class LiveAppliance {
   explicit LiveAppliance(ApplianceOptions options = {});
   ~LiveAppliance();  // stops every process (view, gpu, rt), removes the folder unless kept
 
-  // Starts ioct-rt, ioct-gpu and ioct-view and waits until ioct-view answers GET /api/state.
+  // Starts ioct-rt, ioct-gpu and ioct-view and waits until ioct-view answers GET /api/params
+  // (it has heard from ioct-gpu); throws with the logs when it does not within `timeout`.
   void start_all(std::chrono::milliseconds timeout = std::chrono::milliseconds(20'000));
   void stop_all();
 
