@@ -9,6 +9,7 @@
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <vector>
 
 #include "ioct/common/config_error.hpp"
 #include "ioct/test_support/temp_path.hpp"
@@ -96,6 +97,34 @@ TEST(GpuConfig, AFilesErrorIsLocatedAndAFlagsNamesItsKey) {
             socket.str() +
                 ":4:10: view.socket = \"/tmp/v.sock\": needs the live stages (stages.enabled = "
                 "true, not --no-stages)");
+}
+
+TEST(GpuConfig, TheFinalModesAreRenderModesEachNamedOnce) {
+  using render::RenderMode;
+  const std::vector<RenderMode> three{RenderMode::enhanced, RenderMode::layer_aware,
+                                      RenderMode::la_mip_composite};
+  EXPECT_EQ(make_gpu_setup("", {}, {}).stages->final_modes, three) << "the default";
+  EXPECT_TRUE(
+      make_gpu_setup(IOCT_GPU_CONFIG_DIR "/appliance.toml", {}, {}).stages->final_modes.empty())
+      << "the appliance stops without rendering other modes";
+  const auto two = config_file("[stages]\nfinal_modes = [\"axial-colorization\", \"en-face\"]\n");
+  EXPECT_EQ(make_gpu_setup(two.str(), {}, {}).stages->final_modes,
+            (std::vector<RenderMode>{RenderMode::axial_colorization, RenderMode::en_face_slice}));
+  EXPECT_EQ(make_gpu_setup("", {{"stages.final_modes", {"bscan"}}}, {}).stages->final_modes,
+            std::vector<RenderMode>{RenderMode::bscan_slice})
+      << "the flag";
+
+  const auto unknown = config_file("[stages]\nfinal_modes = [\"enhanced\", \"mip\"]\n");
+  EXPECT_EQ(error_for(unknown.str()),
+            unknown.str() +
+                ":2:15: stages.final_modes[1] = 'mip': must be basic, enhanced, layer-aware, "
+                "axial-colorization, la-mip, bscan or en-face");
+  const auto twice = config_file("[stages]\nfinal_modes = [\"la-mip\", \"la-mip\"]\n");
+  EXPECT_EQ(error_for(twice.str()),
+            twice.str() + ":2:15: stages.final_modes[1] = 'la-mip': is named twice");
+  EXPECT_EQ(error_for("", {{"stages.final_modes", {"enhanced", "nonsense"}}}),
+            "stages.final_modes[1] = 'nonsense': must be basic, enhanced, layer-aware, "
+            "axial-colorization, la-mip, bscan or en-face");
 }
 
 TEST(GpuConfig, ThePrintedConfigurationReadsBackAsTheSame) {

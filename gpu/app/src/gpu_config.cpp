@@ -1,5 +1,7 @@
 #include "gpu_config.hpp"
 
+#include <algorithm>
+#include <string>
 #include <string_view>
 #include <utility>
 #include <vector>
@@ -7,6 +9,7 @@
 #include "ioct/common/config_error.hpp"
 #include "ioct/gpu/filters/filter_config.hpp"
 #include "ioct/gpu/processing/resampling.hpp"
+#include "ioct/gpu/render/render_config.hpp"
 
 namespace ioct::gpu {
 namespace {
@@ -107,7 +110,12 @@ void add_stages_keys(config::KeyTable<GpuConfig>& k) {
       .real_in("stages.cpu_moving_scale", IOCT_MEMBER(stages.cpu_moving_scale), 0.05, 1.0,
                "CPU renderer: a moving view's frame size as a fraction of the output (full size "
                "once it stops)",
-               "--cpu-moving-scale");
+               "--cpu-moving-scale")
+      .text_list("stages.final_modes", IOCT_MEMBER(final_modes),
+                 "render modes also written when the run ends, at the live view, each as "
+                 "render-MODE.png (render.mode's names); empty: render.png alone. On the CPU "
+                 "each takes seconds of the stop",
+                 "--final-mode");
 }
 
 void add_render_keys(config::KeyTable<GpuConfig>& k) {
@@ -174,6 +182,20 @@ config::KeyTable<GpuConfig> make_keys() {
 
 #undef IOCT_ENUM
 
+// stages.final_modes as modes; an unknown or repeated name is told under its index.
+std::vector<render::RenderMode> final_render_modes(const std::vector<std::string>& names) {
+  std::vector<render::RenderMode> modes;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const std::string key = "stages.final_modes[" + std::to_string(i) + "]";
+    const render::RenderMode mode = render::parse_render_mode(names[i], key);
+    if (std::ranges::find(modes, mode) != modes.end()) {
+      throw ConfigError(key, "'" + names[i] + "'", "is named twice");
+    }
+    modes.push_back(mode);
+  }
+  return modes;
+}
+
 GpuSetup resolve(const GpuConfig& c, const RunLimits& limits) {
   gpu_keys().check_ranges(c);
   GpuSetup setup;
@@ -199,6 +221,7 @@ GpuSetup resolve(const GpuConfig& c, const RunLimits& limits) {
     stages.render.spacing = {stages.sampling.ascan_spacing_um, stages.sampling.bscan_spacing_um,
                              stages.sampling.axial_um_per_px};
     stages.live_image = live.out_dir / "render.png";
+    stages.final_modes = final_render_modes(c.final_modes);
     const std::string frames = c.frames == "<ring>.frames" ? live.ring_name + ".frames" : c.frames;
     stages.frame_ring = frames == "none" ? "" : frames;
     stages.frame_group = c.view_group;
@@ -263,9 +286,11 @@ GpuSetup make_gpu_setup(const std::string& file, const config::Overrides& overri
     return resolve(c, limits);
   } catch (const ConfigError& component_error) {
     const ConfigError e = in_file_terms(component_error);
-    // Placed in the file when the key came from it and no flag overrode it.
-    const auto at = positions.find(e.key());
-    if (at == positions.end() || overrides.contains(e.key())) throw e;
+    // Placed in the file when the key came from it and no flag overrode it (a list's element,
+    // key[i], at its list).
+    const std::string key = e.key().substr(0, e.key().find('['));
+    const auto at = positions.find(key);
+    if (at == positions.end() || overrides.contains(key)) throw e;
     throw config::ConfigFileError(file, at->second, e.what());
   }
 }

@@ -6,6 +6,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "ioct/config/key_table.hpp"
 #include "ioct/gpu/ingest/live_processor.hpp"
@@ -23,6 +24,8 @@ struct GpuConfig {
   // [stages], [render], [sampling], [instruments]
   bool stages_enabled = true;
   std::string filter = "auto";  // auto: median-gauss, the renderer's by render mode
+  // Modes rendered once more when the run ends (render-<mode>.png), by render::to_string's names.
+  std::vector<std::string> final_modes{"enhanced", "layer-aware", "la-mip"};
   live::VolumeStagesConfig stages;
   // [view]
   std::string frames = "<ring>.frames";

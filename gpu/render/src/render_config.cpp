@@ -59,13 +59,13 @@ std::string_view to_string(RenderMode mode) noexcept {
   return "?";
 }
 
-RenderMode parse_render_mode(std::string_view name) {
+RenderMode parse_render_mode(std::string_view name, std::string_view key) {
   for (const RenderMode m : {RenderMode::basic, RenderMode::enhanced, RenderMode::layer_aware,
                              RenderMode::axial_colorization, RenderMode::la_mip_composite,
                              RenderMode::bscan_slice, RenderMode::en_face_slice}) {
     if (name == to_string(m)) return m;
   }
-  throw ConfigError("render.mode", "'" + std::string(name) + "'",
+  throw ConfigError(std::string(key), "'" + std::string(name) + "'",
                     "must be basic, enhanced, layer-aware, axial-colorization, la-mip, bscan or "
                     "en-face");
 }

@@ -25,8 +25,8 @@ enum class RenderMode : std::uint8_t {
 };
 
 std::string_view to_string(RenderMode mode) noexcept;
-// Throws ConfigError ("render.mode") for an unknown name.
-RenderMode parse_render_mode(std::string_view name);
+// Throws ConfigError naming `key` for an unknown name.
+RenderMode parse_render_mode(std::string_view name, std::string_view key = "render.mode");
 // The 3D modes are rendered from the orbit view (and as stereo pairs).
 bool is_volume_mode(RenderMode mode) noexcept;
 
