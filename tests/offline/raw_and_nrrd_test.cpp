@@ -15,6 +15,7 @@
 #include "ioct/gpu/offline/progress_bar.hpp"
 #include "ioct/gpu/offline/raw_spectra_file.hpp"
 #include "ioct/test_support/bounded_child.hpp"
+#include "ioct/test_support/sanitizer_build.hpp"
 #include "offline_test_support.hpp"
 
 namespace ioct::gpu::offline {
@@ -232,7 +233,7 @@ INSTANTIATE_TEST_SUITE_P(
 // Issue F5: a 70-byte header claiming 65536 x 65536 x 1 voxels is refused from the file's size
 // before anything is allocated (it used to reserve 4 GiB first). The child may not have 1 GiB.
 TEST(Nrrd, HugeSizesInATinyFileAreRefusedBeforeAllocating) {
-  if (test_support::built_with_sanitizer()) {
+  if (test_support::kSanitized) {
     GTEST_SKIP() << "a data-size limit breaks the sanitizer's shadow memory";
   }
   ScratchDir dir;

@@ -7,7 +7,7 @@
 #include <cstdlib>
 #include <new>
 
-#include "sanitizer_build.hpp"
+#include "ioct/test_support/sanitizer_build.hpp"
 
 namespace {
 
@@ -36,7 +36,7 @@ std::uint64_t thread_deallocations() noexcept {
 
 }  // namespace ioct::test_support
 
-#if defined(IOCT_SANITIZER_OWNS_MALLOC)
+#if IOCT_SANITIZED  // the sanitizer owns malloc
 
 // The sanitizer replaces malloc and operator new itself; replacing them again would bypass its
 // checks. It calls these hooks on the allocating thread instead.

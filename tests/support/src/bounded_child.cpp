@@ -7,8 +7,6 @@
 
 #include <thread>
 
-#include "ioct/test_support/not_realtime.hpp"
-
 namespace ioct::test_support {
 
 std::string to_string(ChildOutcome outcome) {
@@ -50,10 +48,6 @@ ChildOutcome run_in_child(const std::function<bool()>& action, ChildLimits limit
   }
   return WIFEXITED(status) && WEXITSTATUS(status) == 0 ? ChildOutcome::passed
                                                        : ChildOutcome::failed;
-}
-
-bool built_with_sanitizer() noexcept {
-  return kSanitized;
 }
 
 }  // namespace ioct::test_support

@@ -18,7 +18,7 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "sanitizer_build.hpp"
+#include "ioct/test_support/sanitizer_build.hpp"
 
 namespace {
 

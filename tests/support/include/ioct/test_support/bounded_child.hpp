@@ -21,12 +21,10 @@ std::string to_string(ChildOutcome outcome);
 
 struct ChildLimits {
   std::chrono::milliseconds time{5000};
-  std::uint64_t data_bytes = 0;  // RLIMIT_DATA of the child; 0: none
+  // RLIMIT_DATA of the child; 0: none. It breaks a sanitizer's shadow memory (kSanitized).
+  std::uint64_t data_bytes = 0;
 };
 
 ChildOutcome run_in_child(const std::function<bool()>& action, ChildLimits limits = {});
-
-// Whether this build runs under a sanitizer, whose shadow memory a data-size limit would break.
-bool built_with_sanitizer() noexcept;
 
 }  // namespace ioct::test_support

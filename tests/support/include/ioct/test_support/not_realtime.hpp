@@ -4,21 +4,9 @@
 
 #include <cstdint>
 
-namespace ioct::test_support {
+#include "ioct/test_support/sanitizer_build.hpp"
 
-// A sanitizer's build (ThreadSanitizer or AddressSanitizer; GCC defines __SANITIZE_*, clang
-// answers __has_feature): its threads run several times slower and starve each other on two cores.
-#if defined(__SANITIZE_THREAD__) || defined(__SANITIZE_ADDRESS__)
-inline constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-#if __has_feature(thread_sanitizer) || __has_feature(address_sanitizer)
-inline constexpr bool kSanitized = true;
-#else
-inline constexpr bool kSanitized = false;
-#endif
-#else
-inline constexpr bool kSanitized = false;
-#endif
+namespace ioct::test_support {
 
 // What a timing bound allows on top of its real-time figure when the threads run without
 // real-time scheduling: a loaded CI machine delays a thread by tens of ms, a sanitizer's build
