@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <fstream>
 #include <stdexcept>
@@ -133,18 +134,8 @@ void LiveAppliance::start_all(std::chrono::milliseconds timeout) {
   start_view(timeout);
   // ioct-view answers before it has heard from ioct-gpu; the appliance is up once the view
   // knows the render parameters (GET /api/params answers 503 until then).
-  HttpReply reply;
-  while (Clock::now() < deadline) {
-    reply = http("GET", "/api/params");
-    if (reply.status == 200) return;
-    if (!gpu_->running() || !view_->running()) break;
-    std::this_thread::sleep_for(50ms);
-  }
-  keep_ = true;
-  throw std::runtime_error(
-      "ioct-view had no render parameters from ioct-gpu (GET /api/params, last: " +
-      (reply.status ? std::to_string(reply.status) + " " + reply.body : reply.problem) + ")\n" +
-      logs());
+  await_ok("/api/params", deadline, {gpu_.get(), view_.get()},
+           "ioct-view had no render parameters from ioct-gpu");
 }
 
 void LiveAppliance::stop_all() {
@@ -155,18 +146,24 @@ void LiveAppliance::stop_all() {
 
 void LiveAppliance::start_view(std::chrono::milliseconds timeout) {
   view_->start();
-  const auto deadline = Clock::now() + timeout;
+  await_ok("/api/state", Clock::now() + timeout, {view_.get()}, "ioct-view did not answer");
+}
+
+void LiveAppliance::await_ok(const std::string& target, Clock::time_point deadline,
+                             std::initializer_list<LoggedProcess*> needed,
+                             const std::string& failure) {
   HttpReply reply;
   while (Clock::now() < deadline) {
-    reply = http("GET", "/api/state");
+    reply = http("GET", target);
     if (reply.status == 200) return;
-    if (!view_->running()) break;
+    if (std::ranges::any_of(needed, [](LoggedProcess* p) { return !p->running(); })) break;
     std::this_thread::sleep_for(50ms);
   }
   keep_ = true;
-  throw std::runtime_error("ioct-view did not answer GET /api/state (last: " +
-                           (reply.status ? std::to_string(reply.status) : reply.problem) + ")\n" +
-                           logs());
+  throw std::runtime_error(
+      failure + " (GET " + target + ", last: " +
+      (reply.status ? std::to_string(reply.status) + " " + reply.body : reply.problem) + ")\n" +
+      logs());
 }
 
 std::string LiveAppliance::rt_command(const std::string& command) {

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <initializer_list>
 #include <memory>
 #include <string>
 #include <vector>
@@ -71,6 +72,12 @@ class LiveAppliance {
   std::string logs() const;
 
  private:
+  using Clock = std::chrono::steady_clock;
+  // GET `target` until it answers 200; throws `failure` with the last reply and the logs when
+  // `deadline` passes or a `needed` process exits first.
+  void await_ok(const std::string& target, Clock::time_point deadline,
+                std::initializer_list<LoggedProcess*> needed, const std::string& failure);
+
   ApplianceOptions options_;
   test_support::ScopedShmName ring_;
   std::filesystem::path folder_;
