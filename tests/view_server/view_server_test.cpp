@@ -10,6 +10,7 @@
 #include <fstream>
 #include <memory>
 #include <optional>
+#include <set>
 #include <thread>
 
 #include "ioct/concurrency/monotonic_clock.hpp"
@@ -50,6 +51,7 @@ class ViewServerTest : public ::testing::Test {
     rt_ =
         std::make_unique<LineService>((dir_ / "rt.sock").string(), [this](const nlohmann::json& r) {
           if (r.value("cmd", "") == "status") {
+            if (odd_replies_) return nlohmann::json{{"ok", "yes"}, {"status", "scanning"}};
             return nlohmann::json{{"ok", true},
                                   {"status",
                                    {{"state", "scanning"},
@@ -103,6 +105,7 @@ class ViewServerTest : public ::testing::Test {
 
   nlohmann::json gpu_reply(const nlohmann::json& r) {
     const std::string cmd = r.value("cmd", "");
+    if (cmd == "get" && odd_replies_) return {{"ok", true}, {"generation", "1"}, {"params", 7}};
     if (cmd == "get")
       return {{"ok", true}, {"generation", generation_.load()}, {"params", params_}};
     if (cmd == "set") {
@@ -126,6 +129,8 @@ class ViewServerTest : public ::testing::Test {
     return {{"ok", true}};
   }
   std::atomic<int> snapshot_delay_ms_{0};
+  // The stand-ins answer with fields of the wrong type (another version, another service).
+  std::atomic<bool> odd_replies_{false};
 
   // The pipeline as ioct-gpu reports it: live, newest group published `age` ago.
   void report_live(std::uint64_t group, std::chrono::nanoseconds age = 0ns) {
@@ -292,7 +297,9 @@ TEST_F(ViewServerTest, TheBscanGoesToAViewerOnlyWhenItIsNewToIt) {
     publish(group, 0, 1000, bscan);
     auto frame = viewer.next_frame(3s);
     EXPECT_TRUE(frame.has_value()) << "group " << group;
-    if (frame) EXPECT_EQ(frame->description.at("group"), group);
+    if (frame) {
+      EXPECT_EQ(frame->description.at("group"), group);
+    }
     return frame.value_or(ReceivedFrame{});
   };
   const std::byte a{7}, b{9};
@@ -418,6 +425,94 @@ TEST_F(ViewServerTest, MalformedOversizedAndFloodingMessages) {
   EXPECT_NE(metrics.find("ioct_view_messages_refused_total"), std::string::npos);
 }
 
+// A field of the wrong type in a viewer's message is refused like any bad message: no viewer,
+// token or not, can end the server for the others.
+TEST_F(ViewServerTest, AMessageWithAFieldOfTheWrongTypeIsRefusedAndTheServerGoesOn) {
+  start();
+  WsViewer good(port_);
+  ASSERT_TRUE(good.next_text("state", 2s)) << "joined";
+  WsViewer odd(port_);
+  const std::pair<nlohmann::json, const char*> messages[] = {
+      {{{"type", "drawn"}, {"id", 1}, {"frame", "x"}}, "frame"},
+      {{{"type", "drawn"}, {"id", 2}, {"frame", -3}}, "frame"},
+      {{{"type", "drawn"}, {"id", 3}}, "frame"},
+      {{{"type", "hello"}, {"id", 4}, {"token", 5}}, "token"},
+      {{{"type", "own_view"}, {"id", 5}, {"changes", "x"}}, nullptr},
+      {{{"type", "own_view"}, {"id", 6}, {"changes", {{"view", {{"zoom", 2}}}, {"mode", 1}}}},
+       "mode"},
+  };
+  for (const auto& [message, key] : messages) {
+    odd.send(message);
+    const auto reply = odd.next_text("reply", 2s);
+    ASSERT_TRUE(reply) << message.dump() << ": no reply (closed: " << odd.closed() << ")";
+    EXPECT_EQ((*reply)["id"], message["id"]);
+    EXPECT_EQ((*reply)["ok"], false) << message.dump();
+    if (key != nullptr) {
+      EXPECT_EQ(reply->value("key", ""), key) << reply->dump();
+    }
+  }
+  publish(3);
+  auto frame = good.next_frame(2s);
+  ASSERT_TRUE(frame) << "the server goes on";
+  EXPECT_EQ(frame->description["group"], 3);
+  EXPECT_EQ(http_request(port_, "GET", "/api/state").status, 200u);
+}
+
+// ioct-gpu and ioct-rt of another version (or another service on their sockets) answering with
+// fields of the wrong type: their errors name the field, and the view goes on without them.
+TEST_F(ViewServerTest, RepliesOfTheWrongTypeFromTheBackendsAreErrorsThatNameTheField) {
+  odd_replies_ = true;
+  start();
+  nlohmann::json state = state_when(
+      [](const nlohmann::json& s) { return s["gpu_error"] != "" && s["rt_error"] != ""; });
+  EXPECT_NE(state["gpu_error"].get<std::string>().find("\"generation\""), std::string::npos)
+      << state["gpu_error"];
+  EXPECT_TRUE(state["params"].is_null());
+  EXPECT_NE(state["rt_error"].get<std::string>().find("\"ok\""), std::string::npos)
+      << state["rt_error"];
+  EXPECT_EQ(http_request(port_, "GET", "/api/params").status, 503u);
+  EXPECT_NE(http_request(port_, "GET", "/metrics").body.find("ioct_rt_up 0"), std::string::npos);
+
+  odd_replies_ = false;
+  state = state_when(
+      [](const nlohmann::json& s) { return s["params"].is_object() && s["rt"].is_object(); });
+  EXPECT_EQ(state["gpu_error"], "");
+  EXPECT_EQ(state["params"]["mode"], "enhanced");
+}
+
+// The operators' files in the state folder: one that cannot be used says which and why, where it
+// is asked for (a preset) or where it was to be used (the last parameters, for a new ioct-gpu).
+TEST_F(ViewServerTest, AStateFileThatCannotBeUsedIsNamedWithWhy) {
+  start();
+  state_when([](const nlohmann::json& s) { return s["params"].is_object(); });
+  std::ofstream(dir_ / "state" / "presets" / "broken.json") << "{not json";
+  for (const auto& [method, target] :
+       {std::pair{"GET", "/api/presets/broken"}, std::pair{"POST", "/api/presets/broken/recall"}}) {
+    const auto reply = http_request(port_, method, target, "", kToken);
+    EXPECT_EQ(reply.status, 500u) << method << " " << target << ": " << reply.body;
+    EXPECT_NE(reply.body.find("broken.json: not a JSON object"), std::string::npos) << reply.body;
+  }
+  EXPECT_EQ(http_request(port_, "GET", "/api/presets/absent").status, 404u);
+
+  // A new view finds the last parameters unreadable, then ones ioct-gpu refuses.
+  const auto problem_after_restart = [&](const std::string& params_json) {
+    stop_server();
+    std::ofstream(dir_ / "state" / "params.json") << params_json;
+    start_server();
+    return state_when([](const nlohmann::json& s) {
+             return s["params"].is_object() && s["params_problem"] != "";
+           })["params_problem"]
+        .get<std::string>();
+  };
+  const std::string unreadable = problem_after_restart("[1, 2");
+  EXPECT_NE(unreadable.find("params.json: not a JSON object"), std::string::npos) << unreadable;
+  const std::string refused = problem_after_restart(R"({"enhanced": {"threshold": 2}})");
+  EXPECT_NE(refused.find("ioct-gpu refused"), std::string::npos) << refused;
+  EXPECT_NE(refused.find("render.enhanced.threshold"), std::string::npos) << refused;
+  EXPECT_EQ(problem_after_restart(R"({"enhanced": {"threshold": 0.5}})"), "")
+      << "restored: no problem";
+}
+
 TEST_F(ViewServerTest, ConnectionsBeyondTheLimitAreRefused) {
   start(4);
   std::vector<std::unique_ptr<WsViewer>> viewers;
@@ -457,6 +552,34 @@ TEST_F(ViewServerTest, AViewerMayOrbitItsOwnCameraOnly) {
   frame = other.next_frame(2s);
   ASSERT_TRUE(frame);
   EXPECT_EQ(frame->description["view"], 0) << "the others follow the shared view";
+}
+
+// Changes that come faster than ioct-gpu's replies (a drag sends one every 30 ms) go to the one
+// view the first opened, and a follow closes that view: none is left rendering for nobody.
+TEST_F(ViewServerTest, AViewersOwnViewIsOneViewHoweverFastItsChangesCome) {
+  start();
+  WsViewer viewer(port_);
+  ASSERT_TRUE(viewer.next_text("state", 2s)) << "joined";
+  for (int i = 0; i < 5; ++i) {
+    viewer.send(
+        {{"type", "own_view"}, {"id", i}, {"changes", {{"view", {{"azimuth_deg", 10 * i}}}}}});
+  }
+  viewer.send({{"type", "follow"}, {"id", 5}});
+  std::set<std::uint64_t> views;
+  for (int i = 0; i < 6; ++i) {
+    const auto reply = viewer.next_text("reply", 2s);
+    ASSERT_TRUE(reply) << "reply " << i;
+    EXPECT_EQ((*reply)["ok"], true) << reply->dump();
+    if ((*reply)["id"] != 5) views.insert((*reply)["view"].get<std::uint64_t>());
+  }
+  EXPECT_EQ(views.size(), 1u) << "every change went to one view";
+  for (int i = 0; i < 100 && count_cmd(gpu_->requests(), "close_view") == 0; ++i) {
+    std::this_thread::sleep_for(20ms);
+  }
+  const std::vector<nlohmann::json> requests = gpu_->requests();
+  EXPECT_EQ(count_cmd(requests, "open_view"), 1u);
+  EXPECT_EQ(count_cmd(requests, "set"), 4u);
+  EXPECT_EQ(count_cmd(requests, "close_view"), 1u) << "the view the follow left is closed";
 }
 
 TEST_F(ViewServerTest, PresetsAreSavedRecalledAndNamedSafely) {

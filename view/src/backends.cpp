@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "ioct/common/line_client.hpp"
+#include "ioct/common/log.hpp"
 
 namespace ioct::view {
 namespace {
@@ -11,6 +12,23 @@ using Clock = std::chrono::steady_clock;
 
 nlohmann::json unavailable(const std::string& who, const std::string& why) {
   return {{"ok", false}, {"error", who + " is not reachable: " + why}, {"unavailable", true}};
+}
+
+// What is wrong with the fields every caller reads from a peer's reply (with defaults, which
+// throw on another type); empty when nothing is.
+std::string reply_problem(const nlohmann::json& reply) {
+  if (reply.contains("ok") && !reply["ok"].is_boolean()) return "\"ok\" is not true or false";
+  if (reply.contains("error") && !reply["error"].is_string()) return "\"error\" is not a string";
+  if (reply.contains("unavailable") && !reply["unavailable"].is_boolean()) {
+    return "\"unavailable\" is not true or false";
+  }
+  return {};
+}
+
+// ioct-gpu's answer to get: its parameters (an object) and their generation (a count).
+bool has_params(const nlohmann::json& reply) {
+  return reply.value("ok", false) && reply.contains("params") && reply["params"].is_object() &&
+         reply.contains("generation") && reply["generation"].is_number_unsigned();
 }
 
 // One request over `client` within `timeout`; the reply parsed, or the reason it failed as an
@@ -24,6 +42,9 @@ nlohmann::json call(LineClient& client, const std::string& who, const nlohmann::
   nlohmann::json reply = nlohmann::json::parse(*line, nullptr, false);
   if (reply.is_discarded() || !reply.is_object()) {
     return {{"ok", false}, {"error", who + " sent a reply that is not a JSON object"}};
+  }
+  if (const std::string problem = reply_problem(reply); !problem.empty()) {
+    return {{"ok", false}, {"error", who + " sent a reply whose " + problem}};
   }
   return reply;
 }
@@ -77,7 +98,10 @@ void Backends::poll_rt(LineClient& client, BackendsSnapshot& snap) {
     return;
   }
   const nlohmann::json reply = call(client, "ioct-rt", {{"cmd", "status"}});
-  if (reply.value("ok", false) && reply.contains("status")) {
+  if (reply.value("ok", false) && reply.contains("status") && !reply["status"].is_object()) {
+    snap.rt_status = nullptr;
+    snap.rt_error = "ioct-rt sent a status that is not a JSON object";
+  } else if (reply.value("ok", false) && reply.contains("status")) {
     snap.rt_status = reply["status"];
     snap.rt_error.clear();
     count_footswitch_presses(snap);
@@ -119,25 +143,44 @@ void Backends::poll_gpu(LineClient& client, BackendsSnapshot& snap) {
     return;
   }
   nlohmann::json reply = call(client, "ioct-gpu", {{"cmd", "get"}});
-  if (!reply.value("ok", false)) {
+  if (!has_params(reply)) {
     snap.params = nullptr;
-    snap.gpu_error = reply.value("error", std::string("no parameters"));
+    snap.gpu_error = !reply.value("ok", false)
+                         ? reply.value("error", std::string("no parameters"))
+                         : "ioct-gpu sent parameters without an object \"params\" and a count "
+                           "\"generation\"";
     gpu_was_connected_ = false;
     return;
   }
   if (!gpu_was_connected_) {
     // ioct-gpu is (back): give it the parameters the operators last chose.
     gpu_was_connected_ = true;
-    if (const auto last = presets_.load_last(); last && *last != reply["params"]) {
-      const nlohmann::json set = call(client, "ioct-gpu", {{"cmd", "set"}, {"changes", *last}});
-      if (set.value("ok", false)) reply = call(client, "ioct-gpu", {{"cmd", "get"}});
+    snap.params_problem = restore_last_params(client, reply["params"]);
+    if (snap.params_problem.empty()) {
+      nlohmann::json again = call(client, "ioct-gpu", {{"cmd", "get"}});
+      if (has_params(again)) reply = std::move(again);
+    } else {
+      Log("ioct-view").warning(snap.params_problem);
     }
   }
-  if (reply.value("ok", false)) {
-    snap.params = reply.value("params", nlohmann::json());
-    snap.generation = reply.value("generation", std::uint64_t{0});
-    snap.gpu_error.clear();
+  snap.params = reply["params"];
+  snap.generation = reply["generation"].get<std::uint64_t>();
+  snap.gpu_error.clear();
+}
+
+std::string Backends::restore_last_params(LineClient& client, const nlohmann::json& current) {
+  std::optional<nlohmann::json> last;
+  try {
+    last = presets_.load_last();
+  } catch (const std::exception& e) {
+    return std::string("the operators' last parameters were not restored: ") + e.what();
   }
+  if (!last || *last == current) return {};
+  const nlohmann::json set = call(client, "ioct-gpu", {{"cmd", "set"}, {"changes", *last}});
+  if (set.value("ok", false)) return {};
+  return "ioct-gpu refused the operators' last parameters (" +
+         presets_.last_params_file().string() +
+         "): " + set.value("error", std::string("no reason"));
 }
 
 void Backends::poll_record(LineClient& client, BackendsSnapshot& snap) {
@@ -168,9 +211,14 @@ void Backends::run() {
       jobs_.pop_front();
       lock.unlock();
       const bool snapshot = job.to_gpu && job.request.value("cmd", "") == "snapshot";
-      nlohmann::json reply = !job.to_gpu ? call(rt, "ioct-rt", job.request)
-                             : snapshot  ? call(gpu, "ioct-gpu", job.request, snapshot_timeout)
-                                         : call(gpu, "ioct-gpu", job.request);
+      nlohmann::json reply;
+      try {
+        reply = !job.to_gpu ? call(rt, "ioct-rt", job.request)
+                : snapshot  ? call(gpu, "ioct-gpu", job.request, snapshot_timeout)
+                            : call(gpu, "ioct-gpu", job.request);
+      } catch (const std::exception& e) {  // this thread must go on serving the others
+        reply = {{"ok", false}, {"error", std::string("ioct-view: ") + e.what()}};
+      }
       const bool changed_params = job.to_gpu && reply.value("ok", false) &&
                                   job.request.value("cmd", "") == "set" &&
                                   !job.request.contains("view");
@@ -192,9 +240,13 @@ void Backends::run() {
     if (Clock::now() >= next_poll) {
       next_poll = Clock::now() + interval;
       lock.unlock();
-      poll_rt(rt, snap);
-      poll_gpu(gpu, snap);
-      poll_record(record, snap);
+      try {
+        poll_rt(rt, snap);
+        poll_gpu(gpu, snap);
+        poll_record(record, snap);
+      } catch (const std::exception& e) {  // the next poll tries again
+        Log("ioct-view").warning(std::string("polling ioct-rt and ioct-gpu: ") + e.what());
+      }
       deliver_([cb = on_snapshot_, snap] { cb(snap); });
       lock.lock();
     }

@@ -34,6 +34,9 @@ struct BackendsSnapshot {
   nlohmann::json params;     // ioct-gpu's shared-view parameters, or null
   std::uint64_t generation = 0;
   std::string gpu_error;
+  // Why the operators' last parameters (params.json) were not given to ioct-gpu when it came
+  // (back): the file cannot be used, or ioct-gpu refused them; empty when they were.
+  std::string params_problem;
   std::uint64_t footswitch_presses = 0;  // footswitch presses so far (ioct-rt counts them)
   nlohmann::json record_status;          // ioct-record's record-status "status"; null: no recorder
 };
@@ -70,6 +73,9 @@ class Backends {
   void poll_rt(LineClient& client, BackendsSnapshot& snap);
   void count_footswitch_presses(BackendsSnapshot& snap);
   void poll_gpu(LineClient& client, BackendsSnapshot& snap);
+  // Gives a (re)connected ioct-gpu the operators' last parameters unless it has them; why not,
+  // or empty.
+  std::string restore_last_params(LineClient& client, const nlohmann::json& current);
   static void poll_record(LineClient& client, BackendsSnapshot& snap);
 
   const ViewConfig config_;

@@ -112,6 +112,7 @@ nlohmann::json Hub::state(const std::string& role) const {
   j["params"] = backends_.params;
   j["generation"] = backends_.generation;
   j["gpu_error"] = backends_.gpu_error;
+  j["params_problem"] = backends_.params_problem;
   j["viewers"] = viewers_.size();
   j["role"] = role;
   return j;

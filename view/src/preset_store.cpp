@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 
 #include "ioct/common/atomic_file.hpp"
 
@@ -11,14 +12,24 @@ namespace {
 
 std::optional<nlohmann::json> read_json_file(const std::filesystem::path& file) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) return std::nullopt;
+  const auto status = std::filesystem::status(file, ec);
+  if (status.type() == std::filesystem::file_type::not_found) return std::nullopt;
+  const auto unusable = [&](const std::string& why) {
+    return std::runtime_error(file.string() + ": " + why);
+  };
+  if (ec) throw unusable(ec.message());
+  if (!std::filesystem::is_regular_file(status)) throw unusable("not a regular file");
   const auto size = std::filesystem::file_size(file, ec);
-  if (ec || size > PresetStore::kMaxFileBytes) return std::nullopt;
+  if (ec) throw unusable(ec.message());
+  if (size > PresetStore::kMaxFileBytes) {
+    throw unusable("larger than " + std::to_string(PresetStore::kMaxFileBytes) + " bytes");
+  }
   std::ifstream in(file);
   std::stringstream text;
   text << in.rdbuf();
+  if (!in) throw unusable("cannot be read");
   nlohmann::json j = nlohmann::json::parse(text.str(), nullptr, false);
-  if (j.is_discarded() || !j.is_object()) return std::nullopt;
+  if (j.is_discarded() || !j.is_object()) throw unusable("not a JSON object");
   return j;
 }
 
@@ -64,11 +75,11 @@ bool PresetStore::remove(const std::string& name) {
 }
 
 void PresetStore::save_last(const nlohmann::json& params) {
-  write_text_file_atomically(dir_ / "params.json", params.dump(2) + "\n");
+  write_text_file_atomically(last_params_file(), params.dump(2) + "\n");
 }
 
 std::optional<nlohmann::json> PresetStore::load_last() const {
-  return read_json_file(dir_ / "params.json");
+  return read_json_file(last_params_file());
 }
 
 }  // namespace ioct::view

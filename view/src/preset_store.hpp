@@ -21,11 +21,14 @@ class PresetStore {
   std::vector<std::string> names() const;
   // Throws std::runtime_error naming the file when it cannot be written.
   void save(const std::string& name, const nlohmann::json& params);
+  // Nullopt when there is no such file; throws std::runtime_error naming the file and what is
+  // wrong when it cannot be used (unreadable, too large, not a JSON object).
   std::optional<nlohmann::json> load(const std::string& name) const;
   bool remove(const std::string& name);
 
   void save_last(const nlohmann::json& params);
-  std::optional<nlohmann::json> load_last() const;
+  std::optional<nlohmann::json> load_last() const;  // as load()
+  std::filesystem::path last_params_file() const { return dir_ / "params.json"; }
 
   static constexpr std::size_t kMaxFileBytes = 1u << 20;
 

@@ -65,7 +65,7 @@ void readers(std::string& out, const nlohmann::json& status) {
   const nlohmann::json& list = status["readers"];
   double alive = 0;
   for (const nlohmann::json& r : list) {
-    if (r.is_object() && r.value("alive", false) == true) ++alive;
+    if (r.is_object() && r.contains("alive") && r["alive"] == true) ++alive;
   }
   prom::single(out, "ioct_rt_readers", "gauge", "ring readers registered with a live process",
                alive);

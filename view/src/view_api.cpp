@@ -132,7 +132,12 @@ void ViewApi::save_preset(const std::string& name, Respond respond) {
 }
 
 void ViewApi::recall_preset(const std::string& name, Respond respond) {
-  const auto params = presets_.load(name);
+  std::optional<nlohmann::json> params;
+  try {
+    params = presets_.load(name);
+  } catch (const std::exception& e) {
+    return respond(api_error(500, std::string("the preset's file cannot be used: ") + e.what()));
+  }
   if (!params) return respond(api_error(404, "no preset named " + quote_input(name), "name"));
   set_params(*params, std::move(respond));
 }
@@ -170,14 +175,17 @@ void ViewApi::footswitch(const std::string& action) {
   } else if (action == "next-mode" && params.is_object()) {
     static const char* const kModes[] = {"enhanced", "layer-aware", "la-mip", "axial-colorization",
                                          "basic"};
-    const std::string mode = params.value("mode", "");
+    const std::string mode = params.contains("mode") && params["mode"].is_string()
+                                 ? params["mode"].get<std::string>()
+                                 : std::string();
     std::size_t next = 0;
     for (std::size_t i = 0; i < std::size(kModes); ++i) {
       if (mode == kModes[i]) next = (i + 1) % std::size(kModes);
     }
     set_params({{"mode", kModes[next]}}, ignore);
   } else if (action == "toggle-stereo" && params.is_object() && params.contains("view")) {
-    const bool stereo = params["view"].value("stereo", false);
+    const nlohmann::json& view = params["view"];
+    const bool stereo = view.is_object() && view.contains("stereo") && view["stereo"] == true;
     set_params({{"view", {{"stereo", !stereo}}}}, ignore);
   }
   // toggle-bscan is the pages' own: they show or hide their B-scan panel.
@@ -257,7 +265,13 @@ void ViewApi::http(std::string_view method, std::string_view path, std::string_v
       return respond({200, {{"ok", true}}});
     }
     if (!recall && method == "GET") {
-      const auto p = presets_.load(rest);
+      std::optional<nlohmann::json> p;
+      try {
+        p = presets_.load(rest);
+      } catch (const std::exception& e) {
+        return respond(
+            api_error(500, std::string("the preset's file cannot be used: ") + e.what()));
+      }
       if (!p) return respond(api_error(404, "no preset named '" + rest + "'"));
       return respond({200, {{"ok", true}, {"params", *p}}});
     }

@@ -84,7 +84,18 @@ void WebSocketSession::on_message(const std::string& text) {
     ++hub_.counters().messages_refused;
     return reply(id, api_error(400, "a message is an object with a \"type\" string", "type"));
   }
-  const std::string type = message["type"].get<std::string>();
+  // A field of the wrong type is refused like any bad message: nothing a viewer sends may throw
+  // out of the io loop, which would end the server for every viewer.
+  try {
+    dispatch(id, message["type"].get<std::string>(), message);
+  } catch (const std::exception& e) {
+    ++hub_.counters().messages_refused;
+    reply(id, api_error(400, std::string("the message could not be read: ") + e.what()));
+  }
+}
+
+void WebSocketSession::dispatch(const nlohmann::json& id, const std::string& type,
+                                const nlohmann::json& message) {
   const auto need_operator = [&]() {
     if (operator_) return true;
     ++hub_.counters().messages_refused;
@@ -119,13 +130,19 @@ void WebSocketSession::on_message(const std::string& text) {
     return api_.snapshot(message, respond);
   }
   if (type == "own_view") {
+    // The view is this viewer's from its first message, not from ioct-gpu's reply: a second
+    // message before that reply changes the same view instead of opening (and leaking) another.
     const bool open = own_view_ == 0;
-    const std::uint64_t view = open ? hub_.new_view_id() : own_view_;
+    if (open) own_view_ = hub_.new_view_id();
+    const std::uint64_t view = own_view_;
     auto self = shared_from_this();
     return api_.set_own_view(view, open, message.value("changes", nlohmann::json::object()),
                              [self, id, view, open](ApiReply r) {
-                               if (open && r.status == 200) self->own_view_ = view;
-                               if (r.status == 200) r.body["view"] = view;
+                               if (r.status == 200) {
+                                 r.body["view"] = view;
+                               } else if (open && self->own_view_ == view) {
+                                 self->own_view_ = 0;  // not opened: the shared view again
+                               }
                                self->reply(id, std::move(r));
                              });
   }
@@ -135,7 +152,11 @@ void WebSocketSession::on_message(const std::string& text) {
     return reply(id, {200, {{"ok", true}, {"view", 0}}});
   }
   if (type == "drawn") {
-    const std::uint64_t frame = message.value("frame", std::uint64_t{0});
+    if (!message.contains("frame") || !message["frame"].is_number_unsigned()) {
+      ++hub_.counters().messages_refused;
+      return reply(id, api_error(400, "\"frame\" must be the number of a frame drawn", "frame"));
+    }
+    const auto frame = message["frame"].get<std::uint64_t>();
     const std::uint64_t now = ioct::monotonic_ns();
     for (const SentFrame& sent : sent_) {
       if (sent.frame_index == frame && sent.t_group_published_ns != 0 &&

@@ -41,6 +41,7 @@ class WebSocketSession final : public Viewer,
  private:
   void read();
   void on_message(const std::string& text);
+  void dispatch(const nlohmann::json& id, const std::string& type, const nlohmann::json& message);
   void reply(const nlohmann::json& id, ApiReply r);
   void send_text(std::shared_ptr<const std::string> text);
   void write_next();
@@ -54,7 +55,10 @@ class WebSocketSession final : public Viewer,
   ViewApi& api_;
   const ViewConfig& config_;
   bool operator_ = false;
-  std::uint64_t own_view_ = 0;  // non-zero while it orbits its own camera
+  // Non-zero from its first own_view message on, while it orbits its own camera: later changes
+  // go to the same view (ioct-gpu takes one connection's requests in order) until a follow or a
+  // refused open.
+  std::uint64_t own_view_ = 0;
   bool writing_ = false;
   bool closing_ = false;
   std::string close_reason_;
