@@ -197,6 +197,14 @@ class ViewServerTest : public ::testing::Test {
   std::thread thread_;
 };
 
+// A sample without labels of ioct-view's /metrics; nullopt when it is not there.
+std::optional<double> metric(std::uint16_t port, const std::string& name) {
+  const std::string metrics = http_request(port, "GET", "/metrics").body;
+  const std::size_t at = metrics.find("\n" + name + " ");
+  if (at == std::string::npos) return std::nullopt;
+  return std::stod(metrics.substr(at + name.size() + 2));
+}
+
 std::size_t count_cmd(const std::vector<nlohmann::json>& requests, const std::string& cmd) {
   return static_cast<std::size_t>(std::count_if(
       requests.begin(), requests.end(), [&](auto& r) { return r.value("cmd", "") == cmd; }));
@@ -278,10 +286,7 @@ TEST_F(ViewServerTest, EightViewersKeepTheirFramesWhileANinthNeverReads) {
     }
     EXPECT_EQ(last, kFrames - 1) << "every reading viewer reaches the newest frame";
   }
-  const std::string metrics = http_request(port_, "GET", "/metrics").body;
-  const auto at = metrics.find("\nioct_view_frames_replaced_total ");
-  ASSERT_NE(at, std::string::npos);
-  EXPECT_GT(std::stod(metrics.substr(at + 33)), 0.0)
+  EXPECT_GT(metric(port_, "ioct_view_frames_replaced_total").value_or(0.0), 0.0)
       << "the idle viewer's frames were replaced, not queued";
 }
 
@@ -665,6 +670,32 @@ TEST_F(ViewServerTest, EachFootswitchPressTakesASnapshotAndTellsThePages) {
   }
   std::this_thread::sleep_for(300ms);
   EXPECT_EQ(snapshots(), 2u) << "holding the pedal down is one press, not one per poll";
+}
+
+// A viewer whose frames back up (its writes wait on a full socket) still gets every footswitch
+// event: the state messages that follow it must not replace it, or its page's B-scan panel is
+// out of step with the others from then on.
+TEST_F(ViewServerTest, AFootswitchEventReachesAViewerWhoseWritesAreBackedUp) {
+  start();
+  WsViewer slow(port_);
+  ASSERT_TRUE(slow.next_text("state", 2s)) << "joined";
+  state_when([](const nlohmann::json& s) { return s["rt"].is_object(); });
+  const auto replaced = [&] {
+    return metric(port_, "ioct_view_frames_replaced_total").value_or(0.0);
+  };
+  // Large frames that the viewer does not read, until one waits behind another.
+  for (std::uint64_t g = 1; g < 200 && replaced() == 0.0; ++g) {
+    publish(g, 0, (1 << 20) - 200);
+    std::this_thread::sleep_for(10ms);
+  }
+  ASSERT_GT(replaced(), 0.0) << "the viewer's writes never backed up";
+  footswitch_ = true;
+  state_when([&](const nlohmann::json&) { return count_cmd(gpu_->requests(), "snapshot") > 0; });
+  footswitch_ = false;
+  std::this_thread::sleep_for(600ms);  // state messages at 4 Hz meanwhile
+  const auto event = slow.next_text("footswitch", 10s);
+  ASSERT_TRUE(event) << "the footswitch event was replaced";
+  EXPECT_EQ((*event)["action"], "snapshot");
 }
 
 // A snapshot waits for a full-size render, longer than any other reply of ioct-gpu (the CPU

@@ -118,7 +118,7 @@ nlohmann::json Hub::state(const std::string& role) const {
   return j;
 }
 
-void Hub::broadcast_text(const std::string& text) {
+void Hub::broadcast_event(const std::string& text) {
   const auto message = std::make_shared<const std::string>(text);
   for (auto it = viewers_.begin(); it != viewers_.end();) {
     auto viewer = it->second.lock();
@@ -126,7 +126,7 @@ void Hub::broadcast_text(const std::string& text) {
       it = viewers_.erase(it);
       continue;
     }
-    viewer->offer_state(message);
+    viewer->send_event(message);
     ++it;
   }
 }

@@ -26,7 +26,10 @@ class Viewer {
   virtual std::uint64_t watched_view() const = 0;  // 0: the shared view
   virtual bool is_operator() const = 0;
   virtual void offer_frame(const FrameMessage& frame) = 0;
+  // The newest state: replaces one not yet sent.
   virtual void offer_state(std::shared_ptr<const std::string> state) = 0;
+  // An event every viewer must see (a footswitch action): queued, never replaced.
+  virtual void send_event(std::shared_ptr<const std::string> event) = 0;
 };
 
 struct HubCounters {
@@ -55,7 +58,7 @@ class Hub {
     on_footswitch_ = std::move(handler);
   }
   // Sends a text message to every viewer (e.g. {"type":"footswitch",...}).
-  void broadcast_text(const std::string& text);
+  void broadcast_event(const std::string& text);
   // Sends the state to every viewer (the io thread's 4 Hz timer, and at every signal change).
   void broadcast_state();
 

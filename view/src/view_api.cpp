@@ -167,7 +167,7 @@ void ViewApi::close_own_view(std::uint64_t view) {
 }
 
 void ViewApi::footswitch(const std::string& action) {
-  hub_.broadcast_text(nlohmann::json{{"type", "footswitch"}, {"action", action}}.dump());
+  hub_.broadcast_event(nlohmann::json{{"type", "footswitch"}, {"action", action}}.dump());
   const auto ignore = [](ApiReply) {};
   const nlohmann::json& params = hub_.backends().params;
   if (action == "snapshot") {

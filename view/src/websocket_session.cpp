@@ -198,6 +198,11 @@ void WebSocketSession::offer_frame(const FrameMessage& frame) {
   write_next();
 }
 
+void WebSocketSession::send_event(std::shared_ptr<const std::string> event) {
+  if (replies_.size() >= kMaxPendingReplies) return refuse_and_close("not reading its messages");
+  send_text(std::move(event));
+}
+
 void WebSocketSession::offer_state(std::shared_ptr<const std::string> state) {
   pending_state_ = std::move(state);
   write_next();

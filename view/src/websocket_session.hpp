@@ -34,6 +34,7 @@ class WebSocketSession final : public Viewer,
   bool is_operator() const override { return operator_; }
   void offer_frame(const FrameMessage& frame) override;
   void offer_state(std::shared_ptr<const std::string> state) override;
+  void send_event(std::shared_ptr<const std::string> event) override;
 
   static constexpr std::size_t kMaxPendingReplies = 32;
   static constexpr double kMessagesPerSecond = 100.0;  // sustained; bursts up to twice that
