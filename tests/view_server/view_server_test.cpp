@@ -708,6 +708,30 @@ TEST_F(ViewServerTest, ASnapshotMayTakeLongerThanOtherReplies) {
   EXPECT_NE(reply.body.find("s.png"), std::string::npos) << reply.body;
 }
 
+// ioct-gpu's slow replies (a snapshot waits for a full-size render) hold up nothing of ioct-rt's:
+// a scan stop goes through at once and the scan's status goes on being polled meanwhile.
+TEST_F(ViewServerTest, ASlowSnapshotHoldsUpNeitherAScanStopNorTheScansStatus) {
+  snapshot_delay_ms_ = 2000;
+  start();
+  state_when([](const nlohmann::json& s) { return s["rt"].is_object(); });
+  std::thread snapshot(
+      [&] { EXPECT_EQ(http_request(port_, "POST", "/api/snapshot", "{}", kToken).status, 200u); });
+  for (int i = 0; i < 100 && count_cmd(gpu_->requests(), "snapshot") == 0; ++i) {
+    std::this_thread::sleep_for(10ms);
+  }
+  const std::size_t polls_before = count_cmd(rt_->requests(), "status");
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto stop = http_request(port_, "POST", "/api/scan", R"({"cmd":"stop"})", kToken);
+  const auto took = std::chrono::steady_clock::now() - t0;
+  EXPECT_EQ(stop.status, 200u) << stop.body;
+  EXPECT_LT(took, 1s) << "the stop waited for the snapshot";
+  std::this_thread::sleep_for(500ms);
+  EXPECT_GE(count_cmd(rt_->requests(), "status"), polls_before + 2)
+      << "ioct-rt's status is polled while the snapshot waits";
+  EXPECT_EQ(count_cmd(gpu_->requests(), "snapshot"), 1u);
+  snapshot.join();
+}
+
 // ioct-rt counts the presses where it reads the line: taps between two status polls (the line
 // never seen down by the view) each still act, and a restarted ioct-rt's count starts afresh.
 TEST_F(ViewServerTest, FootswitchTapsBetweenStatusPollsAreNotLost) {

@@ -57,7 +57,8 @@ Backends::Backends(const ViewConfig& config, PresetStore& presets, Deliver deliv
       presets_(presets),
       deliver_(std::move(deliver)),
       on_snapshot_(std::move(on_snapshot)) {
-  thread_ = std::thread([this] { run(); });
+  gpu_lane_.thread = std::thread([this] { run_gpu(); });
+  rt_lane_.thread = std::thread([this] { run_rt(); });
 }
 
 Backends::~Backends() {
@@ -65,30 +66,42 @@ Backends::~Backends() {
 }
 
 void Backends::shutdown() {
-  {
-    std::lock_guard lock(mutex_);
-    stop_ = true;
+  for (Lane* lane : {&gpu_lane_, &rt_lane_}) {
+    {
+      std::lock_guard lock(lane->mutex);
+      lane->stop = true;
+    }
+    lane->wake.notify_all();
   }
-  wake_.notify_all();
-  if (thread_.joinable()) thread_.join();
+  for (Lane* lane : {&gpu_lane_, &rt_lane_}) {
+    if (lane->thread.joinable()) lane->thread.join();
+  }
 }
 
 bool Backends::gpu(nlohmann::json request, Reply reply) {
-  return enqueue({true, std::move(request), std::move(reply)});
+  return enqueue(gpu_lane_, {std::move(request), std::move(reply)});
 }
 
 bool Backends::rt(nlohmann::json request, Reply reply) {
-  return enqueue({false, std::move(request), std::move(reply)});
+  return enqueue(rt_lane_, {std::move(request), std::move(reply)});
 }
 
-bool Backends::enqueue(Job job) {
+bool Backends::enqueue(Lane& lane, Job job) {
   {
-    std::lock_guard lock(mutex_);
-    if (stop_ || jobs_.size() >= kMaxQueued) return false;
-    jobs_.push_back(std::move(job));
+    std::lock_guard lock(lane.mutex);
+    if (lane.stop || lane.jobs.size() >= kMaxQueued) return false;
+    lane.jobs.push_back(std::move(job));
   }
-  wake_.notify_one();
+  lane.wake.notify_one();
   return true;
+}
+
+void Backends::publish(const std::function<void(BackendsSnapshot&)>& update) {
+  // Delivered under the lock, so the io thread gets the two lanes' snapshots in the order they
+  // were made.
+  std::lock_guard lock(snapshot_mutex_);
+  update(snapshot_);
+  deliver_([cb = on_snapshot_, snap = snapshot_] { cb(snap); });
 }
 
 void Backends::poll_rt(LineClient& client, BackendsSnapshot& snap) {
@@ -190,48 +203,26 @@ void Backends::poll_record(LineClient& client, BackendsSnapshot& snap) {
   if (reply.value("ok", false) && reply.contains("status")) snap.record_status = reply["status"];
 }
 
-void Backends::run() {
-  const auto timeout =
-      std::chrono::milliseconds(static_cast<std::int64_t>(config_.backend_timeout_s * 1000.0));
-  const auto snapshot_timeout =
-      std::chrono::milliseconds(static_cast<std::int64_t>(config_.snapshot_timeout_s * 1000.0));
-  LineClient gpu(config_.view_socket.string(), timeout);
-  LineClient rt(config_.control_socket.string(), timeout);
-  LineClient record(config_.record_socket.string(), timeout);
-  BackendsSnapshot snap;
+void Backends::run(Lane& lane, const std::function<nlohmann::json(Job&)>& serve,
+                   const std::function<void()>& poll) {
   const auto interval = std::chrono::duration_cast<Clock::duration>(
       std::chrono::duration<double>(config_.rt_status_interval_s));
   Clock::time_point next_poll = Clock::now();
-  std::unique_lock lock(mutex_);
-  while (!stop_) {
-    if (jobs_.empty()) wake_.wait_until(lock, next_poll, [&] { return stop_ || !jobs_.empty(); });
-    if (stop_) break;
-    if (!jobs_.empty()) {
-      Job job = std::move(jobs_.front());
-      jobs_.pop_front();
+  std::unique_lock lock(lane.mutex);
+  while (!lane.stop) {
+    if (lane.jobs.empty()) {
+      lane.wake.wait_until(lock, next_poll, [&] { return lane.stop || !lane.jobs.empty(); });
+    }
+    if (lane.stop) break;
+    if (!lane.jobs.empty()) {
+      Job job = std::move(lane.jobs.front());
+      lane.jobs.pop_front();
       lock.unlock();
-      const bool snapshot = job.to_gpu && job.request.value("cmd", "") == "snapshot";
       nlohmann::json reply;
       try {
-        reply = !job.to_gpu ? call(rt, "ioct-rt", job.request)
-                : snapshot  ? call(gpu, "ioct-gpu", job.request, snapshot_timeout)
-                            : call(gpu, "ioct-gpu", job.request);
+        reply = serve(job);
       } catch (const std::exception& e) {  // this thread must go on serving the others
         reply = {{"ok", false}, {"error", std::string("ioct-view: ") + e.what()}};
-      }
-      const bool changed_params = job.to_gpu && reply.value("ok", false) &&
-                                  job.request.value("cmd", "") == "set" &&
-                                  !job.request.contains("view");
-      if (changed_params) {
-        poll_gpu(gpu, snap);
-        if (snap.params.is_object()) {
-          try {
-            presets_.save_last(snap.params);
-          } catch (const std::exception& e) {
-            snap.gpu_error = std::string("the parameters could not be kept: ") + e.what();
-          }
-        }
-        deliver_([cb = on_snapshot_, snap] { cb(snap); });
       }
       deliver_([cb = std::move(job.reply), r = std::move(reply)]() mutable { cb(std::move(r)); });
       lock.lock();
@@ -241,16 +232,75 @@ void Backends::run() {
       next_poll = Clock::now() + interval;
       lock.unlock();
       try {
-        poll_rt(rt, snap);
-        poll_gpu(gpu, snap);
-        poll_record(record, snap);
+        poll();
       } catch (const std::exception& e) {  // the next poll tries again
-        Log("ioct-view").warning(std::string("polling ioct-rt and ioct-gpu: ") + e.what());
+        Log("ioct-view").warning(std::string("polling: ") + e.what());
       }
-      deliver_([cb = on_snapshot_, snap] { cb(snap); });
       lock.lock();
     }
   }
+}
+
+void Backends::run_gpu() {
+  const auto timeout =
+      std::chrono::milliseconds(static_cast<std::int64_t>(config_.backend_timeout_s * 1000.0));
+  const auto snapshot_timeout =
+      std::chrono::milliseconds(static_cast<std::int64_t>(config_.snapshot_timeout_s * 1000.0));
+  LineClient client(config_.view_socket.string(), timeout);
+  BackendsSnapshot mine;  // this lane's part: params, generation, gpu_error, params_problem
+  const auto share = [&] {
+    publish([&](BackendsSnapshot& s) {
+      s.params = mine.params;
+      s.generation = mine.generation;
+      s.gpu_error = mine.gpu_error;
+      s.params_problem = mine.params_problem;
+    });
+  };
+  run(
+      gpu_lane_,
+      [&](Job& job) {
+        const std::string cmd = job.request.value("cmd", "");
+        nlohmann::json reply = cmd == "snapshot"
+                                   ? call(client, "ioct-gpu", job.request, snapshot_timeout)
+                                   : call(client, "ioct-gpu", job.request);
+        if (reply.value("ok", false) && cmd == "set" && !job.request.contains("view")) {
+          // The shared view changed: the state shows it at once, and it is kept for restarts.
+          poll_gpu(client, mine);
+          if (mine.params.is_object()) {
+            try {
+              presets_.save_last(mine.params);
+            } catch (const std::exception& e) {
+              mine.gpu_error = std::string("the parameters could not be kept: ") + e.what();
+            }
+          }
+          share();
+        }
+        return reply;
+      },
+      [&] {
+        poll_gpu(client, mine);
+        share();
+      });
+}
+
+void Backends::run_rt() {
+  const auto timeout =
+      std::chrono::milliseconds(static_cast<std::int64_t>(config_.backend_timeout_s * 1000.0));
+  LineClient rt(config_.control_socket.string(), timeout);
+  LineClient record(config_.record_socket.string(), timeout);
+  BackendsSnapshot mine;  // this lane's part: rt_status, rt_error, footswitch, record_status
+  run(
+      rt_lane_, [&](Job& job) { return call(rt, "ioct-rt", job.request); },
+      [&] {
+        poll_rt(rt, mine);
+        poll_record(record, mine);
+        publish([&](BackendsSnapshot& s) {
+          s.rt_status = mine.rt_status;
+          s.rt_error = mine.rt_error;
+          s.footswitch_presses = mine.footswitch_presses;
+          s.record_status = mine.record_status;
+        });
+      });
 }
 
 }  // namespace ioct::view

@@ -1,11 +1,13 @@
 // ioct-view's clients of the two other processes: ioct-gpu's view socket (render parameters,
-// views, snapshots) and ioct-rt's control socket (scan start/stop/pattern, status). The calls run
-// on a thread of their own with bounded timeouts, so a peer that hangs never holds up a browser;
-// replies are handed back through `deliver` (ioct-view posts them onto its io thread).
+// views, snapshots) and ioct-rt's control socket (scan start/stop/pattern, status). Each peer's
+// calls run on a thread of its own (a lane) with bounded timeouts, so a peer that hangs never
+// holds up a browser, and a slow one (a snapshot waits seconds for a full-size render on a CPU)
+// never holds up the other: a scan stop and ioct-rt's status go on meanwhile. Replies are handed
+// back through `deliver` (ioct-view posts them onto its io thread).
 //
-// The thread also polls: ioct-rt's status, ioct-gpu's parameters, ioct-record's status (metrics),
-// and when ioct-gpu comes (back) it re-applies the parameters last saved, so settings survive a
-// restart of either side.
+// The lanes also poll: ioct-rt's status and ioct-record's status (metrics) on one, ioct-gpu's
+// parameters on the other, and when ioct-gpu comes (back) it re-applies the parameters last
+// saved, so settings survive a restart of either side.
 #pragma once
 
 #include <condition_variable>
@@ -49,14 +51,14 @@ class Backends {
 
   Backends(const ViewConfig& config, PresetStore& presets, Deliver deliver, OnSnapshot on_snapshot);
   ~Backends();  // shutdown()
-  // Stops the thread; later requests are refused (return false). Idempotent.
+  // Stops the threads; later requests are refused (return false). Idempotent.
   void shutdown();
   Backends(const Backends&) = delete;
   Backends& operator=(const Backends&) = delete;
 
   // One request to ioct-gpu / ioct-rt; `reply` gets the peer's reply object, or
   // {"ok":false,"error":...,"unavailable":true} when the peer cannot be reached. False (and no
-  // call) when more than kMaxQueued requests wait: the caller answers "busy".
+  // call) when more than kMaxQueued requests wait for that peer: the caller answers "busy".
   bool gpu(nlohmann::json request, Reply reply);
   bool rt(nlohmann::json request, Reply reply);
 
@@ -64,12 +66,25 @@ class Backends {
 
  private:
   struct Job {
-    bool to_gpu = true;
     nlohmann::json request;
     Reply reply;
   };
-  bool enqueue(Job job);
-  void run();
+  // One peer's queue of requests, served in order with its polls between them.
+  struct Lane {
+    std::mutex mutex;
+    std::condition_variable wake;
+    std::deque<Job> jobs;
+    bool stop = false;
+    std::thread thread;
+  };
+  static bool enqueue(Lane& lane, Job job);
+  // Serves `lane`: `serve` answers a job, `poll` runs every rt_status_interval_s between jobs.
+  void run(Lane& lane, const std::function<nlohmann::json(Job&)>& serve,
+           const std::function<void()>& poll);
+  void run_gpu();
+  void run_rt();
+  // Copies what one lane learnt into the shared snapshot and delivers it to the io thread.
+  void publish(const std::function<void(BackendsSnapshot&)>& update);
   void poll_rt(LineClient& client, BackendsSnapshot& snap);
   void count_footswitch_presses(BackendsSnapshot& snap);
   void poll_gpu(LineClient& client, BackendsSnapshot& snap);
@@ -82,14 +97,13 @@ class Backends {
   PresetStore& presets_;
   Deliver deliver_;
   OnSnapshot on_snapshot_;
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  std::deque<Job> jobs_;
-  bool stop_ = false;
-  bool gpu_was_connected_ = false;
-  bool footswitch_down_ = false;
+  std::mutex snapshot_mutex_;
+  BackendsSnapshot snapshot_;                      // both lanes' parts; delivered whole
+  bool gpu_was_connected_ = false;                 // the gpu lane's
+  bool footswitch_down_ = false;                   // the rt lane's
   std::optional<std::uint64_t> footswitch_count_;  // ioct-rt's press count at the last poll
-  std::thread thread_;
+  Lane gpu_lane_;
+  Lane rt_lane_;
 };
 
 }  // namespace ioct::view
