@@ -60,6 +60,7 @@ bool LineClient::connect_now() {
       return false;
     }
   }
+  ++connections_;
   return true;
 }
 

@@ -1,7 +1,8 @@
 // The pages' ES modules on their own, in the browser, without a server: the frame message is
 // parsed as the protocol lays it out, the signal is never live without a live, recent, connected
-// server, the state line reads ioct-rt's status, parameter changes are throttled and merged, and a
-// picture that comes again unchanged is not decoded again.
+// server, the state line reads ioct-rt's status, parameter changes are throttled and merged, the
+// socket hands events to their handlers, and a picture that comes again unchanged is not decoded
+// again.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -237,6 +238,25 @@ TEST_F(PageModules, ParameterChangesGoOutAtMostEvery30MsMergedAndInOrder) {
       << "the last value always goes out";
   EXPECT_EQ(r.at("zoomSent"), true) << "a change merged into a message is not lost";
   EXPECT_EQ(r.at("replies"), r.at("count"));
+}
+
+// The socket hands each text message to its own handler: the footswitch's action, and the news
+// that a viewer's own view was closed with its reason; a malformed one is a problem, not a throw.
+TEST_F(PageModules, TheSocketHandsEventsToTheirHandlers) {
+  const nlohmann::json r = with_module("live-socket.js", R"(
+    const seen = [];
+    const socket = new m.LiveSocket({
+      onFootswitch: (action) => seen.push(['footswitch', action]),
+      onOwnViewClosed: (reason) => seen.push(['closed', reason]),
+      onProblem: (problem) => seen.push(['problem', problem.slice(0, 22)])});
+    socket.receive(JSON.stringify({type: 'footswitch', action: 'toggle-bscan'}));
+    socket.receive(JSON.stringify({type: 'own_view_closed', reason: 'ioct-gpu restarted'}));
+    socket.receive('{not json');
+    return seen;)");
+  using J = nlohmann::json;
+  EXPECT_EQ(r, J::array({J::array({"footswitch", "toggle-bscan"}),
+                         J::array({"closed", "ioct-gpu restarted"}),
+                         J::array({"problem", "bad message from the s"})}));
 }
 
 TEST_F(PageModules, TokenComesFromTheFragmentAndGoesOutAsABearerHeader) {

@@ -587,6 +587,36 @@ TEST_F(ViewServerTest, AViewersOwnViewIsOneViewHoweverFastItsChangesCome) {
   EXPECT_EQ(count_cmd(requests, "close_view"), 1u) << "the view the follow left is closed";
 }
 
+// ioct-gpu closes a connection's views with it: after it restarts, a viewer that orbited its own
+// camera is told and follows the shared view again, instead of waiting for frames that never come
+// under a picture that looks live.
+TEST_F(ViewServerTest, AnOwnViewLostWithIoctGpusConnectionSendsTheViewerBackToTheSharedView) {
+  start();
+  WsViewer viewer(port_);
+  ASSERT_TRUE(viewer.next_text("state", 2s)) << "joined";
+  viewer.send({{"type", "own_view"}, {"id", 1}, {"changes", {{"view", {{"zoom", 2}}}}}});
+  const auto reply = viewer.next_text("reply", 2s);
+  ASSERT_TRUE(reply);
+  ASSERT_EQ((*reply)["ok"], true) << reply->dump();
+
+  gpu_.reset();  // ioct-gpu restarts
+  gpu_ = std::make_unique<LineService>((dir_ / "gpu.sock").string(),
+                                       [this](const nlohmann::json& r) { return gpu_reply(r); });
+  const auto closed = viewer.next_text("own_view_closed", 3s);
+  ASSERT_TRUE(closed) << "the viewer is told its view is gone";
+  EXPECT_NE((*closed)["reason"].get<std::string>().find("ioct-gpu"), std::string::npos);
+  for (int i = 0; i < 100 && count_cmd(gpu_->requests(), "close_view") == 0; ++i) {
+    std::this_thread::sleep_for(20ms);
+  }
+  const std::vector<nlohmann::json> requests = gpu_->requests();
+  ASSERT_EQ(count_cmd(requests, "close_view"), 1u) << "in case it was opened anew: not left";
+  publish(7, 0);
+  std::optional<ReceivedFrame> frame = viewer.next_frame(2s);
+  ASSERT_TRUE(frame) << "the shared view's frames reach it again";
+  EXPECT_EQ(frame->description["view"], 0);
+  EXPECT_EQ(frame->description["group"], 7);
+}
+
 TEST_F(ViewServerTest, PresetsAreSavedRecalledAndNamedSafely) {
   start();
   state_when([](const nlohmann::json& s) { return s["params"].is_object(); });

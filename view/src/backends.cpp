@@ -254,6 +254,7 @@ void Backends::run_gpu() {
       s.generation = mine.generation;
       s.gpu_error = mine.gpu_error;
       s.params_problem = mine.params_problem;
+      s.gpu_connection = client.connections();
     });
   };
   run(
@@ -281,6 +282,7 @@ void Backends::run_gpu() {
         poll_gpu(client, mine);
         share();
       });
+  // A job that reconnected is shared by the next poll (at most rt_status_interval_s later).
 }
 
 void Backends::run_rt() {

@@ -39,6 +39,8 @@ struct BackendsSnapshot {
   // Why the operators' last parameters (params.json) were not given to ioct-gpu when it came
   // (back): the file cannot be used, or ioct-gpu refused them; empty when they were.
   std::string params_problem;
+  // The gpu lane's connections to ioct-gpu so far: views opened on an earlier one are gone.
+  std::uint64_t gpu_connection = 0;
   std::uint64_t footswitch_presses = 0;  // footswitch presses so far (ioct-rt counts them)
   nlohmann::json record_status;          // ioct-record's record-status "status"; null: no recorder
 };

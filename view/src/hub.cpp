@@ -76,7 +76,19 @@ void Hub::on_backends(const BackendsSnapshot& snapshot) {
   const bool params_changed =
       snapshot.generation != backends_.generation || snapshot.params != backends_.params;
   const std::uint64_t presses = snapshot.footswitch_presses - backends_.footswitch_presses;
+  // ioct-gpu closes a connection's views with it: a viewer orbiting one would otherwise wait for
+  // its frames forever, the last picture showing as live.
+  const bool views_lost =
+      backends_.gpu_connection != 0 && snapshot.gpu_connection != backends_.gpu_connection;
   backends_ = snapshot;
+  if (views_lost) {
+    for (const auto& [key, weak] : viewers_) {
+      if (auto viewer = weak.lock()) {
+        viewer->drop_own_view(
+            "ioct-gpu's connection was renewed (it restarted, or a request timed out)");
+      }
+    }
+  }
   for (std::uint64_t i = 0; i < presses && on_footswitch_; ++i) on_footswitch_();
   if (params_changed) broadcast_state();
 }

@@ -30,6 +30,9 @@ class Viewer {
   virtual void offer_state(std::shared_ptr<const std::string> state) = 0;
   // An event every viewer must see (a footswitch action): queued, never replaced.
   virtual void send_event(std::shared_ptr<const std::string> event) = 0;
+  // Its own view no longer exists (ioct-gpu restarted or its connection was renewed): back to
+  // the shared view, and the page is told why.
+  virtual void drop_own_view(const std::string& reason) = 0;
 };
 
 struct HubCounters {

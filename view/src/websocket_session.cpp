@@ -198,6 +198,14 @@ void WebSocketSession::offer_frame(const FrameMessage& frame) {
   write_next();
 }
 
+void WebSocketSession::drop_own_view(const std::string& reason) {
+  if (own_view_ == 0) return;
+  api_.close_own_view(own_view_);  // opened on the new connection after all: not left rendering
+  own_view_ = 0;
+  send_event(std::make_shared<const std::string>(
+      nlohmann::json{{"type", "own_view_closed"}, {"reason", reason}}.dump()));
+}
+
 void WebSocketSession::send_event(std::shared_ptr<const std::string> event) {
   if (replies_.size() >= kMaxPendingReplies) return refuse_and_close("not reading its messages");
   send_text(std::move(event));

@@ -35,6 +35,7 @@ class WebSocketSession final : public Viewer,
   void offer_frame(const FrameMessage& frame) override;
   void offer_state(std::shared_ptr<const std::string> state) override;
   void send_event(std::shared_ptr<const std::string> event) override;
+  void drop_own_view(const std::string& reason) override;
 
   static constexpr std::size_t kMaxPendingReplies = 32;
   static constexpr double kMessagesPerSecond = 100.0;  // sustained; bursts up to twice that

@@ -42,6 +42,12 @@ const live = startLiveView({
     const bscan = controls.find((c) => c.def.path === 'slice.bscan');
     if (bscan && meta.bscans > 0) bscan.row.querySelector('input').max = meta.bscans - 1;
   },
+  // The viewer's own camera is gone with ioct-gpu's connection: the shared view again, said so.
+  onOwnViewClosed: (reason) => {
+    ownView = null;
+    $('follow').hidden = true;
+    $('general-error').textContent = `Your own view was closed: ${reason}. Showing the shared view.`;
+  },
 });
 
 const sender = new ParamSender(live.socket, {

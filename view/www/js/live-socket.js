@@ -9,8 +9,10 @@ const kReplyTimeoutMs = 5000;
 
 export class LiveSocket {
   constructor({ token = '', onFrame = () => {}, onState = () => {}, onOpen = () => {},
-                onClose = () => {}, onProblem = () => {}, onFootswitch = () => {} } = {}) {
-    Object.assign(this, { token, onFrame, onState, onOpen, onClose, onProblem, onFootswitch });
+                onClose = () => {}, onProblem = () => {}, onFootswitch = () => {},
+                onOwnViewClosed = () => {} } = {}) {
+    Object.assign(this,
+      { token, onFrame, onState, onOpen, onClose, onProblem, onFootswitch, onOwnViewClosed });
     this.retryMs = kFirstRetryMs;
     this.nextId = 1;
     this.pending = new Map();
@@ -60,6 +62,8 @@ export class LiveSocket {
         this.onState(message);
       } else if (message.type === 'footswitch') {
         this.onFootswitch(message.action);
+      } else if (message.type === 'own_view_closed') {
+        this.onOwnViewClosed(String(message.reason || ''));
       } else if (message.type === 'reply' && this.pending.has(message.id)) {
         const { resolve, timer } = this.pending.get(message.id);
         clearTimeout(timer);

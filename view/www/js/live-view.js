@@ -11,7 +11,8 @@ import { renderStateLine } from './state-line.js';
 
 const kBannerCheckMs = 100;
 
-export function startLiveView({ token = '', onState = () => {}, onFrame = () => {} } = {}) {
+export function startLiveView({ token = '', onState = () => {}, onFrame = () => {},
+                                onOwnViewClosed = () => {} } = {}) {
   const $ = (id) => document.getElementById(id);
   const elements = {
     picture: $('picture'),
@@ -88,6 +89,7 @@ export function startLiveView({ token = '', onState = () => {}, onFrame = () => 
       onState(state);
     },
     onProblem: reportProblem,
+    onOwnViewClosed,
     // The surgeon's foot: the B-scan panel is the page's own to show or hide; the other actions
     // ioct-view carries out, and the next frames show them.
     onFootswitch: (action) => {

@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -29,6 +30,9 @@ class LineClient {
   const std::string& last_error() const noexcept { return error_; }
   const std::string& path() const noexcept { return path_; }
   bool connected() const noexcept { return fd_ >= 0; }
+  // Connections made so far: a peer keeps per-connection state (ioct-gpu's views), which a new
+  // connection no longer has.
+  std::uint64_t connections() const noexcept { return connections_; }
 
   static constexpr std::size_t kMaxReplyBytes = 1 << 20;
 
@@ -39,6 +43,7 @@ class LineClient {
   std::string path_;
   std::chrono::milliseconds timeout_;
   int fd_ = -1;
+  std::uint64_t connections_ = 0;
   std::string pending_;  // bytes after the last reply's newline
   std::string error_;
 };
