@@ -31,8 +31,11 @@ HttpResult http_request(std::uint16_t port, const std::string& method, const std
   return {response.result_int(), response.body()};
 }
 
-WsViewer::WsViewer(std::uint16_t port) : ws_(io_) {
+WsViewer::WsViewer(std::uint16_t port, const std::string& from) : ws_(io_) {
   beast::get_lowest_layer(ws_).expires_after(std::chrono::seconds(5));
+  tcp::socket& socket = beast::get_lowest_layer(ws_).socket();
+  socket.open(tcp::v4());
+  socket.bind(tcp::endpoint(boost::asio::ip::make_address(from), 0));
   beast::get_lowest_layer(ws_).connect(
       tcp::endpoint(boost::asio::ip::make_address("127.0.0.1"), port));
   ws_.handshake("127.0.0.1", "/ws");

@@ -32,7 +32,9 @@ struct ReceivedFrame {
 
 class WsViewer {
  public:
-  explicit WsViewer(std::uint16_t port);
+  // Connects to 127.0.0.1:port from `from` (another loopback address is another peer to the
+  // server).
+  explicit WsViewer(std::uint16_t port, const std::string& from = "127.0.0.1");
   void send(const nlohmann::json& message);
   void send_raw(const std::string& text);
   // The next message within `timeout`: a frame (binary) or a JSON text; nullopt on timeout or

@@ -70,6 +70,7 @@ class ViewServerTest : public ::testing::Test {
     config.www_dir = dir_ / "www";
     config.state_dir = dir_ / "state";
     config.max_connections = max_connections;
+    config.max_connections_per_address = max_connections_per_address_;
     config.rt_status_interval_s = 0.1;
     config_ = config;
     start_server();
@@ -129,6 +130,7 @@ class ViewServerTest : public ::testing::Test {
     return {{"ok", true}};
   }
   std::atomic<int> snapshot_delay_ms_{0};
+  std::uint32_t max_connections_per_address_ = 64;
   // The stand-ins answer with fields of the wrong type (another version, another service).
   std::atomic<bool> odd_replies_{false};
 
@@ -528,6 +530,27 @@ TEST_F(ViewServerTest, ConnectionsBeyondTheLimitAreRefused) {
   std::this_thread::sleep_for(200ms);
   const std::string metrics = http_request(port_, "GET", "/metrics").body;
   EXPECT_NE(metrics.find("ioct_view_connections_refused_total 1"), std::string::npos) << metrics;
+}
+
+// One address cannot take every place: beyond its own limit it is refused while another
+// address still gets in (127.0.0.2 is loopback too, another peer to the server).
+TEST_F(ViewServerTest, OneAddressCannotTakeThePlacesOfTheOthers) {
+  max_connections_per_address_ = 3;
+  start();
+  std::vector<std::unique_ptr<WsViewer>> hog;
+  for (int i = 0; i < 3; ++i) {
+    hog.push_back(std::make_unique<WsViewer>(port_));
+    ASSERT_TRUE(hog.back()->next_text("state", 2s)) << "viewer " << i << " joined";
+  }
+  EXPECT_ANY_THROW(WsViewer extra(port_)) << "the fourth from 127.0.0.1";
+  EXPECT_ANY_THROW(http_request(port_, "GET", "/api/state")) << "HTTP counts the same";
+  WsViewer other(port_, "127.0.0.2");
+  EXPECT_TRUE(other.next_text("state", 2s)) << "another address still gets in";
+  hog.pop_back();
+  std::this_thread::sleep_for(200ms);
+  EXPECT_NO_THROW(WsViewer again(port_)) << "a place freed is a place again";
+  std::this_thread::sleep_for(200ms);
+  EXPECT_EQ(metric(port_, "ioct_view_connections_refused_total").value_or(0.0), 2.0);
 }
 
 TEST_F(ViewServerTest, AViewerMayOrbitItsOwnCameraOnly) {

@@ -9,15 +9,22 @@ namespace ioct::view {
 namespace beast = boost::beast;
 namespace http = boost::beast::http;
 
-HttpSession::HttpSession(boost::asio::ip::tcp::socket socket, Hub& hub, ViewApi& api,
-                         const StaticFiles& files, const ViewConfig& config)
-    : stream_(std::move(socket)), hub_(hub), api_(api), files_(files), config_(config) {
-  ++hub_.connections();
+std::string remote_address(const boost::asio::ip::tcp::socket& socket) {
+  boost::system::error_code ec;
+  const auto endpoint = socket.remote_endpoint(ec);
+  return ec ? std::string("unknown") : endpoint.address().to_string();
 }
 
-HttpSession::~HttpSession() {
-  --hub_.connections();
-}
+HttpSession::HttpSession(boost::asio::ip::tcp::socket socket, Hub& hub, ViewApi& api,
+                         const StaticFiles& files, const ViewConfig& config)
+    : counted_(std::in_place, hub, remote_address(socket)),
+      stream_(std::move(socket)),
+      hub_(hub),
+      api_(api),
+      files_(files),
+      config_(config) {}
+
+HttpSession::~HttpSession() = default;
 
 void HttpSession::start() {
   read();
@@ -61,7 +68,8 @@ void HttpSession::on_request() {
   if (beast::websocket::is_upgrade(request)) {
     if (path != "/ws") return send(json_response(api_error(404, "the WebSocket is at /ws")));
     stream_.expires_never();
-    std::make_shared<WebSocketSession>(stream_.release_socket(), hub_, api_, config_)
+    std::make_shared<WebSocketSession>(stream_.release_socket(), std::move(*counted_), hub_, api_,
+                                       config_)
         ->start(std::move(request));
     return;
   }

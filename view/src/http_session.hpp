@@ -16,6 +16,9 @@
 
 namespace ioct::view {
 
+// The peer's address as the connection limits count it ("unknown" when it cannot be read).
+std::string remote_address(const boost::asio::ip::tcp::socket& socket);
+
 class HttpSession final : public std::enable_shared_from_this<HttpSession> {
  public:
   HttpSession(boost::asio::ip::tcp::socket socket, Hub& hub, ViewApi& api, const StaticFiles& files,
@@ -30,6 +33,7 @@ class HttpSession final : public std::enable_shared_from_this<HttpSession> {
   void send(Response response);
   Response json_response(const ApiReply& reply) const;
 
+  std::optional<CountedConnection> counted_;  // handed to the WebSocket session on an upgrade
   boost::beast::tcp_stream stream_;
   boost::beast::flat_buffer buffer_;
   std::optional<boost::beast::http::request_parser<boost::beast::http::string_body>> parser_;

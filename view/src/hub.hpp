@@ -11,6 +11,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
 
 #include "backends.hpp"
 #include "frame_follower.hpp"
@@ -79,8 +80,20 @@ class Hub {
   HubCounters& counters() noexcept { return counters_; }
   // The instrument of the newest frame of the shared view (state off until one came).
   const shm::FrameInstrument& instrument() const noexcept { return instrument_; }
-  // Open connections, HTTP and WebSocket (the listener's limit).
-  int& connections() noexcept { return connections_; }
+  // Open connections, HTTP and WebSocket, in all and per remote address (the listener's limits).
+  void connection_opened(const std::string& address) {
+    ++connections_;
+    ++connections_from_[address];
+  }
+  void connection_closed(const std::string& address) {
+    --connections_;
+    if (--connections_from_[address] <= 0) connections_from_.erase(address);
+  }
+  int connections() const noexcept { return connections_; }
+  int connections_from(const std::string& address) const {
+    const auto it = connections_from_.find(address);
+    return it == connections_from_.end() ? 0 : it->second;
+  }
 
  private:
   std::map<const Viewer*, std::weak_ptr<Viewer>> viewers_;
@@ -97,7 +110,30 @@ class Hub {
   std::string last_pictures_;
   std::uint64_t pictures_ = 0;
   int connections_ = 0;
+  std::map<std::string, int> connections_from_;
   std::function<void()> on_footswitch_;
+};
+
+// One open connection as the hub counts it (in all and by its peer's address). It moves with the
+// socket from the HTTP session to the WebSocket session that session becomes: one connection,
+// counted once.
+class CountedConnection {
+ public:
+  CountedConnection(Hub& hub, std::string address) : hub_(&hub), address_(std::move(address)) {
+    hub_->connection_opened(address_);
+  }
+  CountedConnection(CountedConnection&& other) noexcept
+      : hub_(std::exchange(other.hub_, nullptr)), address_(std::move(other.address_)) {}
+  CountedConnection& operator=(CountedConnection&&) = delete;
+  CountedConnection(const CountedConnection&) = delete;
+  CountedConnection& operator=(const CountedConnection&) = delete;
+  ~CountedConnection() {
+    if (hub_ != nullptr) hub_->connection_closed(address_);
+  }
+
+ private:
+  Hub* hub_;
+  std::string address_;
 };
 
 }  // namespace ioct::view

@@ -68,10 +68,14 @@ void ViewServer::accept() {
   acceptor_->async_accept([this](boost::system::error_code ec, tcp::socket socket) {
     if (ec == asio::error::operation_aborted) return;
     if (!ec) {
-      if (hub_.connections() >= static_cast<int>(config_.max_connections)) {
+      // At a limit, refused: the others keep their share, and one client (a page reloaded in a
+      // storm, a misbehaving tool) cannot take the places the surgeon's display needs.
+      if (hub_.connections() >= static_cast<int>(config_.max_connections) ||
+          hub_.connections_from(remote_address(socket)) >=
+              static_cast<int>(config_.max_connections_per_address)) {
         ++hub_.counters().connections_refused;
         boost::system::error_code ignored;
-        socket.close(ignored);  // at the limit: refused, the others keep their share
+        socket.close(ignored);
       } else {
         // Frames go out as soon as they are written, not when the previous segment is acked.
         boost::system::error_code ignored;

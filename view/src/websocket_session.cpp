@@ -10,14 +10,11 @@ namespace ioct::view {
 namespace beast = boost::beast;
 namespace websocket = boost::beast::websocket;
 
-WebSocketSession::WebSocketSession(boost::asio::ip::tcp::socket socket, Hub& hub, ViewApi& api,
-                                   const ViewConfig& config)
-    : ws_(std::move(socket)), hub_(hub), api_(api), config_(config) {
-  ++hub_.connections();
-}
+WebSocketSession::WebSocketSession(boost::asio::ip::tcp::socket socket, CountedConnection counted,
+                                   Hub& hub, ViewApi& api, const ViewConfig& config)
+    : counted_(std::move(counted)), ws_(std::move(socket)), hub_(hub), api_(api), config_(config) {}
 
 WebSocketSession::~WebSocketSession() {
-  --hub_.connections();
   hub_.leave(this);
   if (own_view_ != 0) api_.close_own_view(own_view_);
 }

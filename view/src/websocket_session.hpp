@@ -24,8 +24,8 @@ namespace ioct::view {
 class WebSocketSession final : public Viewer,
                                public std::enable_shared_from_this<WebSocketSession> {
  public:
-  WebSocketSession(boost::asio::ip::tcp::socket socket, Hub& hub, ViewApi& api,
-                   const ViewConfig& config);
+  WebSocketSession(boost::asio::ip::tcp::socket socket, CountedConnection counted, Hub& hub,
+                   ViewApi& api, const ViewConfig& config);
   ~WebSocketSession() override;
 
   void start(boost::beast::http::request<boost::beast::http::string_body> upgrade);
@@ -51,6 +51,7 @@ class WebSocketSession final : public Viewer,
   void send_close();
   bool within_rate();
 
+  CountedConnection counted_;  // the HTTP session's, which this one became
   boost::beast::websocket::stream<boost::beast::tcp_stream> ws_;
   boost::beast::flat_buffer buffer_;
   Hub& hub_;
