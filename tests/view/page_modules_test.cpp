@@ -186,6 +186,49 @@ TEST_F(PageModules, SignalIsLiveOnlyWhileTheServerSaysSoRecentlyOverAnOpenConnec
   EXPECT_EQ(r.at("formatted"), (nlohmann::json{"3.2 s", "1 min 05 s", ""}));
 }
 
+// The server says live, messages keep coming, but the picture drawn is older than the server's
+// stale bound (a renderer slower than the scanner, a render stream that stopped): STALE, with the
+// picture's own age; a recent picture is live again.
+TEST_F(PageModules, APictureOlderThanTheStaleBoundIsStaleWhileTheServerSaysLive) {
+  const nlohmann::json r = with_module("signal-watch.js", R"(
+    let now = 0;
+    const w = new m.SignalWatch(() => now);
+    const at = () => w.current();
+    const out = {};
+    w.connection(true);
+    w.state({signal: 'live', age_ms: 40, stale_after_ms: 300});
+    out.noPictureYet = at().signal;
+    w.pictureDrawn(120);
+    out.recent = at().signal;
+    now = 150; w.state({signal: 'live', age_ms: 30, stale_after_ms: 300});
+    out.atTheBound = at().signal;
+    now = 200; w.frame();
+    out.behind = at();
+    w.pictureDrawn(20);
+    out.caughtUp = at().signal;
+    w.pictureDrawn(5000);
+    out.slowRenderer = at();
+    w.state({signal: 'stale', age_ms: 900, stale_after_ms: 300});
+    out.serverStale = at();
+    w.pictureDrawn(undefined);
+    w.state({signal: 'live', age_ms: 10, stale_after_ms: 300});
+    out.noAge = at().signal;
+    return out;)");
+  EXPECT_EQ(r.at("noPictureYet"), "live") << "nothing drawn: nothing shown as live";
+  EXPECT_EQ(r.at("recent"), "live");
+  EXPECT_EQ(r.at("atTheBound"), "live") << "120 + 150 ms is within 300 ms";
+  EXPECT_EQ(r.at("behind").at("signal"), "stale") << "120 + 200 ms is past 300 ms";
+  EXPECT_DOUBLE_EQ(r.at("behind").at("ageMs").get<double>(), 320.0) << "the picture's own age";
+  EXPECT_NE(r.at("behind").at("reason").get<std::string>().find("picture lags the scan"),
+            std::string::npos);
+  EXPECT_EQ(r.at("caughtUp"), "live");
+  EXPECT_EQ(r.at("slowRenderer").at("signal"), "stale");
+  EXPECT_EQ(r.at("serverStale").at("signal"), "stale");
+  EXPECT_DOUBLE_EQ(r.at("serverStale").at("ageMs").get<double>(), 900.0)
+      << "the server's verdict and age first";
+  EXPECT_EQ(r.at("noAge"), "live") << "a frame without an age is not judged by it";
+}
+
 TEST_F(PageModules, StateLineReadsTheScannersStatus) {
   const nlohmann::json r = with_module("state-line.js", R"(
     const d = (rt) => m.describeState({groups_per_s: 20.04, dropped: 3, rt});

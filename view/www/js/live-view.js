@@ -53,6 +53,8 @@ export function startLiveView({ token = '', onState = () => {}, onFrame = () => 
     onDrawn: (meta) => {
       status.framesDrawn += 1;
       status.lastFrame = meta;
+      watch.pictureDrawn(meta.age_ms);
+      updateBanner();
       status.tipMarked = painter.tipMarked;
       status.tipOnRender = painter.tipOnRender;
       socket.send({ type: 'drawn', frame: meta.frame, view: meta.view });

@@ -1,6 +1,8 @@
 // What the picture may claim to be. It is live only while the server says `live`, messages keep
-// coming (a state or frame within the last second) and the WebSocket is open; anything else is
-// STALE (the server says so) or NO SIGNAL (the server says so, is silent, or is unreachable).
+// coming (a state or frame within the last second), the WebSocket is open and the picture drawn
+// is itself recent (its newest scan no older than the server's stale bound); anything else is
+// STALE (the server says so, or the picture lags the scan: a renderer slower than the scanner, a
+// render stream that stopped) or NO SIGNAL (the server says so, is silent, or is unreachable).
 export const kSilenceMs = 1000;
 
 export class SignalWatch {
@@ -13,6 +15,9 @@ export class SignalWatch {
     this.serverReason = '';
     this.stateAt = -Infinity;
     this.lastLiveAt = null;   // when the picture was last known live (for the age while lost)
+    this.staleAfterMs = null; // the server's bound on the newest scan's age
+    this.pictureAgeMs = null; // the drawn picture's newest scan's age when its frame was sent
+    this.pictureAt = null;    // when that picture was drawn
   }
 
   connection(open) {
@@ -25,10 +30,24 @@ export class SignalWatch {
     this.serverSignal = message.signal || 'no_signal';
     this.serverAgeMs = Number.isFinite(message.age_ms) ? message.age_ms : null;
     this.serverReason = typeof message.reason === 'string' ? message.reason : '';
+    if (Number.isFinite(message.stale_after_ms) && message.stale_after_ms > 0) {
+      this.staleAfterMs = message.stale_after_ms;
+    }
     if (this.serverSignal === 'live') this.lastLiveAt = this.lastMessageAt;
   }
 
   frame() { this.lastMessageAt = this.now(); }
+
+  // A picture was drawn: `ageMs` is its frame's age_ms (its newest scan published → frame sent).
+  pictureDrawn(ageMs) {
+    this.pictureAgeMs = Number.isFinite(ageMs) ? ageMs : null;
+    this.pictureAt = this.now();
+  }
+
+  // The drawn picture's newest scan's age now; null before the first picture with an age.
+  pictureAge(now = this.now()) {
+    return this.pictureAgeMs === null ? null : this.pictureAgeMs + (now - this.pictureAt);
+  }
 
   // {signal: 'live'|'stale'|'no_signal', ageMs: number|null, reason: string}
   current() {
@@ -41,7 +60,14 @@ export class SignalWatch {
     if (now - this.lastMessageAt > kSilenceMs) {
       return { signal: 'no_signal', ageMs: sinceLive, reason: 'the appliance is silent' };
     }
-    if (this.serverSignal === 'live') return { signal: 'live', ageMs: serverAge, reason: '' };
+    if (this.serverSignal === 'live') {
+      const pictureAge = this.pictureAge(now);
+      if (pictureAge !== null && this.staleAfterMs !== null && pictureAge > this.staleAfterMs) {
+        return { signal: 'stale', ageMs: pictureAge,
+          reason: 'the picture lags the scan (the renderer is behind)' };
+      }
+      return { signal: 'live', ageMs: serverAge, reason: '' };
+    }
     if (this.serverSignal === 'stale') {
       return { signal: 'stale', ageMs: serverAge, reason: this.serverReason || 'no new scan data' };
     }
