@@ -38,12 +38,15 @@ std::string text_attribute(hid_t object, const char* name, const std::string& wh
     throw RingRecordingError(where + ": missing attribute '" + std::string(name) + "'");
   }
   H5Handle attribute(H5Aopen(object, name, H5P_DEFAULT), H5Aclose);
+  H5Handle space(attribute ? H5Aget_space(attribute.get()) : -1, H5Sclose);
   H5Handle type(attribute ? H5Aget_type(attribute.get()) : -1, H5Tclose);
-  if (!attribute || !type || H5Tget_class(type.get()) != H5T_STRING ||
-      H5Tis_variable_str(type.get()) != 0) {
+  // One string: H5Aread writes every element of the attribute's space, so an array of strings
+  // would overrun a buffer sized for one.
+  if (!attribute || !space || !type || H5Sget_simple_extent_npoints(space.get()) != 1 ||
+      H5Tget_class(type.get()) != H5T_STRING || H5Tis_variable_str(type.get()) != 0) {
     h5_error_stack();
     throw RingRecordingError(where + ": attribute '" + std::string(name) +
-                             "' is not a fixed-length string");
+                             "' is not one fixed-length string");
   }
   const std::size_t size = H5Tget_size(type.get());
   if (size == 0 || size > kMaxTextAttributeBytes) {
@@ -162,6 +165,7 @@ RingRecordingReader::RingRecordingReader(const std::filesystem::path& path) : pa
   }
   run_metadata_ = text_attribute(root, "run_metadata", where);
   ring_name_ = text_attribute(root, "ring_name", where);
+  ring_producer_pid_ = u64_attribute(root, "ring_producer_pid", where);
 
   groups_set_ = open_dataset(root, kGroupsDataset, where);
   headers_set_ = open_dataset(root, kSlotHeadersDataset, where);
@@ -194,9 +198,20 @@ std::uint64_t RingRecordingReader::refresh() {
     throw RingRecordingError(where + ": counters unreadable: " + h5_error_stack());
   }
   group_count_ = std::min({groups, headers, checksums});
+  // A file closed in order holds every group it counted, each with its slot header and checksum:
+  // one missing from any of them is a loss to name, not a shorter recording.
+  const std::uint64_t written = counters_[static_cast<std::size_t>(Counter::groups_written)];
+  if (finished() && (groups != written || headers != written || checksums != written)) {
+    throw RingRecordingError(where + ": finished with " + std::to_string(written) +
+                             " groups written, but it holds " + std::to_string(groups) +
+                             " groups, " + std::to_string(headers) + " slot headers and " +
+                             std::to_string(checksums) + " checksums (damaged)");
+  }
   // Every complete group's samples are in the file: more groups than its size holds is a
-  // truncated file (checked before anything is allocated for them).
-  if (group_count_ > file_bytes_ / group_bytes_ + 1) {
+  // truncated file (checked before anything is allocated for them); an unfinished file may end
+  // inside its last group.
+  const std::uint64_t room = file_bytes_ / group_bytes_ + (finished() ? 0 : 1);
+  if (group_count_ > room) {
     throw RingRecordingError(where + ": " + std::to_string(group_count_) + " groups of " +
                              std::to_string(group_bytes_) + " bytes, but the file has " +
                              std::to_string(file_bytes_) + " bytes (truncated)");

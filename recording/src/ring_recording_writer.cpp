@@ -196,6 +196,8 @@ void RingRecordingWriter::write_counters(const CounterValues& values) {
 }
 
 void RingRecordingWriter::close(CounterValues values) {
+  // The file's own count: a reader holds a finished file to exactly this many groups.
+  values[static_cast<std::size_t>(Counter::groups_written)] = groups_;
   values[static_cast<std::size_t>(Counter::finished)] = 1;
   write_counters(values);
   counters_set_.close(path_.string() + ": close counters");

@@ -166,6 +166,34 @@ TEST(RingRecordingFile, TruncatedFileIsRefusedOrShortened) {
   }
 }
 
+// A file closed in order that lost a group's slot header (a dataset cut short by a tool or a
+// damaged copy) is refused as damaged, not read as a recording of one group fewer.
+TEST(RingRecordingFile, FinishedFileMissingAGroupsSlotHeaderIsDamagedNotShorter) {
+  const test_support::TempPath file("ringrec-damaged", ".h5");
+  write_groups(file.path(), small_geometry(), 3);
+  EXPECT_EQ(RingRecordingReader(file.path()).group_count(), 3u);
+  {
+    const hid_t f = H5Fopen(file.path().c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(f, 0) << "cannot reopen the closed recording for writing";
+    const hid_t set = H5Dopen2(f, "slot_headers", H5P_DEFAULT);
+    const hsize_t shorter[2] = {2, sizeof(shm::SlotHeader)};
+    ASSERT_GE(H5Dset_extent(set, shorter), 0);
+    H5Dclose(set);
+    H5Fclose(f);
+  }
+  try {
+    RingRecordingReader reader(file.path());
+    FAIL() << "a finished file missing a slot header read back " << reader.group_count()
+           << " groups";
+  } catch (const RingRecordingError& e) {
+    EXPECT_NE(std::string(e.what()).find(
+                  "finished with 3 groups written, but it holds 3 groups, 2 slot headers and 3 "
+                  "checksums (damaged)"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(RingRecordingFile, ForeignAndWrongGeometryFilesAreRefusedNamingBothValues) {
   const test_support::TempPath file("ringrec-foreign", ".h5");
   const hid_t h5 = H5Fcreate(file.path().c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
@@ -198,6 +226,36 @@ TEST(RingRecordingFile, ForeignAndWrongGeometryFilesAreRefusedNamingBothValues) 
     const std::string message = e.what();
     EXPECT_NE(message.find("samples_per_ascan = 64, but the geometry says 128"), std::string::npos)
         << message;
+  }
+
+  // A text attribute that is an array of strings, not one: refused before it is read (reading it
+  // into a buffer sized for one string would overrun it).
+  const test_support::TempPath strings("ringrec-strings", ".h5");
+  write_groups(strings.path(), small_geometry(), 1);
+  {
+    const hid_t f = H5Fopen(strings.path().c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(f, 0) << "cannot reopen the closed recording for writing";
+    ASSERT_GE(H5Adelete(f, "run_metadata"), 0);
+    const hid_t type = H5Tcopy(H5T_C_S1);
+    H5Tset_size(type, 8);
+    const hsize_t count[1] = {64};
+    const hid_t space = H5Screate_simple(1, count, nullptr);
+    const hid_t attribute = H5Acreate2(f, "run_metadata", type, space, H5P_DEFAULT, H5P_DEFAULT);
+    ASSERT_GE(attribute, 0);
+    const std::string texts(64 * 8, 'x');
+    ASSERT_GE(H5Awrite(attribute, type, texts.data()), 0);
+    H5Aclose(attribute);
+    H5Sclose(space);
+    H5Tclose(type);
+    H5Fclose(f);
+  }
+  try {
+    RingRecordingReader reader(strings.path());
+    FAIL() << "an array of strings was read as the run's metadata";
+  } catch (const RingRecordingError& e) {
+    EXPECT_NE(std::string(e.what()).find("attribute 'run_metadata' is not one fixed-length string"),
+              std::string::npos)
+        << e.what();
   }
 
   const test_support::TempPath text("ringrec-text", ".h5");

@@ -45,6 +45,8 @@ class RingRecordingReader {
   }
   const std::string& run_metadata() const noexcept { return run_metadata_; }
   const std::string& ring_name() const noexcept { return ring_name_; }
+  // The process that produced the ring when the recording started (0: not known).
+  std::uint64_t ring_producer_pid() const noexcept { return ring_producer_pid_; }
   const std::filesystem::path& path() const noexcept { return path_; }
 
   // Reads group `index` into `payload` (exactly group_bytes()) and its slot header, and checks
@@ -71,6 +73,7 @@ class RingRecordingReader {
   CounterValues counters_{};
   std::string run_metadata_;
   std::string ring_name_;
+  std::uint64_t ring_producer_pid_ = 0;
   H5Handle file_;
   H5Handle groups_set_;
   H5Handle headers_set_;

@@ -21,7 +21,7 @@ struct RecordingDescription {
   shm::RingGeometry geometry;
   std::string ring_name;
   std::string producer;            // what wrote the file, "ioct-record 0.1.0"
-  std::uint64_t producer_pid = 0;  // the ring's producer at the first attachment
+  std::uint64_t producer_pid = 0;  // the ring's producer when the recording started
   std::string run_metadata;        // free text from the operator (e.g. ioct-rt's effective config)
 };
 
@@ -40,7 +40,8 @@ class RingRecordingWriter {
   void append(const shm::SlotHeader& header, std::span<const std::byte> payload);
   // Writes the counters dataset in place and flushes.
   void write_counters(const CounterValues& values);
-  // Final counters (with `finished` = 1) and close. Throws H5Error.
+  // Final counters (with `finished` = 1 and `groups_written` = the groups appended) and close.
+  // Throws H5Error.
   void close(CounterValues values);
 
   std::uint64_t groups() const noexcept { return groups_; }
