@@ -278,6 +278,7 @@ std::unique_ptr<RingRecorder::Session> RingRecorder::open_session(const std::fil
   description.ring_name = config_.ring_name;
   description.producer = config_.producer;
   description.run_metadata = config_.run_metadata;
+  description.producer_pid = producer_pid_;
   auto session = std::make_unique<Session>(config_, file, description, overwrite,
                                            geometry.group_payload_bytes(), log);
   session->start_ns = ioct::monotonic_ns();
@@ -321,8 +322,10 @@ RecorderSummary RingRecorder::finish_session(std::unique_ptr<Session>& session, 
   try {
     session->file.close(summary.counters);
   } catch (const std::exception& e) {
+    // A write that failed first keeps its reason: the close usually fails because of it.
+    summary.stop_reason = (summary.failed ? summary.stop_reason + "; then " : std::string()) +
+                          "closing the file failed: " + e.what();
     summary.failed = true;
-    summary.stop_reason = std::string("closing the file failed: ") + e.what();
   }
   session.reset();
   std::lock_guard lock(mutex_);
@@ -382,7 +385,8 @@ std::string RingRecorder::stop_recording() {
 }
 
 void RingRecorder::serve_command(std::unique_ptr<Session>& session,
-                                 const shm::RingGeometry& geometry, const Log* log) {
+                                 const shm::RingGeometry& geometry, const Log* log,
+                                 RecorderSummary& summary) {
   Command command;
   {
     std::lock_guard lock(mutex_);
@@ -415,12 +419,16 @@ void RingRecorder::serve_command(std::unique_ptr<Session>& session,
   } else if (!session) {
     answer = "record-stop: not recording";
   } else {
-    const RecorderSummary summary = finish_session(session, "stopped by record-stop", false);
+    summary = finish_session(session, "stopped by record-stop", false);
     say(log, "recording " + summary.file.string() + " finished: " + summary.stop_reason);
+    // A recorder started with its file has nothing left to do: it ends, its summary the
+    // recording's (in standby it waits for the next record-start).
+    if (!config_.standby) stop_.store(true, std::memory_order_relaxed);
   }
   std::lock_guard lock(mutex_);
   answer_ = std::move(answer);
   command_answered_ = true;
+  command_taken_ = false;  // answered: run()'s end has nothing of it left to answer
   answered_cv_.notify_all();
 }
 
@@ -458,6 +466,7 @@ RecorderSummary RingRecorder::run(const Log* log) {
     return summary;
   }
   shm::RingGeometry geometry = reader->geometry();
+  producer_pid_ = reader->producer_pid();
   attached_.store(true, std::memory_order_release);
 
   std::unique_ptr<Session> session;
@@ -516,7 +525,7 @@ RecorderSummary RingRecorder::run(const Log* log) {
   summary.stop_reason = "stopped";
   for (;;) {
     if (command_pending_.load(std::memory_order_acquire)) {
-      serve_command(session, geometry, log);
+      serve_command(session, geometry, log, summary);
     }
     const std::uint64_t now = ioct::monotonic_ns();
     if (stop_.load(std::memory_order_relaxed)) break;
@@ -559,6 +568,7 @@ RecorderSummary RingRecorder::run(const Log* log) {
       continue;
     }
     add_reader_counters(reader->counters(), earlier);
+    if (poll == shm::PollStatus::lapped) continue;  // counted by the reader; the ring goes on
     if (poll == shm::PollStatus::empty) {
       reader->heartbeat();
       std::this_thread::sleep_for(std::chrono::nanoseconds(poll_ns));
@@ -582,7 +592,7 @@ RecorderSummary RingRecorder::run(const Log* log) {
     std::uint64_t next_waiting_line = ioct::monotonic_ns() + status_ns;
     again.on_waiting = [&](shm::RingErrc last, std::uint64_t waited_ns) {
       if (command_pending_.load(std::memory_order_acquire)) {
-        serve_command(session, geometry, log);
+        serve_command(session, geometry, log, summary);
       }
       if (status_ns == 0 || ioct::monotonic_ns() < next_waiting_line) return;
       next_waiting_line = ioct::monotonic_ns() + status_ns;
@@ -595,6 +605,7 @@ RecorderSummary RingRecorder::run(const Log* log) {
     reader =
         shm::attach_when_available(config_.ring_name, shm::ReaderOptions{config_.label}, again);
     if (!reader) break;  // stopped while waiting
+    producer_pid_ = reader->producer_pid();
     if (!(reader->geometry() == geometry)) {
       const shm::RingGeometry& g = reader->geometry();
       const std::string reason =

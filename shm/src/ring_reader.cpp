@@ -68,6 +68,11 @@ const RingHeader& RingReader::header() const noexcept {
   return *reinterpret_cast<const RingHeader*>(object_.data());
 }
 
+std::uint64_t RingReader::producer_pid() const noexcept {
+  // Relaxed: a producer taking the ring over rewrites it while we may read it.
+  return load_word(header().producer_pid, std::memory_order_relaxed);
+}
+
 const std::byte* RingReader::slot(std::uint64_t index) const noexcept {
   return object_.data() + layout_.first_slot_offset + index * layout_.slot_stride;
 }

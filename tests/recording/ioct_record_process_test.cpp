@@ -180,6 +180,8 @@ TEST(IoctRecord, RecordsTheRingsGroupsByteForByteAndFinishesCleanlyOnSigterm) {
   EXPECT_EQ(counter(reader, Counter::groups_written), reader.group_count());
   EXPECT_EQ(reader.geometry().samples_per_ascan, 256u);
   EXPECT_EQ(reader.ring_name(), ring.str());
+  EXPECT_EQ(reader.ring_producer_pid(), static_cast<std::uint64_t>(rt.pid()))
+      << "the recording names the process that produced the ring";
   const std::uint64_t compared = compare_with_ring(reader, capture);
   std::printf("[ compared ] %llu of %llu recorded groups against the ring's bytes\n",
               static_cast<unsigned long long>(compared),

@@ -238,5 +238,36 @@ TEST(IoctRecordStandby, ARecordingsSecondsEndItAndTheRecorderStaysInStandby) {
   check_file(dir.path / "timed.h5", 1);
 }
 
+// Started with its file (no standby), a record-stop on its control socket ends the recording and
+// the process, whose summary is the recording's (before, it stayed attached with nothing to do).
+TEST(IoctRecordStandby, ARecordStopEndsARecorderStartedWithItsFile) {
+  const test_support::ScopedShmName ring("record-stop");
+  const TempDirectory dir;
+  const fs::path socket = dir.path / "record.sock";
+  const fs::path file = dir.path / "run.h5";
+  ChildProcess rt = start("ioct-rt", small_rt(ring.str()));
+  ChildProcess recorder =
+      start("ioct-record", {"--ring", ring.str(), "--out", file.string(), "--control-socket",
+                            socket.string(), "--wait", "30", "--status-interval", "0"});
+  Recorder control(socket);
+  nlohmann::json status;
+  for (int tries = 0; tries < 3000; ++tries) {  // the socket, then the first groups
+    status = control.status();
+    if (status.is_object() && status.value("groups_written", std::uint64_t{0}) >= 5) break;
+    std::this_thread::sleep_for(20ms);
+  }
+  ASSERT_TRUE(status.is_object() && status.value("groups_written", std::uint64_t{0}) >= 5)
+      << status.dump() << " " << control.last_error();
+  const nlohmann::json reply = control.send({{"cmd", "record-stop"}});
+  EXPECT_TRUE(reply.value("ok", false)) << reply.dump();
+  EXPECT_EQ(exit_code(recorder.wait_for(30s)), 0) << "the recorder ends with its recording";
+  std::string output;
+  while (std::optional<std::string> line = recorder.read_line(1s)) output += *line + "\n";
+  EXPECT_NE(output.find("stopped by record-stop after"), std::string::npos) << output;
+  EXPECT_EQ(output.find("groups (0 bytes"), std::string::npos) << "the recording's figures\n"
+                                                               << output;
+  check_file(file, 5);
+}
+
 }  // namespace
 }  // namespace ioct::ringrec

@@ -104,9 +104,10 @@ class RingRecorder {
   };
   // Hands a command to run()'s thread and waits for its answer.
   std::string submit(Command command);
-  // run()'s side: does the pending command, if any, and answers it.
+  // run()'s side: does the pending command, if any, and answers it. A record-stop puts the
+  // recording's summary in `summary`; without standby it also ends run() (stop_ is set).
   void serve_command(std::unique_ptr<Session>& session, const shm::RingGeometry& geometry,
-                     const Log* log);
+                     const Log* log, RecorderSummary& summary);
   std::unique_ptr<Session> open_session(const std::filesystem::path& file, double seconds,
                                         bool overwrite, const shm::RingGeometry& geometry,
                                         const Log* log);
@@ -117,6 +118,7 @@ class RingRecorder {
   std::atomic<bool> stop_{false};
   std::atomic<bool> attached_{false};
   std::atomic<bool> running_{false};
+  std::uint64_t producer_pid_ = 0;  // the attached ring's producer (run()'s thread only)
 
   // Commands: one at a time, from the control side to run()'s thread.
   std::mutex command_mutex_;  // held by one submitter at a time, for the whole exchange

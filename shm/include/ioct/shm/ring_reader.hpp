@@ -69,6 +69,8 @@ class RingReader {
   const ReaderCounters& counters() const noexcept { return counters_; }
   std::uint64_t position() const noexcept { return next_group_; }
   std::uint64_t epoch() const noexcept { return epoch_; }
+  // The producer's process id as the ring's header names it (set before the ring is published).
+  std::uint64_t producer_pid() const noexcept;
   const std::string& name() const noexcept { return object_.name(); }
   // The whole read-only mapping, e.g. for cudaHostRegister.
   const std::byte* mapping() const noexcept { return object_.data(); }
