@@ -237,7 +237,16 @@ TEST_F(PageModules, StateLineReadsTheScannersStatus) {
       fault: d({status: {safety: {state: 'fault', faults: 'k_clock', emission_readback: false}}}),
       idle: d({safety: {state: 'idle', emission_readback: false}}),
       unknown: m.describeState({rt: null, rt_error: 'ioct-rt not reachable'}),
+      recent: m.describeState({rt_age_ms: 900, rt: {safety: {state: 'scanning',
+                                                              emission_readback: true}}}),
+      old: m.describeState({rt_age_ms: 2500, rt: {safety: {state: 'scanning',
+                                                           emission_readback: true}}}),
     };)");
+  EXPECT_EQ(r.at("recent").at("laser"), "LASER ON");
+  EXPECT_EQ(r.at("old").at("scan"), "scanner: its last status is 2.5 s old");
+  EXPECT_EQ(r.at("old").at("scanClass"), "unknown");
+  EXPECT_EQ(r.at("old").at("laser"), "laser ?") << "an old status is not the laser's state now";
+  EXPECT_FALSE(r.at("old").at("laserOn").get<bool>());
   EXPECT_EQ(r.at("scanning").at("scan"), "SCANNING");
   EXPECT_EQ(r.at("scanning").at("laser"), "LASER ON");
   EXPECT_EQ(r.at("scanning").at("rate"), "20.0 groups/s");

@@ -58,6 +58,8 @@ class ViewServerTest : public ::testing::Test {
                                     {"acquisition", {{"groups_published", 5}}},
                                     {"safety", safety_status()}}}};
           }
+          // A command to ioct-rt that takes its time (the polls wait behind it).
+          std::this_thread::sleep_for(std::chrono::milliseconds(rt_command_delay_ms_.load()));
           return nlohmann::json{{"ok", true}, {"cmd", r.value("cmd", "")}};
         });
     writer_ = std::make_unique<shm::FrameRingWriter>(frame_config());
@@ -130,6 +132,7 @@ class ViewServerTest : public ::testing::Test {
     return {{"ok", true}};
   }
   std::atomic<int> snapshot_delay_ms_{0};
+  std::atomic<int> rt_command_delay_ms_{0};
   std::uint32_t max_connections_per_address_ = 64;
   // The stand-ins answer with fields of the wrong type (another version, another service).
   std::atomic<bool> odd_replies_{false};
@@ -224,6 +227,33 @@ TEST_F(ViewServerTest, StateIsLiveWithTheParametersAndTheScanStatus) {
   EXPECT_EQ(state["rt"]["state"], "scanning");
   EXPECT_EQ(state["role"], "viewer");
   EXPECT_NEAR(state["groups_per_s"].get<double>(), 1e9 / 86e6, 1e-6);
+}
+
+// ioct-rt's status says how old it is: a poll waits behind the operators' commands to ioct-rt, so
+// while slow commands hold that lane the state's rt_age_ms grows (the page then shows the scanner
+// and the laser as unknown, state-line.js), and it is fresh again once they are done.
+TEST_F(ViewServerTest, TheScannersStatusSaysHowOldItIs) {
+  start();
+  const auto age = [](const nlohmann::json& s) {
+    return s["rt_age_ms"].is_number() ? s["rt_age_ms"].get<double>() : -1.0;
+  };
+  const auto fresh = state_when([](const nlohmann::json& s) { return s["rt"].is_object(); });
+  EXPECT_GE(age(fresh), 0.0) << fresh.dump();
+  EXPECT_LT(age(fresh), 1000.0) << fresh.dump();
+  rt_command_delay_ms_ = 400;
+  std::vector<std::thread> operators;
+  for (int i = 0; i < 4; ++i) {
+    operators.emplace_back(
+        [&] { http_request(port_, "POST", "/api/scan", R"({"cmd":"start"})", kToken); });
+  }
+  const auto old = state_when([&](const nlohmann::json& s) { return age(s) > 1000.0; });
+  EXPECT_GT(age(old), 1000.0) << old.dump();
+  EXPECT_EQ(old["rt"]["state"], "scanning") << "the last status, with its age";
+  for (std::thread& t : operators) t.join();
+  rt_command_delay_ms_ = 0;
+  const auto again =
+      state_when([&](const nlohmann::json& s) { return age(s) >= 0 && age(s) < 500; });
+  EXPECT_LT(age(again), 500.0) << again.dump();
 }
 
 TEST_F(ViewServerTest, StaleAfterThreeGroupPeriodsAndNoSignalWhenTheWriterGoes) {

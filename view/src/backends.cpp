@@ -116,6 +116,7 @@ void Backends::poll_rt(LineClient& client, BackendsSnapshot& snap) {
     snap.rt_error = "ioct-rt sent a status that is not a JSON object";
   } else if (reply.value("ok", false) && reply.contains("status")) {
     snap.rt_status = reply["status"];
+    snap.rt_status_at = std::chrono::steady_clock::now();
     snap.rt_error.clear();
     count_footswitch_presses(snap);
   } else {
@@ -298,6 +299,7 @@ void Backends::run_rt() {
         poll_record(record, mine);
         publish([&](BackendsSnapshot& s) {
           s.rt_status = mine.rt_status;
+          s.rt_status_at = mine.rt_status_at;
           s.rt_error = mine.rt_error;
           s.footswitch_presses = mine.footswitch_presses;
           s.record_status = mine.record_status;

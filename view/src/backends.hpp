@@ -10,6 +10,7 @@
 // saved, so settings survive a restart of either side.
 #pragma once
 
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -33,7 +34,10 @@ namespace ioct::view {
 struct BackendsSnapshot {
   nlohmann::json rt_status;  // ioct-rt's status reply's "status", or null
   std::string rt_error;      // why it is not known
-  nlohmann::json params;     // ioct-gpu's shared-view parameters, or null
+  // When rt_status came: a poll waits behind the operators' commands to ioct-rt, so the state
+  // says how old the scanner's and the laser's state is.
+  std::chrono::steady_clock::time_point rt_status_at{};
+  nlohmann::json params;  // ioct-gpu's shared-view parameters, or null
   std::uint64_t generation = 0;
   std::string gpu_error;
   // Why the operators' last parameters (params.json) were not given to ioct-gpu when it came

@@ -1,6 +1,7 @@
 #include "hub.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <string_view>
 #include <vector>
 
@@ -120,6 +121,12 @@ nlohmann::json Hub::state(const std::string& role) const {
               {"frames_skipped", f.frames_skipped},
               {"error", f.attached ? std::string() : f.attach_error}};
   j["rt"] = backends_.rt_status;
+  j["rt_age_ms"] =
+      backends_.rt_status.is_null()
+          ? nlohmann::json(nullptr)
+          : nlohmann::json(std::chrono::duration<double, std::milli>(
+                               std::chrono::steady_clock::now() - backends_.rt_status_at)
+                               .count());
   j["rt_error"] = backends_.rt_error;
   j["params"] = backends_.params;
   j["generation"] = backends_.generation;

@@ -1,12 +1,21 @@
 // The one line that says what the appliance is doing: scanning / stopped / fault, laser on/off,
 // groups per second, drops. Reads ioct-view's state message; `rt` is ioct-rt's status object
-// ({safety: {state, emission_readback, faults}, ...}), or null with the reason in `rt_error`.
+// ({safety: {state, emission_readback, faults}, ...}), or null with the reason in `rt_error`;
+// `rt_age_ms` its age: an old one is not shown as the scanner's or the laser's state.
+
+// ioct-rt's status older than this (ioct-view polls it every 100 ms; a poll waits behind the
+// operators' commands) no longer says what the scanner and the laser are doing now.
+export const kRtStatusOldMs = 1000;
+
 export function describeState(state) {
   const rt = state.rt && typeof state.rt === 'object' ? (state.rt.status || state.rt) : null;
-  const safety = rt && rt.safety ? rt.safety : null;
+  const old = Number.isFinite(state.rt_age_ms) && state.rt_age_ms > kRtStatusOldMs;
+  const safety = rt && rt.safety && !old ? rt.safety : null;
   let scan = 'scanner unknown';
   let scanClass = 'unknown';
-  if (safety) {
+  if (old) {
+    scan = `scanner: its last status is ${(state.rt_age_ms / 1000).toFixed(1)} s old`;
+  } else if (safety) {
     const s = safety.state;
     if (s === 'scanning') [scan, scanClass] = ['SCANNING', 'ok'];
     else if (s === 'fault') [scan, scanClass] = [`FAULT${safety.faults ? `: ${safety.faults}` : ''}`, 'fault'];
