@@ -31,6 +31,7 @@
 #include "ioct/shm/ring_layout.hpp"
 #include "ioct/shm/ring_writer.hpp"
 #include "ioct/shm/shm_object.hpp"
+#include "ioct/sim/replay_digitizer.hpp"
 #include "ioct/sim/simulated_digitizer.hpp"
 #include "rt_keys.hpp"
 #include "rt_options.hpp"
@@ -470,14 +471,22 @@ int Process::shut_down(const std::string& reason, const rt::StatusSample& first)
   loop_->stop();
   backends_.lines->release();
   drain_events();
+  // A replay that stopped on a group it could not read looks like the recording's end to the
+  // loop (the digitizer is gone); why, the replay kept (read now: the acquisition thread ended).
+  std::string replay_error;
+  if (const auto* replay = dynamic_cast<const sim::ReplayDigitizer*>(backends_.digitizer.get())) {
+    replay_error = replay->error();
+  }
+  if (!replay_error.empty())
+    log_.error("the replay stopped at a group it could not read: " + replay_error);
   // The readers' counters just before the ring closes, for the summary.
   const std::vector<shm::ReaderReport> readers = ring_->readers();
   ring_->close();
   const rt::StatusSample last = rt::sample_status(*loop_);
   if (!options_.summary.empty()) {
     rt::write_run_summary(options_.summary,
-                          {setup_.ring.name, reason, loop_->failure(), first, last, budget_ns_,
-                           supervisor_->status()},
+                          {setup_.ring.name, reason, loop_->failure(), replay_error, first, last,
+                           budget_ns_, supervisor_->status()},
                           readers);
   }
   const std::string closed =

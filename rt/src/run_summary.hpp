@@ -14,7 +14,8 @@ namespace ioct::rt {
 struct RunSummary {
   std::string ring;
   std::string stop_reason;
-  std::string failure;  // empty when the acquisition did not fail
+  std::string failure;       // empty when the acquisition did not fail
+  std::string replay_error;  // why a replay stopped before its recording's end; empty otherwise
   StatusSample start;
   StatusSample end;
   std::uint64_t group_budget_ns = 0;

@@ -8,19 +8,23 @@
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+#include <hdf5.h>
 
 #include <atomic>
 #include <chrono>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <thread>
 #include <utility>
 #include <vector>
 
+#include "ioct/ringrec/ring_recording_format.hpp"
 #include "ioct/ringrec/ring_recording_reader.hpp"
 #include "ioct/shm/ring_error.hpp"
 #include "ioct/shm/ring_reader.hpp"
@@ -349,6 +353,47 @@ TEST(IoctRecord, ReplayThroughIoctRtPublishesTheRecordedGroupsBitForBit) {
   EXPECT_EQ(flags & shm::kStatusSimulated, 0u);
   replay.send_signal(SIGTERM);
   EXPECT_EQ(exit_code(replay.wait_for(30s)), 0);
+}
+
+// A recording found corrupt half-way: the replay stops at that group, and ioct-rt says which and
+// why, in its summary (before, it read as the recording's end: the digitizer gone, no reason).
+TEST(IoctRecord, AReplayStoppedByACorruptGroupSaysWhichAndWhy) {
+  const test_support::ScopedShmName ring("record-corrupt-live");
+  const test_support::ScopedShmName replay_ring("record-corrupt");
+  const test_support::TempPath out("record-corrupt", ".h5");
+  const test_support::TempPath summary("record-corrupt-summary", ".json");
+  ASSERT_NO_FATAL_FAILURE(record_simulated_run(ring.str(), out.path(), 12));
+  {
+    // Group 3's recorded checksum no longer matches its samples.
+    const hid_t file = H5Fopen(out.path().c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(file, 0);
+    const hid_t set = H5Dopen2(file, kChecksumsDataset, H5P_DEFAULT);
+    ASSERT_GE(set, 0);
+    const hid_t space = H5Dget_space(set);
+    const hsize_t start[1] = {3}, count[1] = {1};
+    const hid_t one = H5Screate_simple(1, count, nullptr);
+    H5Sselect_hyperslab(space, H5S_SELECT_SET, start, nullptr, count, nullptr);
+    std::uint64_t checksum = 0;
+    ASSERT_GE(H5Dread(set, H5T_NATIVE_UINT64, one, space, H5P_DEFAULT, &checksum), 0);
+    checksum = ~checksum;
+    ASSERT_GE(H5Dwrite(set, H5T_NATIVE_UINT64, one, space, H5P_DEFAULT, &checksum), 0);
+    H5Sclose(one);
+    H5Sclose(space);
+    H5Dclose(set);
+    H5Fclose(file);
+  }
+  std::vector<std::string> arguments = small_rt(replay_ring.str());
+  arguments.insert(arguments.end(), {"--replay", out.path().string(), "--replay-once", "--seconds",
+                                     "3", "--summary", summary.path().string()});
+  ChildProcess replay = start("ioct-rt", arguments);
+  ASSERT_TRUE(replay.wait_for(60s).has_value()) << "ioct-rt did not end after its 3 s";
+  std::ifstream in(summary.path());
+  const nlohmann::json s = nlohmann::json::parse(in, nullptr, false);
+  ASSERT_TRUE(s.is_object()) << "no summary at " << summary.path();
+  const std::string error = s.value("replay_error", "");
+  std::printf("[ message  ] %s\n", error.c_str());
+  EXPECT_NE(error.find(out.path().string() + ": group 3 at byte "), std::string::npos) << error;
+  EXPECT_NE(error.find("(corrupt chunk)"), std::string::npos) << error;
 }
 
 // --replay-speed 4: the loop stamps and publishes the groups four times as fast as the
