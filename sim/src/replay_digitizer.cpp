@@ -176,25 +176,18 @@ void ReplayDigitizer::do_prepare(const hal::DigitizerConfig& config) {
   if (group_count() == 0) {
     throw recording::RecordingError(source_ + ": the recording holds no group to replay");
   }
-  // One pass spans from the first group's first sweep to the sweep after the last group.
   recording::RecordedGroupInfo first;
-  recording::RecordedGroupInfo last;
   if (memory_) {
     first = memory_->infos.front();
-    last = memory_->infos.back();
   } else if (ring_reader_) {
     read_ring_info(0, first);
-    read_ring_info(group_count() - 1, last);
   } else {
     reader_->read_info(0, first);
-    reader_->read_info(group_count() - 1, last);
   }
   if (options_.bench) {
     options_.bench->scanner().set_dynamics(options_.bench->config().mirrors, config.ascan_rate_hz);
   }
   first_counter_ = first.first_sweep_counter;
-  loop_sweeps_ =
-      last.first_sweep_counter + metadata().geometry.sweeps_per_group() - first.first_sweep_counter;
 }
 
 void ReplayDigitizer::do_start() {
@@ -203,6 +196,7 @@ void ReplayDigitizer::do_start() {
   finished_ = false;
   error_.clear();
   next_counter_ = first_counter_;
+  counter_offset_ = 0;
 }
 
 void ReplayDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::GroupInfo& info) {
@@ -244,9 +238,20 @@ void ReplayDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::Grou
       return;
     }
   }
-  info.first_sweep_counter = recorded.first_sweep_counter + loops_ * loop_sweeps_;
-  // The first group of a new pass follows the last without a gap.
-  info.missed_sweeps = (loops_ > 0 && next_ == 0) ? 0 : recorded.missed_sweeps;
+  // The sweep counter only goes forward. Where the recording's goes back -- a new pass of a
+  // looped replay, or a producer that restarted while it was recorded (its counter starts again)
+  // -- the group follows the one before without a gap, and the rest of the recording with it;
+  // otherwise the loop would take it for a group due long ago (a deadline miss). A jump forward
+  // (groups the recorder lost) is kept: the replay leaves their time out as the recording did.
+  std::uint64_t counter = recorded.first_sweep_counter + counter_offset_;
+  std::uint32_t missed = recorded.missed_sweeps;
+  if (counter < next_counter_ || (next_ == 0 && loops_ > 0)) {
+    counter_offset_ = next_counter_ - recorded.first_sweep_counter;
+    counter = next_counter_;
+    missed = 0;
+  }
+  info.first_sweep_counter = counter;
+  info.missed_sweeps = missed;
   info.status = recorded.status;
   next_counter_ = info.first_sweep_counter + metadata().geometry.sweeps_per_group();
   if (options_.bench && options_.bench->galvo_attached()) {

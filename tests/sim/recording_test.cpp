@@ -333,6 +333,43 @@ TEST_F(Recording, ReplayDigitizerDeliversTheRecordedGroupsAndLoops) {
   }
 }
 
+// A recording that spans a producer's restart (its sweep counter starts again at 0) and lost a
+// group (a jump forward): the replay's counter never goes back, so the loop does not take the
+// restarted part for groups due long ago; the jump is kept, and a new pass follows on without a
+// gap.
+TEST_F(Recording, ReplayCounterGoesOnThroughARecordedRestartAndKeepsItsGaps) {
+  const std::uint64_t spg = geometry_.sweeps_per_group();
+  auto groups = std::make_shared<RecordedGroups>();
+  groups->metadata.geometry.samples_per_ascan = geometry_.samples_per_ascan;
+  groups->metadata.geometry.ascans_per_bscan = geometry_.ascans_per_bscan;
+  groups->metadata.geometry.flyback_sweeps = geometry_.flyback_sweeps;
+  groups->metadata.geometry.bscans_per_group = geometry_.bscans_per_group;
+  groups->metadata.geometry.ascan_rate_hz = geometry_.ascan_rate_hz;
+  groups->metadata.geometry.sample_bits = geometry_.sample_bits;
+  groups->metadata.geometry.clock_source =
+      geometry_.clock_source == hal::ClockSource::internal ? "internal" : "external_k_clock";
+  // Recorded: 1000, then a lost group, then the restart at 0 (7 sweeps missed before it), spg.
+  const std::uint64_t recorded[4] = {1000, 1000 + 2 * spg, 0, spg};
+  groups->samples.assign(4 * geometry_.samples_per_group(), 0);
+  for (std::uint64_t g = 0; g < 4; ++g) {
+    groups->samples[g * geometry_.samples_per_group()] = static_cast<std::uint16_t>(g + 1);
+    groups->infos.push_back({g, recorded[g], g == 2 ? 7u : 0u, 0, 0, 0});
+  }
+  ReplayDigitizer replay(groups, {.loop = true, .preload = false, .bench = nullptr});
+  replay.prepare(geometry_);
+  replay.start();
+  std::vector<std::uint16_t> group(geometry_.samples_per_group());
+  const std::uint64_t expected[6] = {1000,           1000 + 2 * spg, 1000 + 3 * spg,
+                                     1000 + 4 * spg, 1000 + 5 * spg, 1000 + 7 * spg};
+  for (std::uint64_t g = 0; g < 6; ++g) {
+    hal::GroupInfo info;
+    replay.acquire_group(group, info);
+    EXPECT_EQ(group[0], (g % 4) + 1) << g;
+    EXPECT_EQ(info.first_sweep_counter, expected[g]) << "group " << g;
+    EXPECT_EQ(info.missed_sweeps, 0u) << "group " << g << ": the restart's own gap is not a loss";
+  }
+}
+
 TEST_F(Recording, ReplayEndsWithDeviceLostAndRefusesAnotherGeometry) {
   const fs::path stem = dir_ / "once";
   const Written w = write(stem, 2);

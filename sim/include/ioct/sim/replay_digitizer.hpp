@@ -9,9 +9,10 @@
 // prepare() accepts only the recording's own geometry (ConfigError names the key and the
 // recorded value; recorded_config() gives the matching config). Each acquire_group() delivers
 // the next recorded group with its recorded status and missed sweeps; the sweep counter keeps
-// counting across loops. At the end of a recording without `loop`, acquire_group() reports
-// kGroupDeviceLost (the source is gone) and finished() turns true; so does a read error, whose
-// text error() keeps.
+// counting across loops and across a producer's restart inside the recording (the group after
+// either follows the one before without a gap), and keeps the recording's forward jumps. At the end
+// of a recording without `loop`, acquire_group() reports kGroupDeviceLost (the source is gone) and
+// finished() turns true; so does a read error, whose text error() keeps.
 //
 // Streaming from a file reads each group with pread() into the slot (one copy, a system call per
 // group); preloaded or in-memory groups are copied from memory. The throughput mode is
@@ -99,9 +100,9 @@ class ReplayDigitizer final : public hal::Digitizer {
   std::string source_;
   std::uint64_t next_ = 0;
   std::uint64_t loops_ = 0;
-  std::uint64_t loop_sweeps_ = 0;  // sweep counter span of one pass
-  std::uint64_t next_counter_ = 0;
+  std::uint64_t next_counter_ = 0;  // the counter a contiguous next group would start at
   std::uint64_t first_counter_ = 0;
+  std::uint64_t counter_offset_ = 0;  // added to the recorded counters (see do_acquire_group)
   bool finished_ = false;
   std::string error_;
 };
