@@ -176,10 +176,22 @@ RingRecordingReader::RingRecordingReader(const std::filesystem::path& path) : pa
 
 std::uint64_t RingRecordingReader::refresh() {
   const std::string where = path_.string();
+  // The counters first: the writer writes them after the groups they count, so the extents and
+  // the file's size read after them are at least as new (a file finished meanwhile is not taken
+  // for a damaged or truncated one).
+  H5Drefresh(counters_set_.get());  // SWMR: see the writer's latest state
+  if (check_shape(counters_set_.get(), kCountersDataset, {0}, 8, where) != kCounterCount) {
+    throw RingRecordingError(where + ": dataset 'counters' does not hold " +
+                             std::to_string(kCounterCount) + " counters");
+  }
+  if (H5Dread(counters_set_.get(), H5T_NATIVE_UINT64, H5S_ALL, H5S_ALL, H5P_DEFAULT,
+              counters_.data()) < 0) {
+    throw RingRecordingError(where + ": counters unreadable: " + h5_error_stack());
+  }
   struct stat st {};
   if (::stat(path_.c_str(), &st) == 0) file_bytes_ = static_cast<std::uint64_t>(st.st_size);
-  for (const H5Handle* set : {&groups_set_, &headers_set_, &checksums_set_, &counters_set_}) {
-    H5Drefresh(set->get());  // SWMR: see the writer's latest extents
+  for (const H5Handle* set : {&groups_set_, &headers_set_, &checksums_set_}) {
+    H5Drefresh(set->get());
   }
   const std::uint64_t groups = check_shape(
       groups_set_.get(), kGroupsDataset,
@@ -189,14 +201,6 @@ std::uint64_t RingRecordingReader::refresh() {
       check_shape(headers_set_.get(), kSlotHeadersDataset, {0, sizeof(shm::SlotHeader)}, 1, where);
   const std::uint64_t checksums =
       check_shape(checksums_set_.get(), kChecksumsDataset, {0}, 8, where);
-  if (check_shape(counters_set_.get(), kCountersDataset, {0}, 8, where) != kCounterCount) {
-    throw RingRecordingError(where + ": dataset 'counters' does not hold " +
-                             std::to_string(kCounterCount) + " counters");
-  }
-  if (H5Dread(counters_set_.get(), H5T_NATIVE_UINT64, H5S_ALL, H5S_ALL, H5P_DEFAULT,
-              counters_.data()) < 0) {
-    throw RingRecordingError(where + ": counters unreadable: " + h5_error_stack());
-  }
   group_count_ = std::min({groups, headers, checksums});
   // A file closed in order holds every group it counted, each with its slot header and checksum:
   // one missing from any of them is a loss to name, not a shorter recording.

@@ -196,6 +196,23 @@ void RingRecordingWriter::write_counters(const CounterValues& values) {
 }
 
 void RingRecordingWriter::close(CounterValues values) {
+  // An append that failed part-way (a write error) may have grown a dataset past the groups
+  // appended whole: cut it back, so the finished file holds exactly them. (Normally nothing to
+  // do; if the cut fails too, close() throws and the file stays unfinished, still readable.)
+  const auto trim = [&](const H5Handle& set, int rank, const char* what) {
+    H5Handle space = make(H5Dget_space(set.get()), H5Sclose, what);
+    hsize_t dims[4] = {};
+    if (H5Sget_simple_extent_ndims(space.get()) != rank ||
+        H5Sget_simple_extent_dims(space.get(), dims, nullptr) < 0) {
+      throw H5Error(path_.string() + ": " + what + ": unreadable extent");
+    }
+    if (dims[0] <= groups_) return;
+    dims[0] = groups_;
+    h5_check(H5Dset_extent(set.get(), dims), path_.string() + ": cut back " + what);
+  };
+  trim(groups_set_, 4, "groups");
+  trim(checksums_set_, 1, "checksums");
+  trim(headers_set_, 2, "slot headers");
   // The file's own count: a reader holds a finished file to exactly this many groups.
   values[static_cast<std::size_t>(Counter::groups_written)] = groups_;
   values[static_cast<std::size_t>(Counter::finished)] = 1;
