@@ -194,7 +194,6 @@ void ReplayDigitizer::do_start() {
   next_ = 0;
   loops_ = 0;
   finished_ = false;
-  error_.clear();
   next_counter_ = first_counter_;
   counter_offset_ = 0;
 }
@@ -232,7 +231,7 @@ void ReplayDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::Grou
         reader_->read_group(next_, group, recorded);
       }
     } catch (const std::exception& e) {
-      error_ = e.what();
+      if (error_.empty()) error_ = e.what();
       finished_ = true;
       info = {next_counter_, 0, hal::kGroupDeviceLost};
       return;

@@ -81,6 +81,8 @@ class ReplayDigitizer final : public hal::Digitizer {
   hal::DigitizerConfig recorded_config() const { return digitizer_config(metadata().geometry); }
   std::uint64_t group_count() const noexcept;
   bool finished() const noexcept { return finished_; }
+  // The first group it could not read, and why; kept across start() (a re-arm plays the
+  // recording again, and the reason must still be there when the process reports it).
   const std::string& error() const noexcept { return error_; }
 
  protected:
