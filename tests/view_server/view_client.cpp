@@ -9,10 +9,13 @@ namespace http = boost::beast::http;
 using tcp = boost::asio::ip::tcp;
 
 HttpResult http_request(std::uint16_t port, const std::string& method, const std::string& target,
-                        const std::string& body, const std::string& token) {
+                        const std::string& body, const std::string& token,
+                        const std::string& from) {
   boost::asio::io_context io;
   beast::tcp_stream stream(io);
   stream.expires_after(std::chrono::seconds(5));
+  stream.socket().open(tcp::v4());
+  stream.socket().bind(tcp::endpoint(boost::asio::ip::make_address(from), 0));
   stream.connect(tcp::endpoint(boost::asio::ip::make_address("127.0.0.1"), port));
   http::request<http::string_body> request{http::string_to_verb(method), target, 11};
   request.set(http::field::host, "127.0.0.1");

@@ -20,8 +20,10 @@ struct HttpResult {
   nlohmann::json json() const { return nlohmann::json::parse(body, nullptr, false); }
 };
 
+// One request to 127.0.0.1:port from `from` (another loopback address is another peer).
 HttpResult http_request(std::uint16_t port, const std::string& method, const std::string& target,
-                        const std::string& body = {}, const std::string& token = {});
+                        const std::string& body = {}, const std::string& token = {},
+                        const std::string& from = "127.0.0.1");
 
 // A decoded frame message.
 struct ReceivedFrame {

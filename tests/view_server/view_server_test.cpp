@@ -73,6 +73,7 @@ class ViewServerTest : public ::testing::Test {
     config.state_dir = dir_ / "state";
     config.max_connections = max_connections;
     config.max_connections_per_address = max_connections_per_address_;
+    config.backend_timeout_s = backend_timeout_s_;
     config.rt_status_interval_s = 0.1;
     config_ = config;
     start_server();
@@ -134,6 +135,7 @@ class ViewServerTest : public ::testing::Test {
   std::atomic<int> snapshot_delay_ms_{0};
   std::atomic<int> rt_command_delay_ms_{0};
   std::uint32_t max_connections_per_address_ = 64;
+  double backend_timeout_s_ = 0.5;
   // The stand-ins answer with fields of the wrong type (another version, another service).
   std::atomic<bool> odd_replies_{false};
 
@@ -202,9 +204,10 @@ class ViewServerTest : public ::testing::Test {
   std::thread thread_;
 };
 
-// A sample without labels of ioct-view's /metrics; nullopt when it is not there.
-std::optional<double> metric(std::uint16_t port, const std::string& name) {
-  const std::string metrics = http_request(port, "GET", "/metrics").body;
+// A sample without labels of ioct-view's /metrics, asked from `from`; nullopt when it is not there.
+std::optional<double> metric(std::uint16_t port, const std::string& name,
+                             const std::string& from = "127.0.0.1") {
+  const std::string metrics = http_request(port, "GET", "/metrics", {}, {}, from).body;
   const std::size_t at = metrics.find("\n" + name + " ");
   if (at == std::string::npos) return std::nullopt;
   return std::stod(metrics.substr(at + name.size() + 2));
@@ -230,9 +233,11 @@ TEST_F(ViewServerTest, StateIsLiveWithTheParametersAndTheScanStatus) {
 }
 
 // ioct-rt's status says how old it is: a poll waits behind the operators' commands to ioct-rt, so
-// while slow commands hold that lane the state's rt_age_ms grows (the page then shows the scanner
-// and the laser as unknown, state-line.js), and it is fresh again once they are done.
+// while slow commands hold that lane (five of 400 ms) the state's rt_age_ms grows (the page then
+// shows the scanner and the laser as unknown, state-line.js), and it is fresh again once they are
+// done.
 TEST_F(ViewServerTest, TheScannersStatusSaysHowOldItIs) {
+  backend_timeout_s_ = 5.0;  // the slow commands below are answered, however loaded the machine
   start();
   const auto age = [](const nlohmann::json& s) {
     return s["rt_age_ms"].is_number() ? s["rt_age_ms"].get<double>() : -1.0;
@@ -242,7 +247,7 @@ TEST_F(ViewServerTest, TheScannersStatusSaysHowOldItIs) {
   EXPECT_LT(age(fresh), 1000.0) << fresh.dump();
   rt_command_delay_ms_ = 400;
   std::vector<std::thread> operators;
-  for (int i = 0; i < 4; ++i) {
+  for (int i = 0; i < 5; ++i) {
     operators.emplace_back(
         [&] { http_request(port_, "POST", "/api/scan", R"({"cmd":"start"})", kToken); });
   }
@@ -577,10 +582,31 @@ TEST_F(ViewServerTest, OneAddressCannotTakeThePlacesOfTheOthers) {
   WsViewer other(port_, "127.0.0.2");
   EXPECT_TRUE(other.next_text("state", 2s)) << "another address still gets in";
   hog.pop_back();
-  std::this_thread::sleep_for(200ms);
-  EXPECT_NO_THROW(WsViewer again(port_)) << "a place freed is a place again";
-  std::this_thread::sleep_for(200ms);
-  EXPECT_EQ(metric(port_, "ioct_view_connections_refused_total").value_or(0.0), 2.0);
+  // The server frees the place when it sees the close (a loaded machine: not at once).
+  std::unique_ptr<WsViewer> again;
+  for (auto end = std::chrono::steady_clock::now() + 10s;
+       !again && std::chrono::steady_clock::now() < end; std::this_thread::sleep_for(50ms)) {
+    try {
+      again = std::make_unique<WsViewer>(port_);
+    } catch (const std::exception&) {
+    }
+  }
+  EXPECT_TRUE(again) << "a place freed is a place again";
+  // Asked from 127.0.0.2: 127.0.0.1's places may still be taken.
+  EXPECT_GE(metric(port_, "ioct_view_connections_refused_total", "127.0.0.2").value_or(0.0), 2.0)
+      << "the fourth WebSocket and the HTTP request";
+}
+
+// On loopback (the default listener) every peer is this machine: by default no limit per address
+// beyond the whole one, so a 17th connection from 127.0.0.1 still gets in.
+TEST_F(ViewServerTest, OnLoopbackThePerAddressLimitIsTheWholeOneByDefault) {
+  max_connections_per_address_ = 0;
+  start();
+  std::vector<std::unique_ptr<WsViewer>> viewers;
+  for (int i = 0; i < 20; ++i) {
+    ASSERT_NO_THROW(viewers.push_back(std::make_unique<WsViewer>(port_))) << "viewer " << i;
+  }
+  EXPECT_EQ(http_request(port_, "GET", "/api/state").status, 200u);
 }
 
 TEST_F(ViewServerTest, AViewerMayOrbitItsOwnCameraOnly) {

@@ -56,7 +56,8 @@ int main(int argc, char** argv) {
                  "seconds without a new group before the page says STALE; 0: 3 group periods");
   app.add_option("--max-connections", config.max_connections, "open connections at most");
   app.add_option("--max-connections-per-address", config.max_connections_per_address,
-                 "open connections from one remote address at most");
+                 "open connections from one remote address at most; 0: 16 on a network address, "
+                 "no limit of its own on loopback (every peer is this machine)");
   app.add_option("--snapshot-timeout", config.snapshot_timeout_s,
                  "seconds a snapshot may wait for its full-size render (the CPU renderer: "
                  "seconds)");

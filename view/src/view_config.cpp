@@ -19,7 +19,7 @@ void ViewConfig::validate() const {
   require_real_in_range("view.stale_after", stale_after_s, 0.0, 3600.0);
   require_real_in_range("view.stale_after_periods", stale_after_periods, 1.0, 100.0);
   require_integer_in_range("view.max_connections", max_connections, 1, 4096);
-  require_integer_in_range("view.max_connections_per_address", max_connections_per_address, 1,
+  require_integer_in_range("view.max_connections_per_address", max_connections_per_address, 0,
                            4096);
   require_integer_in_range("view.max_message_bytes", max_message_bytes, 1024, 16u << 20);
   require_real_in_range("view.backend_timeout", backend_timeout_s, 0.01, 10.0);

@@ -21,8 +21,9 @@ struct ViewConfig {
   double stale_after_s = 0.0;        // 0: stale_after_periods measured group periods
   double stale_after_periods = 3.0;  // the default bound: three group periods
   std::uint32_t max_connections = 64;
-  // From one remote address (a page opens a few: its WebSocket and its files): at most this many.
-  std::uint32_t max_connections_per_address = 16;
+  // From one remote address (a page opens a few: its WebSocket and its files): at most this many;
+  // 0: 16 on a network address, none of its own on loopback (every peer is this machine).
+  std::uint32_t max_connections_per_address = 0;
   std::uint32_t max_message_bytes = 64 * 1024;  // one browser message or HTTP body
   double backend_timeout_s = 0.5;               // a reply from ioct-gpu or ioct-rt
   // A snapshot's reply waits for the shared view's next full-size render: on the CPU renderer

@@ -1,5 +1,6 @@
 #include "view_server.hpp"
 
+#include <algorithm>
 #include <boost/asio/post.hpp>
 #include <boost/asio/signal_set.hpp>
 #include <stdexcept>
@@ -32,6 +33,12 @@ ViewServer::ViewServer(ViewConfig config, OperatorToken token)
                              std::to_string(config_.port) + ": " + ec.message());
   }
   port_ = acceptor_->local_endpoint().port();
+  // On loopback every peer is this machine (the surgeon's display among them): a limit per
+  // address would only lower the whole limit. On a network address, one machine gets at most 16.
+  per_address_limit_ = static_cast<int>(
+      config_.max_connections_per_address != 0 ? config_.max_connections_per_address
+      : endpoint.address().is_loopback()       ? config_.max_connections
+                                               : std::min(16u, config_.max_connections));
 
   const auto deliver = [this](std::function<void()> task) { asio::post(*io_, std::move(task)); };
   backends_ = std::make_unique<Backends>(
@@ -71,8 +78,7 @@ void ViewServer::accept() {
       // At a limit, refused: the others keep their share, and one client (a page reloaded in a
       // storm, a misbehaving tool) cannot take the places the surgeon's display needs.
       if (hub_.connections() >= static_cast<int>(config_.max_connections) ||
-          hub_.connections_from(remote_address(socket)) >=
-              static_cast<int>(config_.max_connections_per_address)) {
+          hub_.connections_from(remote_address(socket)) >= per_address_limit_) {
         ++hub_.counters().connections_refused;
         boost::system::error_code ignored;
         socket.close(ignored);

@@ -47,6 +47,7 @@ class ViewServer {
   std::optional<boost::asio::ip::tcp::acceptor> acceptor_;
   std::optional<boost::asio::steady_timer> state_timer_;
   std::uint16_t port_ = 0;
+  int per_address_limit_ = 0;  // max_connections_per_address as it applies to this listener
   Hub hub_;
   PresetStore presets_;
   StaticFiles files_;
