@@ -212,7 +212,8 @@ TEST_F(LiveViewPage, StereoPairFillsTheSurgeonsDisplaySideBySide) {
   ASSERT_TRUE(display
                   ->wait_until(R"((() => {
     const s = window.ioctView && ioctView.status;
-    if (!s || !s.lastFrame || !s.lastFrame.stereo || s.signal !== 'live') return null;
+    if (!s || !s.lastFrame || !s.lastFrame.stereo || !s.lastState ||
+        s.lastState.signal !== 'live') return null;
     const box = document.getElementById('render').getBoundingClientRect();
     return { stereo: document.body.classList.contains('stereo'), width: box.width,
              height: box.height, windowWidth: innerWidth, frameWidth: s.lastFrame.width,
@@ -302,7 +303,13 @@ TEST_F(LiveViewPage, ViewerWithoutTheTokenCannotChangeAnything) {
   params_after["params"]["view"].erase("azimuth_deg");
   params_before["params"]["view"].erase("azimuth_deg");
   EXPECT_EQ(params_after.at("params"), params_before.at("params")) << "nothing changed";
-  EXPECT_TRUE(page_->wait_until(live_with_frames(1), 5s).has_value()) << "still scanning";
+  // The server's verdict: the scan still runs (the page's own picture may lag on a loaded machine).
+  EXPECT_TRUE(page_
+                  ->wait_until("ioctView.status.lastState && "
+                               "ioctView.status.lastState.signal === 'live'",
+                               10s)
+                  .has_value())
+      << "still scanning";
 }
 
 TEST_F(LiveViewPage, AViewerWhoDragsThePictureOrbitsItsOwnViewAndCanFollowAgain) {

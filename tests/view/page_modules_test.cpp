@@ -206,6 +206,8 @@ TEST_F(PageModules, APictureOlderThanTheStaleBoundIsStaleWhileTheServerSaysLive)
     out.behind = at();
     w.pictureDrawn(20);
     out.caughtUp = at().signal;
+    w.pictureDrawn(20, 100);  // received at 100, drawn at 200: 20 + 100 ms old
+    out.receivedEarlier = w.pictureAge();
     w.pictureDrawn(5000);
     out.slowRenderer = at();
     w.state({signal: 'stale', age_ms: 900, stale_after_ms: 300});
@@ -222,6 +224,7 @@ TEST_F(PageModules, APictureOlderThanTheStaleBoundIsStaleWhileTheServerSaysLive)
   EXPECT_NE(r.at("behind").at("reason").get<std::string>().find("picture lags the scan"),
             std::string::npos);
   EXPECT_EQ(r.at("caughtUp"), "live");
+  EXPECT_DOUBLE_EQ(r.at("receivedEarlier").get<double>(), 120.0) << "the age counts from arrival";
   EXPECT_EQ(r.at("slowRenderer").at("signal"), "stale");
   EXPECT_EQ(r.at("serverStale").at("signal"), "stale");
   EXPECT_DOUBLE_EQ(r.at("serverStale").at("ageMs").get<double>(), 900.0)

@@ -53,7 +53,7 @@ export function startLiveView({ token = '', onState = () => {}, onFrame = () => 
     onDrawn: (meta) => {
       status.framesDrawn += 1;
       status.lastFrame = meta;
-      watch.pictureDrawn(meta.age_ms);
+      watch.pictureDrawn(meta.age_ms, meta.receivedAt);
       updateBanner();
       status.tipMarked = painter.tipMarked;
       status.tipOnRender = painter.tipOnRender;
@@ -80,6 +80,7 @@ export function startLiveView({ token = '', onState = () => {}, onFrame = () => 
     onFrame: (frame) => {
       status.framesReceived += 1;
       watch.frame();
+      frame.meta.receivedAt = performance.now();
       painter.paint(frame);
     },
     onState: (state) => {

@@ -38,10 +38,11 @@ export class SignalWatch {
 
   frame() { this.lastMessageAt = this.now(); }
 
-  // A picture was drawn: `ageMs` is its frame's age_ms (its newest scan published → frame sent).
-  pictureDrawn(ageMs) {
+  // A picture was drawn: `ageMs` is its frame's age_ms (its newest scan published → frame sent),
+  // `receivedAt` when its message arrived (the decoding's time counts towards its age).
+  pictureDrawn(ageMs, receivedAt = this.now()) {
     this.pictureAgeMs = Number.isFinite(ageMs) ? ageMs : null;
-    this.pictureAt = this.now();
+    this.pictureAt = Number.isFinite(receivedAt) ? receivedAt : this.now();
   }
 
   // The drawn picture's newest scan's age now; null before the first picture with an age.
