@@ -188,11 +188,11 @@ std::uint64_t RingRecordingReader::refresh() {
               counters_.data()) < 0) {
     throw RingRecordingError(where + ": counters unreadable: " + h5_error_stack());
   }
-  struct stat st {};
-  if (::stat(path_.c_str(), &st) == 0) file_bytes_ = static_cast<std::uint64_t>(st.st_size);
   for (const H5Handle* set : {&groups_set_, &headers_set_, &checksums_set_}) {
     H5Drefresh(set->get());
   }
+  struct stat st {};  // after the extents: the file holds at least the groups they count
+  if (::stat(path_.c_str(), &st) == 0) file_bytes_ = static_cast<std::uint64_t>(st.st_size);
   const std::uint64_t groups = check_shape(
       groups_set_.get(), kGroupsDataset,
       {0, geometry_.bscans_per_group, geometry_.ascans_per_bscan, geometry_.samples_per_ascan},

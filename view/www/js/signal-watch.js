@@ -17,7 +17,7 @@ export class SignalWatch {
     this.lastLiveAt = null;   // when the picture was last known live (for the age while lost)
     this.staleAfterMs = null; // the server's bound on the newest scan's age
     this.pictureAgeMs = null; // the drawn picture's newest scan's age when its frame was sent
-    this.pictureAt = null;    // when that picture was drawn
+    this.pictureAt = null;    // when that picture's message arrived
   }
 
   connection(open) {
