@@ -15,9 +15,9 @@ std::string remote_address(const boost::asio::ip::tcp::socket& socket) {
   return ec ? std::string("unknown") : endpoint.address().to_string();
 }
 
-HttpSession::HttpSession(boost::asio::ip::tcp::socket socket, Hub& hub, ViewApi& api,
-                         const StaticFiles& files, const ViewConfig& config)
-    : counted_(std::in_place, hub, remote_address(socket)),
+HttpSession::HttpSession(boost::asio::ip::tcp::socket socket, CountedConnection counted, Hub& hub,
+                         ViewApi& api, const StaticFiles& files, const ViewConfig& config)
+    : counted_(std::in_place, std::move(counted)),
       stream_(std::move(socket)),
       hub_(hub),
       api_(api),

@@ -21,8 +21,8 @@ std::string remote_address(const boost::asio::ip::tcp::socket& socket);
 
 class HttpSession final : public std::enable_shared_from_this<HttpSession> {
  public:
-  HttpSession(boost::asio::ip::tcp::socket socket, Hub& hub, ViewApi& api, const StaticFiles& files,
-              const ViewConfig& config);
+  HttpSession(boost::asio::ip::tcp::socket socket, CountedConnection counted, Hub& hub,
+              ViewApi& api, const StaticFiles& files, const ViewConfig& config);
   ~HttpSession();
   void start();
 

@@ -81,15 +81,15 @@ class Hub {
   // The instrument of the newest frame of the shared view (state off until one came).
   const shm::FrameInstrument& instrument() const noexcept { return instrument_; }
   // Open connections, HTTP and WebSocket, in all and per remote address (the listener's limits).
-  void connection_opened(const std::string& address) {
-    ++connections_;
-    ++connections_from_[address];
-  }
+  void connection_opened(const std::string& address) { ++connections_from_[address]; }
   void connection_closed(const std::string& address) {
-    --connections_;
     if (--connections_from_[address] <= 0) connections_from_.erase(address);
   }
-  int connections() const noexcept { return connections_; }
+  int connections() const noexcept {
+    int all = 0;
+    for (const auto& [address, count] : connections_from_) all += count;
+    return all;
+  }
   int connections_from(const std::string& address) const {
     const auto it = connections_from_.find(address);
     return it == connections_from_.end() ? 0 : it->second;
@@ -109,7 +109,6 @@ class Hub {
   // whenever the bytes change): a viewer sent them already is sent a frame without them.
   std::string last_pictures_;
   std::uint64_t pictures_ = 0;
-  int connections_ = 0;
   std::map<std::string, int> connections_from_;
   std::function<void()> on_footswitch_;
 };

@@ -24,6 +24,7 @@ struct ViewConfig {
   // From one remote address (a page opens a few: its WebSocket and its files): at most this many;
   // 0: 16 on a network address, none of its own on loopback (every peer is this machine).
   std::uint32_t max_connections_per_address = 0;
+  static constexpr std::uint32_t kNetworkConnectionsPerAddress = 16;  // its 0 on a network address
   std::uint32_t max_message_bytes = 64 * 1024;  // one browser message or HTTP body
   double backend_timeout_s = 0.5;               // a reply from ioct-gpu or ioct-rt
   // A snapshot's reply waits for the shared view's next full-size render: on the CPU renderer

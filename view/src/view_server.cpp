@@ -34,11 +34,12 @@ ViewServer::ViewServer(ViewConfig config, OperatorToken token)
   }
   port_ = acceptor_->local_endpoint().port();
   // On loopback every peer is this machine (the surgeon's display among them): a limit per
-  // address would only lower the whole limit. On a network address, one machine gets at most 16.
+  // address would only lower the whole limit. On a network address, one machine gets at most a few.
   per_address_limit_ = static_cast<int>(
       config_.max_connections_per_address != 0 ? config_.max_connections_per_address
-      : endpoint.address().is_loopback()       ? config_.max_connections
-                                               : std::min(16u, config_.max_connections));
+      : endpoint.address().is_loopback()
+          ? config_.max_connections
+          : std::min(ViewConfig::kNetworkConnectionsPerAddress, config_.max_connections));
 
   const auto deliver = [this](std::function<void()> task) { asio::post(*io_, std::move(task)); };
   backends_ = std::make_unique<Backends>(
@@ -77,8 +78,9 @@ void ViewServer::accept() {
     if (!ec) {
       // At a limit, refused: the others keep their share, and one client (a page reloaded in a
       // storm, a misbehaving tool) cannot take the places the surgeon's display needs.
+      std::string address = remote_address(socket);
       if (hub_.connections() >= static_cast<int>(config_.max_connections) ||
-          hub_.connections_from(remote_address(socket)) >= per_address_limit_) {
+          hub_.connections_from(address) >= per_address_limit_) {
         ++hub_.counters().connections_refused;
         boost::system::error_code ignored;
         socket.close(ignored);
@@ -86,7 +88,10 @@ void ViewServer::accept() {
         // Frames go out as soon as they are written, not when the previous segment is acked.
         boost::system::error_code ignored;
         socket.set_option(tcp::no_delay(true), ignored);
-        std::make_shared<HttpSession>(std::move(socket), hub_, *api_, files_, config_)->start();
+        std::make_shared<HttpSession>(std::move(socket),
+                                      CountedConnection(hub_, std::move(address)), hub_, *api_,
+                                      files_, config_)
+            ->start();
       }
     }
     accept();
