@@ -199,6 +199,7 @@ void RingRecordingWriter::close(CounterValues values) {
   // An append that failed part-way (a write error) may have grown a dataset past the groups
   // appended whole: cut it back, so the finished file holds exactly them. (Normally nothing to
   // do; if the cut fails too, close() throws and the file stays unfinished, still readable.)
+  bool cut = false;
   const auto trim = [&](const H5Handle& set, int rank, const char* what) {
     H5Handle space = make(H5Dget_space(set.get()), H5Sclose, what);
     hsize_t dims[4] = {};
@@ -209,10 +210,14 @@ void RingRecordingWriter::close(CounterValues values) {
     if (dims[0] <= groups_) return;
     dims[0] = groups_;
     h5_check(H5Dset_extent(set.get(), dims), path_.string() + ": cut back " + what);
+    cut = true;
   };
   trim(groups_set_, 4, "groups");
   trim(checksums_set_, 1, "checksums");
   trim(headers_set_, 2, "slot headers");
+  // The cut reaches the file before the counters that call it finished, so a reader never sees
+  // "finished" over datasets still longer than the groups it counts.
+  if (cut) h5_check(H5Fflush(file_.get(), H5F_SCOPE_LOCAL), path_.string() + ": flush the cut");
   // The file's own count: a reader holds a finished file to exactly this many groups.
   values[static_cast<std::size_t>(Counter::groups_written)] = groups_;
   values[static_cast<std::size_t>(Counter::finished)] = 1;

@@ -473,20 +473,27 @@ int Process::shut_down(const std::string& reason, const rt::StatusSample& first)
   drain_events();
   // A replay that stopped on a group it could not read looks like the recording's end to the
   // loop (the digitizer is gone); why, the replay kept (read now: the acquisition thread ended).
+  // An earlier arming's failure (a re-arm played the recording again) is reported as that, not
+  // as the cause of this stop.
   std::string replay_error;
+  std::string replay_earlier_error;
   if (const auto* replay = dynamic_cast<const sim::ReplayDigitizer*>(backends_.digitizer.get())) {
-    replay_error = replay->error();
+    (replay->stopped_by_error() ? replay_error : replay_earlier_error) = replay->error();
   }
   if (!replay_error.empty())
     log_.error("the replay stopped at a group it could not read: " + replay_error);
+  if (!replay_earlier_error.empty()) {
+    log_.warning("an earlier arming of the replay stopped at a group it could not read: " +
+                 replay_earlier_error);
+  }
   // The readers' counters just before the ring closes, for the summary.
   const std::vector<shm::ReaderReport> readers = ring_->readers();
   ring_->close();
   const rt::StatusSample last = rt::sample_status(*loop_);
   if (!options_.summary.empty()) {
     rt::write_run_summary(options_.summary,
-                          {setup_.ring.name, reason, loop_->failure(), replay_error, first, last,
-                           budget_ns_, supervisor_->status()},
+                          {setup_.ring.name, reason, loop_->failure(), replay_error,
+                           replay_earlier_error, first, last, budget_ns_, supervisor_->status()},
                           readers);
   }
   const std::string closed =

@@ -194,6 +194,7 @@ void ReplayDigitizer::do_start() {
   next_ = 0;
   loops_ = 0;
   finished_ = false;
+  stopped_by_error_ = false;
   next_counter_ = first_counter_;
   counter_offset_ = 0;
 }
@@ -232,6 +233,7 @@ void ReplayDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::Grou
       }
     } catch (const std::exception& e) {
       if (error_.empty()) error_ = e.what();
+      stopped_by_error_ = true;
       finished_ = true;
       info = {next_counter_, 0, hal::kGroupDeviceLost};
       return;

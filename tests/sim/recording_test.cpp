@@ -401,6 +401,47 @@ TEST_F(Recording, ReplayEndsWithDeviceLostAndRefusesAnotherGeometry) {
   EXPECT_EQ(group, w.groups[0]) << "start() plays it again";
 }
 
+// A group that cannot be read ends the replay like a lost device, and error() says which. The
+// first error outlives a re-arm (start() plays the recording again), but only an arming that
+// itself ended at a bad group counts as stopped by it.
+TEST_F(Recording, ReplayReadErrorIsKeptAcrossAReArmAndOnlyBlamedForTheArmingItEnded) {
+  const fs::path stem = dir_ / "cut";
+  const Written w = write(stem, 3);
+  ReplayDigitizer replay(stem, {false, false, nullptr});
+  replay.prepare(replay.recorded_config());
+  // Cut the raw file after its first group while the replay has it open.
+  const fs::path raw = recording::recording_paths(stem).raw;
+  fs::resize_file(raw, fs::file_size(raw) / 3);
+  std::vector<std::uint16_t> group(geometry_.samples_per_group());
+  hal::GroupInfo info;
+  replay.start();
+  replay.acquire_group(group, info);
+  EXPECT_EQ(group, w.groups[0]);
+  EXPECT_FALSE(replay.stopped_by_error());
+  EXPECT_TRUE(replay.error().empty()) << replay.error();
+  replay.acquire_group(group, info);
+  EXPECT_EQ(info.status, hal::kGroupDeviceLost);
+  EXPECT_TRUE(replay.finished());
+  EXPECT_TRUE(replay.stopped_by_error());
+  const std::string first_error = replay.error();
+  EXPECT_NE(first_error.find("cut.raw"), std::string::npos) << first_error;
+  EXPECT_NE(first_error.find("truncated while open"), std::string::npos) << first_error;
+
+  // Re-armed: playing again, the earlier error kept but not this arming's.
+  replay.stop();
+  replay.start();
+  replay.acquire_group(group, info);
+  EXPECT_EQ(group, w.groups[0]) << "start() plays it again";
+  EXPECT_FALSE(replay.finished());
+  EXPECT_FALSE(replay.stopped_by_error()) << "this arming has not met the bad group yet";
+  EXPECT_EQ(replay.error(), first_error);
+  // It meets it again: stopped by it once more, the first error still the one kept.
+  replay.acquire_group(group, info);
+  EXPECT_EQ(info.status, hal::kGroupDeviceLost);
+  EXPECT_TRUE(replay.stopped_by_error());
+  EXPECT_EQ(replay.error(), first_error);
+}
+
 TEST_F(Recording, PregeneratedGroupsReplayFromMemory) {
   SimulatedDigitizer digitizer(simulation_);
   digitizer.prepare(geometry_);

@@ -84,6 +84,10 @@ class ReplayDigitizer final : public hal::Digitizer {
   // The first group it could not read, and why; kept across start() (a re-arm plays the
   // recording again, and the reason must still be there when the process reports it).
   const std::string& error() const noexcept { return error_; }
+  // Whether the replay since the last start() ended at a group it could not read (error() then
+  // says which, unless an earlier arming failed first); false while it plays and after an end
+  // of the recording, so an earlier failure is not taken for the cause of a later stop.
+  bool stopped_by_error() const noexcept { return stopped_by_error_; }
 
  protected:
   void do_prepare(const hal::DigitizerConfig& config) override;
@@ -106,6 +110,7 @@ class ReplayDigitizer final : public hal::Digitizer {
   std::uint64_t first_counter_ = 0;
   std::uint64_t counter_offset_ = 0;  // added to the recorded counters (see do_acquire_group)
   bool finished_ = false;
+  bool stopped_by_error_ = false;
   std::string error_;
 };
 
