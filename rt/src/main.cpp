@@ -247,6 +247,12 @@ nlohmann::json Process::status_now() {
   status["acquisition"]["replay"] = !setup_.replay_file.empty();
   status["acquisition"]["simulated"] =
       setup_.replay_file.empty() && setup_.config.digitizer_backend == "simulated";
+  // Why a replay stopped, while it is stopped by it (its digitizer_lost fault says only that
+  // the groups ended): the group it could not read, and why.
+  if (const auto* replay = dynamic_cast<const sim::ReplayDigitizer*>(backends_.digitizer.get())) {
+    status["acquisition"]["replay_error"] =
+        replay->has_error() && replay->stopped_by_error() ? replay->error() : "";
+  }
   return status;
 }
 
@@ -478,7 +484,9 @@ int Process::shut_down(const std::string& reason, const rt::StatusSample& first)
   std::string replay_error;
   std::string replay_earlier_error;
   if (const auto* replay = dynamic_cast<const sim::ReplayDigitizer*>(backends_.digitizer.get())) {
-    (replay->stopped_by_error() ? replay_error : replay_earlier_error) = replay->error();
+    if (replay->has_error()) {
+      (replay->stopped_by_error() ? replay_error : replay_earlier_error) = replay->error();
+    }
   }
   if (!replay_error.empty())
     log_.error("the replay stopped at a group it could not read: " + replay_error);

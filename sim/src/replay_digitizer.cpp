@@ -194,7 +194,7 @@ void ReplayDigitizer::do_start() {
   next_ = 0;
   loops_ = 0;
   finished_ = false;
-  stopped_by_error_ = false;
+  stopped_by_error_.store(false, std::memory_order_release);
   next_counter_ = first_counter_;
   counter_offset_ = 0;
 }
@@ -232,8 +232,11 @@ void ReplayDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::Grou
         reader_->read_group(next_, group, recorded);
       }
     } catch (const std::exception& e) {
-      if (error_.empty()) error_ = e.what();
-      stopped_by_error_ = true;
+      if (!has_error_.load(std::memory_order_relaxed)) {
+        error_ = e.what();
+        has_error_.store(true, std::memory_order_release);
+      }
+      stopped_by_error_.store(true, std::memory_order_release);
       finished_ = true;
       info = {next_counter_, 0, hal::kGroupDeviceLost};
       return;

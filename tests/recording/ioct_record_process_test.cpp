@@ -24,6 +24,7 @@
 #include <utility>
 #include <vector>
 
+#include "ioct/common/line_client.hpp"
 #include "ioct/ringrec/ring_recording_format.hpp"
 #include "ioct/ringrec/ring_recording_reader.hpp"
 #include "ioct/shm/ring_error.hpp"
@@ -382,11 +383,34 @@ TEST(IoctRecord, AReplayStoppedByACorruptGroupSaysWhichAndWhy) {
     H5Dclose(set);
     H5Fclose(file);
   }
+  const test_support::TempPath socket("record-corrupt-control", ".sock");
   std::vector<std::string> arguments = small_rt(replay_ring.str());
-  arguments.insert(arguments.end(), {"--replay", out.path().string(), "--replay-once", "--seconds",
-                                     "3", "--summary", summary.path().string()});
+  arguments.insert(arguments.end(),
+                   {"--replay", out.path().string(), "--replay-once", "--seconds", "3", "--summary",
+                    summary.path().string(), "--control-socket", socket.path().string()});
   ChildProcess replay = start("ioct-rt", arguments);
-  ASSERT_TRUE(replay.wait_for(60s).has_value()) << "ioct-rt did not end after its 3 s";
+  using ioct::LineClient;
+  // While it runs, its live status says why the groups stopped (group 3 comes well within 3 s).
+  std::string live_error;
+  std::optional<int> ended;
+  LineClient control(socket.path().string(), 2s);
+  for (auto end = std::chrono::steady_clock::now() + 20s;
+       live_error.empty() && std::chrono::steady_clock::now() < end &&
+       !(ended = replay.wait_for(0ms)).has_value();
+       std::this_thread::sleep_for(20ms)) {
+    const std::optional<std::string> line = control.request(R"({"cmd":"status"})");
+    if (!line) continue;
+    const nlohmann::json reply = nlohmann::json::parse(*line, nullptr, false);
+    const nlohmann::json* status = &reply;
+    if (reply.contains("status")) status = &reply["status"];
+    if (status->contains("acquisition")) {
+      live_error = (*status)["acquisition"].value("replay_error", "");
+    }
+  }
+  EXPECT_NE(live_error.find(": group 3 at byte "), std::string::npos)
+      << "the live status never said why: '" << live_error << "'";
+  if (!ended) ended = replay.wait_for(60s);
+  ASSERT_TRUE(ended.has_value()) << "ioct-rt did not end after its 3 s";
   std::ifstream in(summary.path());
   const nlohmann::json s = nlohmann::json::parse(in, nullptr, false);
   ASSERT_TRUE(s.is_object()) << "no summary at " << summary.path();

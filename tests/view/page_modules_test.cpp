@@ -239,6 +239,10 @@ TEST_F(PageModules, StateLineReadsTheScannersStatus) {
       scanning: d({safety: {state: 'scanning', emission_readback: true}}),
       fault: d({status: {safety: {state: 'fault', faults: 'k_clock', emission_readback: false}}}),
       idle: d({safety: {state: 'idle', emission_readback: false}}),
+      replayEnded: d({safety: {state: 'fault', faults: 'digitizer_lost', emission_readback: false},
+                      acquisition: {replay: true, replay_error: 'run.h5: group 3 at byte 9: bad'}}),
+      replaying: d({safety: {state: 'scanning', emission_readback: true},
+                    acquisition: {replay: true, replay_error: ''}}),
       unknown: m.describeState({rt: null, rt_error: 'ioct-rt not reachable'}),
       recent: m.describeState({rt_age_ms: 900, rt: {safety: {state: 'scanning',
                                                               emission_readback: true}}}),
@@ -257,6 +261,9 @@ TEST_F(PageModules, StateLineReadsTheScannersStatus) {
   EXPECT_EQ(r.at("fault").at("scan"), "FAULT: k_clock");
   EXPECT_EQ(r.at("fault").at("laser"), "laser off");
   EXPECT_EQ(r.at("idle").at("scan"), "STOPPED");
+  EXPECT_EQ(r.at("replayEnded").at("scan"),
+            "FAULT: digitizer_lost — the replay stopped: run.h5: group 3 at byte 9: bad");
+  EXPECT_EQ(r.at("replaying").at("scan"), "SCANNING");
   EXPECT_EQ(r.at("unknown").at("scan"), "scanner: ioct-rt not reachable");
 }
 

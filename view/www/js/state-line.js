@@ -1,7 +1,8 @@
 // The one line that says what the appliance is doing: scanning / stopped / fault, laser on/off,
 // groups per second, drops. Reads ioct-view's state message; `rt` is ioct-rt's status object
-// ({safety: {state, emission_readback, faults}, ...}), or null with the reason in `rt_error`;
-// `rt_age_ms` its age: an old one is not shown as the scanner's or the laser's state.
+// ({safety: {state, emission_readback, faults}, acquisition: {replay_error}, ...}), or null with
+// the reason in `rt_error`; `rt_age_ms` its age: an old one is not shown as the scanner's or the
+// laser's state.
 
 // ioct-rt's status older than this (ioct-view polls it every 100 ms; a poll waits behind the
 // operators' commands) no longer says what the scanner and the laser are doing now.
@@ -21,6 +22,10 @@ export function describeState(state) {
     else if (s === 'fault') [scan, scanClass] = [`FAULT${safety.faults ? `: ${safety.faults}` : ''}`, 'fault'];
     else if (s === 'arming') [scan, scanClass] = ['ARMING', 'warn'];
     else [scan, scanClass] = ['STOPPED', 'warn'];
+    // A replay that met a group it could not read ends like a lost digitizer: say which and why.
+    const replayError = rt.acquisition && typeof rt.acquisition.replay_error === 'string'
+      ? rt.acquisition.replay_error : '';
+    if (replayError && s !== 'scanning') scan += ` — the replay stopped: ${replayError}`;
   } else if (state.rt_error) {
     scan = `scanner: ${state.rt_error}`;
   } else if (typeof state.rt === 'string') {

@@ -19,6 +19,7 @@
 // in-memory groups with no pacing: they go into the ring as fast as it takes them.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <memory>
@@ -82,12 +83,17 @@ class ReplayDigitizer final : public hal::Digitizer {
   std::uint64_t group_count() const noexcept;
   bool finished() const noexcept { return finished_; }
   // The first group it could not read, and why; kept across start() (a re-arm plays the
-  // recording again, and the reason must still be there when the process reports it).
+  // recording again, and the reason must still be there when the process reports it). Written
+  // once by the acquiring thread and never changed after: any thread may read it once
+  // has_error() is true (the live status does, while the acquisition runs).
+  bool has_error() const noexcept { return has_error_.load(std::memory_order_acquire); }
   const std::string& error() const noexcept { return error_; }
   // Whether the replay since the last start() ended at a group it could not read (error() then
   // says which, unless an earlier arming failed first); false while it plays and after an end
   // of the recording, so an earlier failure is not taken for the cause of a later stop.
-  bool stopped_by_error() const noexcept { return stopped_by_error_; }
+  bool stopped_by_error() const noexcept {
+    return stopped_by_error_.load(std::memory_order_acquire);
+  }
 
  protected:
   void do_prepare(const hal::DigitizerConfig& config) override;
@@ -110,8 +116,9 @@ class ReplayDigitizer final : public hal::Digitizer {
   std::uint64_t first_counter_ = 0;
   std::uint64_t counter_offset_ = 0;  // added to the recorded counters (see do_acquire_group)
   bool finished_ = false;
-  bool stopped_by_error_ = false;
-  std::string error_;
+  std::atomic<bool> stopped_by_error_{false};
+  std::atomic<bool> has_error_{false};
+  std::string error_;  // set once, before has_error_
 };
 
 }  // namespace ioct::sim
