@@ -1,9 +1,10 @@
 // The CUDA implementation of the instrument detection (built only with CUDA): per group, the
 // B-scans (read in place from a device volume, or uploaded from a host one) are histogrammed by
-// many blocks each (shared-memory histograms summed into one per B-scan), then every A-scan is
-// classified, one thread each, against its B-scan's floor (the histogram's median) with the same
-// column code as the CPU reference (column_classification.hpp); the mask and the reflexes come
-// back (a few bytes per A-scan) and the tips are found on the host, as for the CPU.
+// many blocks each (shared-memory histograms summed into one per B-scan; the last block of a
+// B-scan takes its median, the floor), then every A-scan is classified by a warp against its
+// B-scan's floor: column_classification.hpp's walks as ballots and warp reductions over the same
+// integers, so the CPU reference's findings to the bit. The mask, reflexes and floors come back
+// in one copy (a few bytes per A-scan) and the tips are found on the host, as for the CPU.
 #pragma once
 
 #include <cstddef>
@@ -26,13 +27,11 @@ class CudaInstrumentDetector final : public InstrumentDetector {
                 InstrumentFindings& findings) override;
 
   cuda::Stream stream_;
-  cuda::Event volume_ready_;                     // a device volume's writes so far
-  cuda::DeviceArray<std::uint8_t> bscans_;       // the group's B-scans, uploaded from a host volume
-  cuda::DeviceArray<std::uint8_t> kinds_;        // [bscan of the group][ascan]
-  cuda::DeviceArray<float> reflexes_;            // [bscan of the group][ascan]
-  cuda::DeviceArray<float> fronts_;              // [bscan of the group][ascan]
-  cuda::DeviceArray<std::uint8_t> floors_;       // [bscan of the group]
-  cuda::DeviceArray<std::uint32_t> histograms_;  // [bscan of the group][256]
+  cuda::Event volume_ready_;                // a device volume's writes so far
+  cuda::DeviceArray<std::uint8_t> bscans_;  // the group's B-scans, uploaded from a host volume
+  // [reflexes][fronts] (floats, [bscan of the group][ascan] each), [kinds][floors] (bytes)
+  cuda::DeviceArray<float> results_;
+  cuda::DeviceArray<std::uint32_t> histograms_;  // [bscan of the group][256], then parts done
   cuda::PinnedDownload download_;  // the group's kinds, reflexes, fronts and floors to the host
 };
 
