@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstring>
@@ -192,6 +193,73 @@ TEST(IoctRecord, RecordsTheRingsGroupsByteForByteAndFinishesCleanlyOnSigterm) {
               static_cast<unsigned long long>(compared),
               static_cast<unsigned long long>(reader.group_count()));
   EXPECT_GE(compared, 10u) << "too few groups seen by both readers to compare";
+}
+
+// A recorder that stalls (SIGSTOP: a stuck disk, a descheduled process) falls more than a ring
+// behind the producer. It counts the groups it lost (skipped to the ring's newest: "behind"; a
+// copy overwritten under it: "lapped"), goes on and records on; the file counts the loss, and
+// every group in it is whole and the ring's.
+TEST(IoctRecord, AStalledRecorderCountsTheGroupsItLostAndRecordsOn) {
+  const test_support::ScopedShmName ring("record-stalled");
+  const test_support::TempPath out("record-stalled", ".h5");
+  std::vector<std::string> rt_arguments = small_rt(ring.str());
+  rt_arguments.insert(rt_arguments.end(), {"--slots", "4"});
+  ChildProcess rt = start("ioct-rt", rt_arguments);
+  RingCapture capture(ring.str(), 400);
+  ChildProcess recorder = start("ioct-record", record_args(ring.str(), out.path()));
+  std::string lines;
+  ASSERT_TRUE(wait_for_groups_written(recorder, 10, lines)) << lines;
+  // Stalled for 0.5 s: the simulator publishes about 80 groups into the 4 slots meanwhile.
+  recorder.send_signal(SIGSTOP);
+  std::this_thread::sleep_for(500ms);
+  recorder.send_signal(SIGCONT);
+  // It records on: a status line that counts the loss, then more groups than before the stall.
+  const auto after = [](const std::string& line, const char* what) -> std::uint64_t {
+    const std::size_t at = line.find(what);
+    return at == std::string::npos ? 0 : std::stoull(line.substr(at + std::strlen(what)));
+  };
+  std::uint64_t lost = 0;
+  const auto give_up = std::chrono::steady_clock::now() + 30s;
+  while (lost == 0 && std::chrono::steady_clock::now() < give_up) {
+    const std::optional<std::string> line = recorder.read_line(10s);
+    if (!line) break;
+    lines += *line + "\n";
+    lost = after(*line, "lapped ") + after(*line, "behind ");
+  }
+  EXPECT_GT(lost, 0u) << "no loss counted after the stall:\n" << lines;
+  ASSERT_TRUE(wait_for_groups_written(recorder, 40, lines)) << lines;
+  recorder.send_signal(SIGTERM);
+  const std::optional<int> status = recorder.wait_for(30s);
+  ASSERT_EQ(exit_code(status), 0) << (status ? test_support::describe_wait_status(*status) : "");
+
+  const RingRecordingReader reader(out.path());
+  EXPECT_TRUE(reader.finished());
+  EXPECT_GE(reader.group_count(), 40u);
+  EXPECT_EQ(counter(reader, Counter::groups_written), reader.group_count());
+  const std::uint64_t counted =
+      counter(reader, Counter::dropped_lapped) + counter(reader, Counter::dropped_behind);
+  EXPECT_GE(counted, lost) << "the file counts the loss";
+  // The stall shows in the file as a jump in the ring's group indices, no larger than the loss.
+  std::vector<std::byte> payload(reader.group_bytes());
+  shm::SlotHeader header{};
+  std::uint64_t previous = 0, largest_jump = 0;
+  for (std::uint64_t i = 0; i < reader.group_count(); ++i) {
+    reader.read_group(i, payload, header);
+    if (i > 0) largest_jump = std::max(largest_jump, header.group_index - previous);
+    previous = header.group_index;
+  }
+  EXPECT_GT(largest_jump, 4u) << "the stall lost more groups than the ring's 4 slots hold";
+  EXPECT_LE(largest_jump - 1, counted) << "every group missing from the file is counted";
+  const std::uint64_t compared = compare_with_ring(reader, capture);
+  std::printf(
+      "[ stalled  ] %llu groups lost (lapped %llu, behind %llu), the largest jump %llu; "
+      "%llu of %llu recorded groups compared with the ring's bytes\n",
+      static_cast<unsigned long long>(counted),
+      static_cast<unsigned long long>(counter(reader, Counter::dropped_lapped)),
+      static_cast<unsigned long long>(counter(reader, Counter::dropped_behind)),
+      static_cast<unsigned long long>(largest_jump), static_cast<unsigned long long>(compared),
+      static_cast<unsigned long long>(reader.group_count()));
+  EXPECT_GE(compared, 10u);
 }
 
 TEST(IoctRecord, SigkillLeavesAFileWithEveryGroupWrittenBeforeIt) {
