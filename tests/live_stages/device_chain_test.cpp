@@ -47,6 +47,9 @@ struct StagesRun {
   // With a frame ring: the B-scan picture (JPEG) of the last frame written, and its index.
   std::vector<std::byte> last_bscan_jpeg;
   std::uint32_t last_bscan_index = 0;
+  // With instrument detection: the stages' host copy of the surfaces as the last pass left it
+  // (before finish() reads everything back).
+  segmentation::Surfaces surfaces_after_last_pass;
 #if IOCT_GPU_WITH_CUDA
   cuda::BusTraffic traffic;         // during the passes
   cuda::BusTraffic switch_traffic;  // during the changes of mode and their frames
@@ -71,8 +74,10 @@ cuda::BusTraffic traffic_since(const cuda::BusTraffic& before) {
 StagesRun run_stages(Backend backend, bool device_source, const std::filesystem::path& dir,
                      render::RenderMode mode = render::RenderMode::enhanced,
                      const std::vector<std::string>& switches = {},
-                     const std::string& frame_ring = {}) {
+                     const std::string& frame_ring = {}, bool instruments = false) {
   PassGate gate;
+  const VolumeStages* running = nullptr;
+  segmentation::Surfaces after_last_pass;
   VolumeStagesConfig config;
   config.backend = backend;
   config.cpu_threads = 2;
@@ -82,9 +87,15 @@ StagesRun run_stages(Backend backend, bool device_source, const std::filesystem:
   config.cpu_render_interval_s = 0.0;
   config.render.mode = mode;
   config.final_modes = {};
-  config.on_pass = [&gate](const StagesPass& pass) { gate.on_pass(pass); };
+  // On the stages' thread, after the pass (and its detection): its host copy is read there.
+  config.on_pass = [&gate, &running, &after_last_pass, instruments](const StagesPass& pass) {
+    if (instruments && running != nullptr) after_last_pass = running->surfaces();
+    gate.on_pass(pass);
+  };
   config.frame_ring = frame_ring;
+  config.instruments.enabled = instruments;
   VolumeStages stages(config);
+  running = &stages;
   std::optional<shm::FrameRingReader> frames;
   if (!frame_ring.empty()) frames.emplace(shm::FrameRingReader::attach(frame_ring));
 
@@ -157,6 +168,7 @@ StagesRun run_stages(Backend backend, bool device_source, const std::filesystem:
   }
   run.filtered = stages.filtered();
   run.surfaces = stages.surfaces();
+  run.surfaces_after_last_pass = std::move(after_last_pass);
   run.frame = stages.frame();
   return run;
 }
@@ -306,6 +318,33 @@ TEST_F(DeviceChainTest, LayerAwareModesRenderTheirOwnMedianAndSwitchLive) {
   EXPECT_EQ(cuda.switch_traffic.volume_to_host, 0u) << "a change of mode re-filters on the device";
   EXPECT_EQ(cuda.switch_traffic.volume_to_device, 0u);
 #endif
+}
+
+// With instrument detection the stages keep a host copy of the surfaces for the tips' distances,
+// brought up to date after every pass with only the B-scans the passes changed since the last:
+// after the last pass it is the CPU reference's and the whole device copy's, through the folded
+// groups, the second lap and the new geometry.
+TEST_F(DeviceChainTest, WithInstrumentsTheHostsSurfacesFollowEveryPass) {
+  const StagesRun cpu =
+      run_stages(Backend::cpu, false, dir("cpu"), render::RenderMode::enhanced, {}, {}, true);
+  const StagesRun cuda =
+      run_stages(Backend::cuda, true, dir("cuda"), render::RenderMode::enhanced, {}, {}, true);
+  ASSERT_EQ(cuda.summary.at("problem"), "") << cuda.summary.dump(2);
+  const segmentation::Surfaces& kept = cuda.surfaces_after_last_pass;
+  ASSERT_EQ(kept.bscans, 24u) << "the new geometry's";
+  ASSERT_EQ(kept.ascans, 80u);
+  const segmentation::Surfaces& reference = cpu.surfaces_after_last_pass;
+  ASSERT_EQ(reference.bscans, 24u);
+  EXPECT_TRUE(same_floats(reference.ilm, kept.ilm)) << "ILM";
+  EXPECT_TRUE(same_floats(reference.rpe, kept.rpe)) << "RPE";
+  EXPECT_TRUE(same_floats(reference.bm, kept.bm)) << "BM";
+  EXPECT_EQ(reference.state, kept.state) << "states";
+  EXPECT_EQ(reference.verdict, kept.verdict) << "verdicts";
+  // And every value as the whole device copy read back at the end.
+  EXPECT_TRUE(same_floats(cuda.surfaces.ilm, kept.ilm)) << "ILM";
+  EXPECT_TRUE(same_floats(cuda.surfaces.confidence, kept.confidence)) << "confidence";
+  EXPECT_EQ(cuda.surfaces.state, kept.state) << "states";
+  EXPECT_EQ(cuda.surfaces.verdict, kept.verdict) << "verdicts";
 }
 
 TEST_F(DeviceChainTest, HostVolumeIsUploadedAndGivesTheSameResults) {

@@ -1,5 +1,7 @@
 #include "device_stage_chain.hpp"
 
+#include <algorithm>
+#include <cstdint>
 #include <stdexcept>
 #include <utility>
 
@@ -61,6 +63,12 @@ struct DeviceStageChain::Impl {
   // The B-scan shown, drawn with its surfaces (bscan_overlay), and its way to the host.
   cuda::DeviceArray<std::uint8_t> overlay;
   cuda::PinnedDownload overlay_download;
+  // The host copy of the surfaces download_surfaces keeps up to date, and the B-scans
+  // [unsynced_first, unsynced_end) whose surfaces the passes changed since (all before the first
+  // download; empty when first >= end).
+  const segmentation::Surfaces* synced_surfaces = nullptr;
+  std::uint32_t unsynced_first = 0;
+  std::uint32_t unsynced_end = UINT32_MAX;
 
   Impl(filters::CudaVolumeFilter& f, filters::CudaVolumeFilter* bscan,
        segmentation::CudaSegmenter& s, render::CudaRenderer& r)
@@ -245,6 +253,8 @@ DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t first, std:
   m.update_render_volume(m.wants_bscan_median(view.mode), {first, count}, outputs);
   const segmentation::BscanSpan affected =
       m.segmenter.segment_group(filtered, {outputs.first, outputs.count}, nullptr);
+  m.unsynced_first = std::min(m.unsynced_first, affected.first);
+  m.unsynced_end = std::max(m.unsynced_end, affected.end());
   m.segmented_done.record(stream);
   IOCT_CUDA_CHECK(cudaStreamWaitEvent(m.render_stream.get(), m.segmented_done.get(), 0));
   m.renderer.update_layers(m.segmenter.device_surfaces());
@@ -308,7 +318,20 @@ void DeviceStageChain::bscan_overlay(std::uint32_t bscan, segmentation::RgbImage
 }
 
 void DeviceStageChain::download_surfaces(segmentation::Surfaces& surfaces) {
-  impl_->segmenter.download_surfaces(surfaces, impl_->stream.get());
+  Impl& m = *impl_;
+  const VolumeDims& d = m.input_dims;
+  const bool in_step = &surfaces == m.synced_surfaces && surfaces.bscans == d.bscans &&
+                       surfaces.ascans == d.ascans && surfaces.depth == d.depth;
+  if (!in_step) {
+    m.segmenter.download_surfaces(surfaces, m.stream.get());
+  } else {
+    const std::uint32_t first = std::min(m.unsynced_first, d.bscans);
+    const std::uint32_t end = std::min(m.unsynced_end, d.bscans);
+    if (first < end) m.segmenter.download_surfaces(surfaces, {first, end - first}, m.stream.get());
+  }
+  m.synced_surfaces = &surfaces;
+  m.unsynced_first = UINT32_MAX;
+  m.unsynced_end = 0;
 }
 
 VolumeRef DeviceStageChain::input() const {

@@ -112,7 +112,10 @@ class DeviceStageChain {
   // last pass's surfaces drawn over it (segmentation::make_overlay's picture), drawn on the
   // device, so that only the picture comes to the host. Returns once it is in `image`.
   void bscan_overlay(std::uint32_t bscan, segmentation::RgbImage& image);
-  // The surfaces alone, to the host (the instrument's distances after a pass).
+  // The surfaces alone, to the host (the instrument's distances after a pass). Called with the
+  // same host copy pass after pass, it brings back only the B-scans the passes changed since the
+  // last call (a group's B-scans and those its results reach, not the volume's); any other copy,
+  // or one of other dimensions, gets every B-scan.
   void download_surfaces(segmentation::Surfaces& surfaces);
   // The passes' input (the unfiltered B-scans) as a device ref on the chain's stream: what the
   // instrument detection and the tip's B-scan pair read. Valid until the next take().

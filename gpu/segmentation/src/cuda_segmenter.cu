@@ -1389,26 +1389,51 @@ BscanSpan CudaSegmenter::segment_group(VolumeRef volume, BscanSpan group, Surfac
 }
 
 void CudaSegmenter::download_surfaces(Surfaces& surfaces, cudaStream_t stream) {
+  const DeviceState& d = *state_;
+  if (surfaces.bscans != d.bscans || surfaces.ascans != d.ascans || surfaces.depth != d.depth ||
+      surfaces.ilm.size() != surfaces.size()) {
+    surfaces.reset(d.bscans, d.ascans, d.depth);
+  }
+  download_surfaces(surfaces, {0, d.bscans}, stream);
+}
+
+void CudaSegmenter::download_surfaces(Surfaces& surfaces, BscanSpan rows, cudaStream_t stream) {
   DeviceState& d = *state_;
-  const std::size_t n = static_cast<std::size_t>(d.bscans) * d.ascans;
+  if (surfaces.bscans != d.bscans || surfaces.ascans != d.ascans || surfaces.depth != d.depth ||
+      surfaces.ilm.size() != surfaces.size()) {
+    throw std::invalid_argument("download_surfaces: host surfaces of " +
+                                std::to_string(surfaces.bscans) + " x " +
+                                std::to_string(surfaces.ascans) + " A-scans for a volume of " +
+                                std::to_string(d.bscans) + " x " + std::to_string(d.ascans));
+  }
+  if (rows.end() > d.bscans || rows.end() < rows.first) {
+    throw std::out_of_range("download_surfaces: B-scans [" + std::to_string(rows.first) + ", " +
+                            std::to_string(rows.first + rows.count) + ") outside a volume of " +
+                            std::to_string(d.bscans));
+  }
+  if (rows.count == 0) return;
+  const std::size_t offset = static_cast<std::size_t>(rows.first) * d.ascans;
+  const std::size_t n = static_cast<std::size_t>(rows.count) * d.ascans;
   const std::size_t floats = n * sizeof(float);
   cuda::PinnedDownload& download = d.surfaces_download;
-  download.add(d.ilm.data(), floats);
-  download.add(d.rpe.data(), floats);
-  download.add(d.bm.data(), floats);
-  download.add(d.confidence.data(), floats);
-  download.add(d.state.data(), n);
-  download.add(d.verdict.data(), d.bscans);
+  download.add(d.ilm.data() + offset, floats);
+  download.add(d.rpe.data() + offset, floats);
+  download.add(d.bm.data() + offset, floats);
+  download.add(d.confidence.data() + offset, floats);
+  download.add(d.state.data() + offset, n);
+  download.add(d.verdict.data() + rows.first, rows.count);
   download.fetch(stream, cuda::Payload::other, "copy of the surfaces to the host");
-  surfaces.bscans = d.bscans;
-  surfaces.ascans = d.ascans;
-  surfaces.depth = d.depth;
-  download.take(0, surfaces.ilm);
-  download.take(1, surfaces.rpe);
-  download.take(2, surfaces.bm);
-  download.take(3, surfaces.confidence);
-  download.take(4, surfaces.state);
-  download.take(5, surfaces.verdict);
+  const auto place = [&](std::size_t piece, void* host) {
+    const std::span<const std::byte> bytes = download.piece(piece);
+    std::memcpy(host, bytes.data(), bytes.size());
+  };
+  place(0, surfaces.ilm.data() + offset);
+  place(1, surfaces.rpe.data() + offset);
+  place(2, surfaces.bm.data() + offset);
+  place(3, surfaces.confidence.data() + offset);
+  static_assert(sizeof(SurfaceState) == 1 && sizeof(BscanVerdict) == 1, "one byte each");
+  place(4, surfaces.state.data() + offset);
+  place(5, surfaces.verdict.data() + rows.first);
 }
 
 void CudaSegmenter::download_memory(VolumeMemory& memory) {

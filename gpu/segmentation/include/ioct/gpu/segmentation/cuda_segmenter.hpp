@@ -65,6 +65,11 @@ class CudaSegmenter final : public Segmenter {
   // Copies every surface of the device into `surfaces` (sized to the volume's dimensions) once
   // `stream` has reached this point; returns when they are there.
   void download_surfaces(Surfaces& surfaces, cudaStream_t stream);
+  // The same for B-scans `rows` only, into `surfaces` of the volume's dimensions (a host copy
+  // kept up to date pass by pass: only what the passes changed comes back). Throws
+  // std::invalid_argument for `surfaces` of other dimensions, std::out_of_range for rows past
+  // the volume.
+  void download_surfaces(Surfaces& surfaces, BscanSpan rows, cudaStream_t stream);
 
   // The intermediate results on the device, copied into `memory` (tests compare them with the
   // CPU's). Synchronises the segmenter's stream.
