@@ -250,8 +250,7 @@ nlohmann::json Process::status_now() {
   // Why a replay stopped, while it is stopped by it (its digitizer_lost fault says only that
   // the groups ended): the group it could not read, and why.
   if (const auto* replay = dynamic_cast<const sim::ReplayDigitizer*>(backends_.digitizer.get())) {
-    status["acquisition"]["replay_error"] =
-        replay->has_error() && replay->stopped_by_error() ? replay->error() : "";
+    status["acquisition"]["replay_error"] = replay->arming_error();
   }
   return status;
 }
@@ -484,8 +483,9 @@ int Process::shut_down(const std::string& reason, const rt::StatusSample& first)
   std::string replay_error;
   std::string replay_earlier_error;
   if (const auto* replay = dynamic_cast<const sim::ReplayDigitizer*>(backends_.digitizer.get())) {
-    if (replay->has_error()) {
-      (replay->stopped_by_error() ? replay_error : replay_earlier_error) = replay->error();
+    replay_error = replay->arming_error();
+    if (replay->has_error() && replay->error() != replay_error) {
+      replay_earlier_error = replay->error();
     }
   }
   if (!replay_error.empty())

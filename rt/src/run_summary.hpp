@@ -16,8 +16,8 @@ struct RunSummary {
   std::string stop_reason;
   std::string failure;       // empty when the acquisition did not fail
   std::string replay_error;  // why a replay stopped before its recording's end; empty otherwise
-  // A group an earlier arming of the replay could not read, when the last one stopped otherwise
-  // (a re-arm played the recording again): kept, but not the cause of this stop.
+  // The first group an earlier arming of the replay could not read, where it differs from
+  // replay_error (a re-arm played the recording again): kept, but not the cause of this stop.
   std::string replay_earlier_error;
   StatusSample start;
   StatusSample end;

@@ -190,10 +190,19 @@ void ReplayDigitizer::do_prepare(const hal::DigitizerConfig& config) {
   first_counter_ = first.first_sweep_counter;
 }
 
+std::string ReplayDigitizer::arming_error() const {
+  std::lock_guard lock(arming_error_mutex_);
+  return arming_error_;
+}
+
 void ReplayDigitizer::do_start() {
   next_ = 0;
   loops_ = 0;
   finished_ = false;
+  {
+    std::lock_guard lock(arming_error_mutex_);
+    arming_error_.clear();
+  }
   stopped_by_error_.store(false, std::memory_order_release);
   next_counter_ = first_counter_;
   counter_offset_ = 0;
@@ -235,6 +244,10 @@ void ReplayDigitizer::do_acquire_group(std::span<std::uint16_t> group, hal::Grou
       if (!has_error_.load(std::memory_order_relaxed)) {
         error_ = e.what();
         has_error_.store(true, std::memory_order_release);
+      }
+      {
+        std::lock_guard lock(arming_error_mutex_);
+        arming_error_ = e.what();
       }
       stopped_by_error_.store(true, std::memory_order_release);
       finished_ = true;

@@ -146,12 +146,24 @@ TEST(InstrumentsCudaVsCpu, RandomColumnsGiveTheCpusClassesAndReflexes) {
   if (const auto why = cuda_detection_unavailable()) {
     GTEST_SKIP() << "CUDA instrument detection not tested: " << *why;
   }
-  std::mt19937 random(std::random_device{}());
+  const unsigned seed = std::random_device{}();
+  std::printf("[ seed     ] %u\n", seed);
+  std::mt19937 random(seed);
   const auto uniform = [&](int lo, int hi) {
     return std::uniform_int_distribution<int>(lo, hi)(random);
   };
-  gpu::segmentation::VolumeSampling sampling;  // 5.6 um px: gap 5, reflex 39, shadow 27 px
-  for (const std::uint32_t depth : {688u, 97u, 333u, 1026u}) {
+  struct Case {
+    std::uint32_t depth;
+    double axial_um;  // 5.6 um px: gap 5, reflex 39, shadow 27 px
+    bool every_class;
+  };
+  // Then the edges: A-scans shorter than a warp, a gap and a shadow longer than the A-scan
+  // (1 um px: gap 30 px), and A-scans that end above skip_top (8 px).
+  for (const Case& k : {Case{688, 5.605, true}, Case{97, 5.605, true}, Case{333, 5.605, true},
+                        Case{1026, 5.605, true}, Case{20, 1.0, false}, Case{6, 5.605, false}}) {
+    const std::uint32_t depth = k.depth;
+    gpu::segmentation::VolumeSampling sampling;
+    sampling.axial_um_per_px = k.axial_um;
     gpu::Volume v(16, 70, depth);
     const int floor = uniform(5, 40);
     const auto noise = [&] { return static_cast<std::uint8_t>(floor + uniform(-4, 4)); };
@@ -208,14 +220,16 @@ TEST(InstrumentsCudaVsCpu, RandomColumnsGiveTheCpusClassesAndReflexes) {
     cpu->detect_group(v, {0, 16}, surfaces, a);
     cuda->detect_group(v, {0, 16}, surfaces, b);
     std::size_t shadow = 0, partial = 0;
-    for (const auto k : a.columns) {
-      shadow += k == gpu::instruments::ColumnKind::shadow;
-      partial += k == gpu::instruments::ColumnKind::partial;
+    for (const auto kind : a.columns) {
+      shadow += kind == gpu::instruments::ColumnKind::shadow;
+      partial += kind == gpu::instruments::ColumnKind::partial;
     }
     std::printf("[ columns  ] depth %u: %zu shadow, %zu partial of %zu\n", depth, shadow, partial,
                 a.columns.size());
-    EXPECT_GT(shadow, 0u) << "depth " << depth << ": the random columns reach every class";
-    EXPECT_GT(partial, 0u) << "depth " << depth;
+    if (k.every_class) {
+      EXPECT_GT(shadow, 0u) << "depth " << depth << ": the random columns reach every class";
+      EXPECT_GT(partial, 0u) << "depth " << depth;
+    }
     expect_same_findings(a, b, "random columns of depth " + std::to_string(depth));
   }
 }

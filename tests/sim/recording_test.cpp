@@ -403,7 +403,7 @@ TEST_F(Recording, ReplayEndsWithDeviceLostAndRefusesAnotherGeometry) {
 
 // A group that cannot be read ends the replay like a lost device, and error() says which. The
 // first error outlives a re-arm (start() plays the recording again), but only an arming that
-// itself ended at a bad group counts as stopped by it.
+// itself ended at a bad group counts as stopped by it, and arming_error() is that arming's.
 TEST_F(Recording, ReplayReadErrorIsKeptAcrossAReArmAndOnlyBlamedForTheArmingItEnded) {
   const fs::path stem = dir_ / "cut";
   const Written w = write(stem, 3);
@@ -426,6 +426,7 @@ TEST_F(Recording, ReplayReadErrorIsKeptAcrossAReArmAndOnlyBlamedForTheArmingItEn
   const std::string first_error = replay.error();
   EXPECT_NE(first_error.find("cut.raw"), std::string::npos) << first_error;
   EXPECT_NE(first_error.find("truncated while open"), std::string::npos) << first_error;
+  EXPECT_EQ(replay.arming_error(), first_error);
 
   // Re-armed: playing again, the earlier error kept but not this arming's.
   replay.stop();
@@ -434,12 +435,19 @@ TEST_F(Recording, ReplayReadErrorIsKeptAcrossAReArmAndOnlyBlamedForTheArmingItEn
   EXPECT_EQ(group, w.groups[0]) << "start() plays it again";
   EXPECT_FALSE(replay.finished());
   EXPECT_FALSE(replay.stopped_by_error()) << "this arming has not met the bad group yet";
+  EXPECT_EQ(replay.arming_error(), "");
   EXPECT_EQ(replay.error(), first_error);
-  // It meets it again: stopped by it once more, the first error still the one kept.
+  // Re-armed once more with the file cut shorter still: this arming stops at its first group,
+  // and says so; the first error is kept.
+  replay.stop();
+  replay.start();
+  fs::resize_file(raw, 1);
   replay.acquire_group(group, info);
   EXPECT_EQ(info.status, hal::kGroupDeviceLost);
   EXPECT_TRUE(replay.stopped_by_error());
   EXPECT_EQ(replay.error(), first_error);
+  EXPECT_NE(replay.arming_error(), first_error);
+  EXPECT_NE(replay.arming_error().find("cut.raw"), std::string::npos) << replay.arming_error();
 }
 
 TEST_F(Recording, PregeneratedGroupsReplayFromMemory) {

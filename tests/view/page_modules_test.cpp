@@ -243,6 +243,8 @@ TEST_F(PageModules, StateLineReadsTheScannersStatus) {
                       acquisition: {replay: true, replay_error: 'run.h5: group 3 at byte 9: bad'}}),
       replaying: d({safety: {state: 'scanning', emission_readback: true},
                     acquisition: {replay: true, replay_error: ''}}),
+      rearming: d({safety: {state: 'arming', emission_readback: false},
+                   acquisition: {replay: true, replay_error: 'run.h5: group 3 at byte 9: bad'}}),
       unknown: m.describeState({rt: null, rt_error: 'ioct-rt not reachable'}),
       recent: m.describeState({rt_age_ms: 900, rt: {safety: {state: 'scanning',
                                                               emission_readback: true}}}),
@@ -264,6 +266,7 @@ TEST_F(PageModules, StateLineReadsTheScannersStatus) {
   EXPECT_EQ(r.at("replayEnded").at("scan"),
             "FAULT: digitizer_lost — the replay stopped: run.h5: group 3 at byte 9: bad");
   EXPECT_EQ(r.at("replaying").at("scan"), "SCANNING");
+  EXPECT_EQ(r.at("rearming").at("scan"), "ARMING") << "the last arming's reason is not this one's";
   EXPECT_EQ(r.at("unknown").at("scan"), "scanner: ioct-rt not reachable");
 }
 

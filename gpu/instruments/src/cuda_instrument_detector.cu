@@ -4,6 +4,8 @@
 #include <cstdint>
 #include <cstring>
 #include <cub/block/block_scan.cuh>
+#include <cub/warp/warp_reduce.cuh>
+#include <cuda/functional>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -84,11 +86,14 @@ __global__ void histogram_bscans(const std::uint8_t* bscans, std::size_t pixels,
   if (threadIdx.x == 0) floors[blockIdx.y] = static_cast<std::uint8_t>(level);
 }
 
+using WarpReduce = cub::WarpReduce<int>;
+
 // Warp collectives over one column held in shared memory, for classify_column_warp.
 struct WarpColumn {
   const std::uint8_t* px;  // the column, `depth` bytes
   int depth;
   int lane;
+  WarpReduce::TempStorage* reduce;  // the warp's own
 
   // The first z in [from, depth) where pred(z) holds, or -1: 32 candidates per ballot.
   template <class Pred>
@@ -114,13 +119,19 @@ struct WarpColumn {
   __device__ int sum_above_floor(int from, int to, int floor_level) const {
     int sum = 0;
     for (int z = from + lane; z < to; z += 32) sum += px[z] - floor_level;
-    return __reduce_add_sync(kFullMask, sum);
+    return everywhere(WarpReduce(*reduce).Sum(sum));
   }
   // The largest px in [from, to), in every lane (0 for an empty range).
   __device__ int max_of(int from, int to) const {
-    unsigned m = 0;
-    for (int z = from + lane; z < to; z += 32) m = max(m, static_cast<unsigned>(px[z]));
-    return static_cast<int>(__reduce_max_sync(kFullMask, m));
+    int m = 0;
+    for (int z = from + lane; z < to; z += 32) m = max(m, static_cast<int>(px[z]));
+    return everywhere(WarpReduce(*reduce).Reduce(m, ::cuda::maximum<>{}));
+  }
+  // Lane 0's reduction, in every lane; the temporary storage free again after it.
+  __device__ static int everywhere(int lane0) {
+    const int all = __shfl_sync(kFullMask, lane0, 0);
+    __syncwarp();
+    return all;
   }
 };
 
@@ -184,6 +195,7 @@ __global__ void classify_columns(const std::uint8_t* bscans, std::uint32_t ascan
                                  ColumnParams params, const std::uint8_t* floors,
                                  std::uint8_t* kinds, float* reflexes, float* fronts) {
   extern __shared__ std::uint8_t columns[];
+  __shared__ WarpReduce::TempStorage reduce[kColumnWarps];
   const int warp = static_cast<int>(threadIdx.x) / 32;
   const int lane = static_cast<int>(threadIdx.x) % 32;
   const std::uint32_t b = blockIdx.y;
@@ -206,7 +218,8 @@ __global__ void classify_columns(const std::uint8_t* bscans, std::uint32_t ascan
     for (int z = lane; z < depth; z += 32) px[z] = column[z];
   }
   __syncwarp();
-  const ColumnFinding c = classify_column_warp(WarpColumn{px, depth, lane}, params, floors[b]);
+  const ColumnFinding c =
+      classify_column_warp(WarpColumn{px, depth, lane, &reduce[warp]}, params, floors[b]);
   if (lane == 0) {
     kinds[std::size_t{b} * ascans + a] = static_cast<std::uint8_t>(c.kind);
     reflexes[std::size_t{b} * ascans + a] = c.reflex_px;

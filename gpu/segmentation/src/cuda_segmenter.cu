@@ -1388,10 +1388,22 @@ BscanSpan CudaSegmenter::segment_group(VolumeRef volume, BscanSpan group, Surfac
   return enqueue_group(volume.device(), group, volume.stream());
 }
 
+namespace {
+
+// Surfaces of these dimensions with every array of its size.
+bool holds_volume(const Surfaces& s, std::uint32_t bscans, std::uint32_t ascans,
+                  std::uint32_t depth) {
+  const std::size_t n = std::size_t{bscans} * ascans;
+  return s.bscans == bscans && s.ascans == ascans && s.depth == depth && s.ilm.size() == n &&
+         s.rpe.size() == n && s.bm.size() == n && s.confidence.size() == n && s.state.size() == n &&
+         s.verdict.size() == bscans;
+}
+
+}  // namespace
+
 void CudaSegmenter::download_surfaces(Surfaces& surfaces, cudaStream_t stream) {
   const DeviceState& d = *state_;
-  if (surfaces.bscans != d.bscans || surfaces.ascans != d.ascans || surfaces.depth != d.depth ||
-      surfaces.ilm.size() != surfaces.size()) {
+  if (!holds_volume(surfaces, d.bscans, d.ascans, d.depth)) {
     surfaces.reset(d.bscans, d.ascans, d.depth);
   }
   download_surfaces(surfaces, {0, d.bscans}, stream);
@@ -1399,8 +1411,7 @@ void CudaSegmenter::download_surfaces(Surfaces& surfaces, cudaStream_t stream) {
 
 void CudaSegmenter::download_surfaces(Surfaces& surfaces, BscanSpan rows, cudaStream_t stream) {
   DeviceState& d = *state_;
-  if (surfaces.bscans != d.bscans || surfaces.ascans != d.ascans || surfaces.depth != d.depth ||
-      surfaces.ilm.size() != surfaces.size()) {
+  if (!holds_volume(surfaces, d.bscans, d.ascans, d.depth)) {
     throw std::invalid_argument("download_surfaces: host surfaces of " +
                                 std::to_string(surfaces.bscans) + " x " +
                                 std::to_string(surfaces.ascans) + " A-scans for a volume of " +

@@ -25,7 +25,9 @@ export function describeState(state) {
     // A replay that met a group it could not read ends like a lost digitizer: say which and why.
     const replayError = rt.acquisition && typeof rt.acquisition.replay_error === 'string'
       ? rt.acquisition.replay_error : '';
-    if (replayError && s !== 'scanning') scan += ` — the replay stopped: ${replayError}`;
+    if (replayError && s !== 'scanning' && s !== 'arming') {
+      scan += ` — the replay stopped: ${replayError}`;
+    }
   } else if (state.rt_error) {
     scan = `scanner: ${state.rt_error}`;
   } else if (typeof state.rt === 'string') {

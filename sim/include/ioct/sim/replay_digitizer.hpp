@@ -23,6 +23,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <vector>
@@ -88,12 +89,14 @@ class ReplayDigitizer final : public hal::Digitizer {
   // has_error() is true (the live status does, while the acquisition runs).
   bool has_error() const noexcept { return has_error_.load(std::memory_order_acquire); }
   const std::string& error() const noexcept { return error_; }
-  // Whether the replay since the last start() ended at a group it could not read (error() then
-  // says which, unless an earlier arming failed first); false while it plays and after an end
-  // of the recording, so an earlier failure is not taken for the cause of a later stop.
+  // Whether the replay since the last start() ended at a group it could not read; false while
+  // it plays and after an end of the recording, so an earlier failure is not taken for the cause
+  // of a later stop.
   bool stopped_by_error() const noexcept {
     return stopped_by_error_.load(std::memory_order_acquire);
   }
+  // Which group, and why, when stopped_by_error(); empty otherwise. A copy, from any thread.
+  std::string arming_error() const;
 
  protected:
   void do_prepare(const hal::DigitizerConfig& config) override;
@@ -119,6 +122,10 @@ class ReplayDigitizer final : public hal::Digitizer {
   std::atomic<bool> stopped_by_error_{false};
   std::atomic<bool> has_error_{false};
   std::string error_;  // set once, before has_error_
+  // This arming's error. Locked only where an arming starts and where a group could not be read
+  // (the arming ends there), never while groups play.
+  mutable std::mutex arming_error_mutex_;
+  std::string arming_error_;
 };
 
 }  // namespace ioct::sim
