@@ -132,6 +132,20 @@ bool wait_for_groups_written(ChildProcess& recorder, std::uint64_t groups, std::
   return false;
 }
 
+// SIGTERM to a recorder, which must finish its file and exit 0.
+void stop_recorder(ChildProcess& recorder) {
+  recorder.send_signal(SIGTERM);
+  const std::optional<int> status = recorder.wait_for(30s);
+  ASSERT_EQ(exit_code(status), 0) << (status ? test_support::describe_wait_status(*status) : "");
+}
+
+// A finished file of at least `groups` groups that counts exactly the groups it holds.
+void expect_finished_file(const RingRecordingReader& reader, std::uint64_t groups) {
+  EXPECT_TRUE(reader.finished());
+  EXPECT_GE(reader.group_count(), groups);
+  EXPECT_EQ(counter(reader, Counter::groups_written), reader.group_count());
+}
+
 // Every group in the file is intact (checksum), and equal to the ring's where the second reader
 // copied it too. Returns how many were compared with the ring.
 std::uint64_t compare_with_ring(const RingRecordingReader& reader, RingCapture& capture) {
@@ -177,14 +191,9 @@ TEST(IoctRecord, RecordsTheRingsGroupsByteForByteAndFinishesCleanlyOnSigterm) {
     EXPECT_GE(live.refresh(), seen + 10);
     live.read_group(live.group_count() - 1, payload, header);
   }
-  recorder.send_signal(SIGTERM);
-  const std::optional<int> status = recorder.wait_for(30s);
-  ASSERT_EQ(exit_code(status), 0) << (status ? test_support::describe_wait_status(*status) : "");
-
+  ASSERT_NO_FATAL_FAILURE(stop_recorder(recorder));
   const RingRecordingReader reader(out.path());
-  EXPECT_TRUE(reader.finished());
-  EXPECT_GE(reader.group_count(), 40u);
-  EXPECT_EQ(counter(reader, Counter::groups_written), reader.group_count());
+  ASSERT_NO_FATAL_FAILURE(expect_finished_file(reader, 40));
   EXPECT_EQ(reader.geometry().samples_per_ascan, 256u);
   EXPECT_EQ(reader.ring_name(), ring.str());
   EXPECT_EQ(reader.ring_producer_pid(), static_cast<std::uint64_t>(rt.pid()))
@@ -240,14 +249,9 @@ TEST(IoctRecord, AStalledRecorderCountsTheGroupsItLostAndRecordsOn) {
   }
   EXPECT_GT(lost, lost_before) << "no loss counted after the stall:\n" << lines;
   ASSERT_TRUE(wait_for_groups_written(recorder, 40, lines)) << lines;
-  recorder.send_signal(SIGTERM);
-  const std::optional<int> status = recorder.wait_for(30s);
-  ASSERT_EQ(exit_code(status), 0) << (status ? test_support::describe_wait_status(*status) : "");
-
+  ASSERT_NO_FATAL_FAILURE(stop_recorder(recorder));
   const RingRecordingReader reader(out.path());
-  EXPECT_TRUE(reader.finished());
-  EXPECT_GE(reader.group_count(), 40u);
-  EXPECT_EQ(counter(reader, Counter::groups_written), reader.group_count());
+  ASSERT_NO_FATAL_FAILURE(expect_finished_file(reader, 40));
   const std::uint64_t counted =
       counter(reader, Counter::dropped_lapped) + counter(reader, Counter::dropped_behind) +
       counter(reader, Counter::dropped_queue_full) + counter(reader, Counter::dropped_disk_full);
