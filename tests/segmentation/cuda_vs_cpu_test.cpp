@@ -245,6 +245,45 @@ TEST_F(CudaVsCpu, ShadowCarriedFromThePreviousVolumeInLiveGroupsOfSixteen) {
                          16, "carried", 1);
 }
 
+// The live path reads the device's surfaces of the whole volume (the renderer, a download of all
+// of them) before the first cycle has reached every B-scan: those not segmented yet hold no
+// surfaces there, as on the host. After a change of dimensions too, when the device memory of the
+// new volume is what the last one's was (the allocator hands freed memory back as it was).
+TEST_F(CudaVsCpu, BscansNotSegmentedYetHoldNoSurfacesOnTheDevice) {
+#if IOCT_SEGMENTATION_HAVE_CUDA
+  const seg_test::SimulatedVolume whole = seg_test::make_simulated_volume(raster_spec());
+  seg_test::SimulatedVolumeSpec narrow_spec = raster_spec();
+  narrow_spec.ascans = 256;
+  narrow_spec.simulation.seed = 3;
+  const seg_test::SimulatedVolume narrow = seg_test::make_simulated_volume(narrow_spec);
+  const VolumeSampling sampling = raster_sampling(whole.axial_um_per_px);
+  CudaSegmenter cuda({}, sampling);
+  CpuSegmenter cpu({}, sampling, 2);
+  FloatAgreement agreement;
+  // Whole volumes segmented up to `segmented` B-scans, then every surface of the device compared.
+  const auto check = [&](const Volume& volume, std::uint32_t segmented, const char* what) {
+    SCOPED_TRACE(what);
+    cuda::DeviceArray<std::uint8_t> on_device(volume.pixels().size());
+    IOCT_CUDA_CHECK(cudaMemcpy(on_device.data(), volume.pixels().data(), volume.pixels().size(),
+                               cudaMemcpyHostToDevice));
+    cuda.prepare(volume.bscans(), volume.ascans(), volume.depth());
+    Surfaces cpu_surfaces;
+    for (std::uint32_t first = 0; first < segmented; first += 8) {
+      const BscanSpan group{first, std::min(8u, segmented - first)};
+      cuda.enqueue_group(on_device.data(), group, cuda.stream());
+      cpu.segment_group(volume, group, cpu_surfaces);
+    }
+    Surfaces cuda_surfaces;
+    cuda.download_surfaces(cuda_surfaces, cuda.stream());
+    expect_same_surfaces(cpu_surfaces, cuda_surfaces, agreement);
+  };
+  check(whole.volume, whole.volume.bscans(), "a whole volume");
+  check(narrow.volume, 8, "the first group of a narrower volume");
+  check(whole.volume, 16, "the first two groups of the first volume's dimensions again");
+  report("not segmented yet", agreement);
+#endif
+}
+
 TEST_F(CudaVsCpu, BlackSaturatedAndOddSizedVolumes) {
   VolumeSampling sampling;
   for (const std::uint8_t value : {std::uint8_t{0}, std::uint8_t{255}}) {

@@ -1079,8 +1079,18 @@ void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uin
   IOCT_CUDA_CHECK(cudaMemsetAsync(d.coarse_valid.data(), 0, bscans, stream_));
   IOCT_CUDA_CHECK(cudaMemsetAsync(d.raw_verdict.data(), 0, bscans, stream_));
   IOCT_CUDA_CHECK(cudaMemsetAsync(d.verdict.data(), 0, bscans, stream_));
-  IOCT_CUDA_CHECK(cudaMemsetAsync(d.state.data(), 0, n, stream_));
-  IOCT_CUDA_CHECK(cudaMemsetAsync(d.raw_confidence.data(), 0, n * sizeof(float), stream_));
+  // What a B-scan not segmented yet holds, as on the host (Surfaces::reset, VolumeMemory::reset):
+  // the renderer and a download of the whole volume read it before the first cycle reaches it.
+  IOCT_CUDA_CHECK(cudaMemsetAsync(d.state.data(), 0, n, stream_));  // SurfaceState::none
+  for (auto* surface : {&d.ilm, &d.rpe, &d.bm}) {
+    IOCT_CUDA_CHECK(cudaMemsetAsync(surface->data(), 0xFF, n * sizeof(float), stream_));  // NaN
+  }
+  for (auto* zero :
+       {&d.confidence, &d.raw_ilm, &d.raw_rpe, &d.raw_bm, &d.raw_confidence, &d.finished_bm}) {
+    IOCT_CUDA_CHECK(cudaMemsetAsync(zero->data(), 0, n * sizeof(float), stream_));
+  }
+  IOCT_CUDA_CHECK(cudaMemsetAsync(d.floors.data(), 0, bscans, stream_));
+  IOCT_CUDA_CHECK(cudaMemsetAsync(d.coarse.data(), 0, n * sizeof(std::int32_t), stream_));
   d.bscans = bscans;
   d.ascans = ascans;
   d.depth = depth;
