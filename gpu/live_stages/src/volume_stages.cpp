@@ -478,8 +478,9 @@ void VolumeStages::run_pass(std::uint32_t first, std::uint32_t count, std::uint6
     last_render_ns_ = t3;
   }
 
-  record_pass(StagesPass{groups, first, count, false, render_now, t0, t1, t2, t3}, t1 - t0, t2 - t1,
-              t3 - t2_detected);
+  record_pass(StagesPass{groups, first, count, false, render_now, t0, t1, t2, t3,
+                         detector_ != nullptr ? t2_detected : 0},
+              t1 - t0, t2 - t1, t3 - t2_detected);
   if (render_now) deliver(shared, t3, waiters);
   if (detector_ != nullptr) note_instrument_findings();
 }
@@ -606,18 +607,19 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
       publisher_ != nullptr || !waiters.empty() || live_image_due(ioct::monotonic_ns());
   const DeviceStageChain::PassTimes t =
       device_->run_pass(first, count, shared.config, frame_wanted ? &image_ : nullptr);
+  std::uint64_t detected_ns = 0;
   if (detector_ != nullptr) {
     // After the frame, before it is published: the frame carries the instrument of the volume
     // state it shows. The classes come from the input in place; the surfaces come to the host
     // for the tips' distances (a few hundred kB).
     device_->download_surfaces(surfaces_);
-    detect_instruments(device_->input(), first, count);
+    detected_ns = detect_instruments(device_->input(), first, count);
   }
   last_render_ns_ = t.rendered_ns;
   note_bscans_changed(t.changed_first, t.changed_count);
   const auto ns = [](double ms) { return static_cast<std::uint64_t>(ms * 1e6); };
   record_pass(StagesPass{groups, first, count, true, true, taken_ns, t.filtered_ns, t.segmented_ns,
-                         t.rendered_ns},
+                         t.rendered_ns, detected_ns},
               ns(t.filter_ms), ns(t.segment_ms), ns(t.render_ms));
   if (frame_wanted) deliver(shared, t.rendered_ns, waiters);
   if (detector_ != nullptr) note_instrument_findings();

@@ -9,16 +9,21 @@
 //   latency      one group every --period-us: per group, publish -> processed (in the device
 //                volume), -> filtered, -> segmented, -> frame rendered in device memory
 //                (p50 / p99 / max over --groups groups; a stage's time is when the device
-//                finished it).
+//                finished it); with --instruments also -> tips found (the detection after the
+//                frame: classes on the device, tips and distances on the host).
 //   throughput   a closed loop at the maximum rate: the writer publishes as soon as the stages
 //                are at most --ahead groups behind (and a ring slot is free), so every group gets
-//                processing, filters, segmentation and a render; A-scans/s over --seconds, with
-//                the passes that folded groups (should be none) and the drops.
+//                processing, filters, segmentation and a render (and with --instruments the
+//                detection); A-scans/s over --seconds, with the passes that folded groups (should
+//                be none) and the drops.
 // Anchors measured in the same run: the pinned host -> device copy of one group, and each stage's
 // own kernels on a group already on the device (processing, filters, segmentation, the renderer's
 // update and one render of the live view; in a mode rendered from Weiss's per-B-scan median,
-// --render-mode, that median too), whose sum is what the chain would take with nothing between the
-// kernels and no two kernels at once.
+// --render-mode, that median too; with --instruments the detection of a group, tips included),
+// whose sum is what the chain would take with nothing between the kernels and no two kernels at
+// once. --instruments puts a tool in the simulated scene (--sim-instrument, ioct-rt's syntax; by
+// default the appliance's forceps over the retina) and runs the detection on every pass, as
+// ioct-gpu --instruments does.
 #include <cuda_runtime.h>
 #include <unistd.h>
 
@@ -44,11 +49,13 @@
 #include "ioct/gpu/cuda/cuda_support.hpp"
 #include "ioct/gpu/filters/cuda_volume_filter.hpp"
 #include "ioct/gpu/ingest/live_pipeline.hpp"
+#include "ioct/gpu/instruments/instrument_detector.hpp"
 #include "ioct/gpu/live_stages/render_filter.hpp"
 #include "ioct/gpu/live_stages/volume_stages.hpp"
 #include "ioct/gpu/processing/cuda_oct_processor.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
 #include "ioct/gpu/segmentation/cuda_segmenter.hpp"
+#include "ioct/sim/instrument_spec.hpp"
 #include "latency_summary.hpp"
 #include "simulated_group_ring.hpp"
 
@@ -66,7 +73,14 @@ struct Options {
   std::string render_mode = "enhanced";
   std::string json_path;
   double spin_window_s = live::VolumeStagesConfig{}.spin_window_s;
+  bool instruments = false;
+  // The tools of the simulated scene with --instruments (ioct-rt's --sim-instrument syntax).
+  std::vector<std::string> sim_instruments;
 };
+
+// The scene's tools when none is named: the forceps of the appliance's instrument scene
+// (docs/live-view.md), jaws over the retina.
+constexpr const char* kDefaultSimInstrument = "forceps:x=0.15,y=0,depth=0.49,yaw=200,pitch=20";
 
 // Per group: publish and processed times from the live loop, the stages' times from their pass.
 class ChainRecorder final : public LiveEvents {
@@ -108,6 +122,7 @@ class ChainRecorder final : public LiveEvents {
       filtered.push_back(since(pass.filtered_ns));
       segmented.push_back(since(pass.segmented_ns));
       rendered.push_back(since(pass.rendered_ns));
+      if (pass.detected_ns != 0) detected.push_back(since(pass.detected_ns));
     }
     groups_through_stages.fetch_add(pass.groups, std::memory_order_release);
   }
@@ -118,12 +133,13 @@ class ChainRecorder final : public LiveEvents {
     filtered.clear();
     segmented.clear();
     rendered.clear();
+    detected.clear();
     folded_passes = 0;
   }
 
   std::atomic<std::uint64_t> groups_processed{0};
   std::atomic<std::uint64_t> groups_through_stages{0};
-  std::vector<std::uint64_t> processed, filtered, segmented, rendered;  // ns since publish
+  std::vector<std::uint64_t> processed, filtered, segmented, rendered, detected;  // since publish
   std::uint64_t folded_passes = 0;
   std::mutex mutex_;
 
@@ -147,8 +163,9 @@ double kernel_ms(cudaStream_t stream, int repetitions, Work&& work) {
 struct KernelAnchors {
   double processing = 0, filter = 0, segment = 0, render_update = 0, render = 0;
   double render_filter = 0;  // the renderer's per-B-scan median (Weiss's modes; else 0)
+  double detect = 0;         // instrument detection of a group, tips included (else 0)
   double sum() const {
-    return processing + filter + segment + render_filter + render_update + render;
+    return processing + filter + segment + render_filter + render_update + render + detect;
   }
 };
 
@@ -220,6 +237,23 @@ KernelAnchors measure_kernels(const shm::RingGeometry& g, const Volume& volume,
     renderer.update_bscans(rendered_ref, (r % groups) * group, group, segmenter.device_surfaces());
   });
   k.render = kernel_ms(stream.get(), 40, [&](int) { renderer.render_on_device(config.render); });
+  if (config.instruments.enabled) {
+    // As in the chain: the unfiltered input read in place, the surfaces on the host; the call
+    // returns with the tips, so its time is taken on the host clock.
+    const auto detector = instruments::make_instrument_detector(Backend::cuda, config.instruments,
+                                                                config.sampling, 1);
+    segmentation::Surfaces surfaces;
+    segmenter.download_surfaces(surfaces, stream.get());
+    instruments::InstrumentFindings findings;
+    detector->detect_group(in_ref, {0, dims.bscans}, surfaces, findings);
+    std::vector<double> detect_ms;
+    for (int r = 0; r < 40; ++r) {
+      const std::uint64_t t0 = ioct::monotonic_ns();
+      detector->detect_group(in_ref, {(r % groups) * group, group}, surfaces, findings);
+      detect_ms.push_back(ms(static_cast<double>(ioct::monotonic_ns() - t0)));
+    }
+    k.detect = bench::median(detect_ms);
+  }
   return k;
 }
 
@@ -246,7 +280,18 @@ int run(const Options& o) {
               o.spin_window_s * 1e3);
   std::printf("geometry: %u samples x %u A-scans x %u B-scans per group, %u per volume\n",
               g.samples_per_ascan, g.ascans_per_bscan, g.bscans_per_group, g.bscans_per_volume);
-  bench::SimulatedGroupRing ring("live", g, o.slots);
+  std::vector<sim::InstrumentConfig> tools;
+  if (o.instruments) {
+    const std::vector<std::string> specs = o.sim_instruments.empty()
+                                               ? std::vector<std::string>{kDefaultSimInstrument}
+                                               : o.sim_instruments;
+    for (std::size_t i = 0; i < specs.size(); ++i) {
+      tools.push_back(
+          sim::parse_instrument_spec(specs[i], "--sim-instrument[" + std::to_string(i) + "]"));
+      std::printf("instrument in the scene: %s\n", specs[i].c_str());
+    }
+  }
+  bench::SimulatedGroupRing ring("live", g, o.slots, tools);
 
   ChainRecorder recorder;
   live::VolumeStagesConfig config;
@@ -255,6 +300,7 @@ int run(const Options& o) {
   config.final_modes = {};
   config.nice = 0;
   config.spin_window_s = o.spin_window_s;
+  config.instruments.enabled = o.instruments;
   config.on_pass = [&recorder](const live::StagesPass& pass) { recorder.on_pass(pass); };
   live::VolumeStages stages(config);
   LivePipelineOptions options;
@@ -314,7 +360,7 @@ int run(const Options& o) {
 
   // Latency, one group every period.
   const std::uint64_t latency_dropped = paced(o.groups, o.period_us);
-  std::vector<std::uint64_t> processed, filtered, segmented, rendered;
+  std::vector<std::uint64_t> processed, filtered, segmented, rendered, detected;
   std::uint64_t latency_folded = 0;
   {
     std::lock_guard lock(recorder.mutex_);
@@ -322,6 +368,7 @@ int run(const Options& o) {
     filtered = recorder.filtered;
     segmented = recorder.segmented;
     rendered = recorder.rendered;
+    detected = recorder.detected;
     latency_folded = recorder.folded_passes;
   }
   recorder.reset();
@@ -410,13 +457,26 @@ int run(const Options& o) {
   std::printf("  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms   target p99 <= 2 ms: %s\n",
               "-> frame rendered (device memory)", qr.p50, qr.p99, qr.max,
               qr.p99 <= 2.0 ? "met" : "NOT met");
+  std::optional<Quantiles> qd;
+  if (o.instruments) {
+    if (detected.size() != rendered.size()) {
+      std::fprintf(stderr, "%zu passes found tips of %zu rendered\n", detected.size(),
+                   rendered.size());
+      return 1;
+    }
+    qd = quantiles(detected);
+    std::printf("  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms\n",
+                "-> tips found (after the frame)", qd->p50, qd->p99, qd->max);
+  }
   std::printf(
       "  anchor: pinned H2D copy of a group %.3f ms (%.1f GB/s); stages' own kernels "
       "per group: processing %.3f + filters %.3f + segmentation %.3f + the renderer's "
       "per-B-scan median %.3f + the renderer's update (texture, bricks, sums, layer reference) "
-      "%.3f + render %.3f = %.3f ms (ratio p50 / sum %.2f)\n",
+      "%.3f + render %.3f + instrument detection with its tips %.3f = %.3f ms (ratio p50 / sum "
+      "%.2f)\n",
       pinned, static_cast<double>(g.group_payload_bytes()) / (pinned * 1e6), k.processing, k.filter,
-      k.segment, k.render_filter, k.render_update, k.render, k.sum(), qr.p50 / k.sum());
+      k.segment, k.render_filter, k.render_update, k.render, k.detect, k.sum(),
+      (qd ? qd->p50 : qr.p50) / k.sum());
   const double anchor_rate = static_cast<double>(g.ascans_per_group()) / (k.sum() * 1e-3);
   const double pinned_rate = static_cast<double>(g.ascans_per_group()) / (pinned * 1e-3);
   std::printf(
@@ -430,8 +490,9 @@ int run(const Options& o) {
       "  anchor: the kernels' sum as a rate %.2f M A-scans/s (%.1f %%); pinned H2D alone "
       "%.2f M A-scans/s\n",
       anchor_rate / 1e6, 100.0 * ascans_per_s / anchor_rate, pinned_rate / 1e6);
-  std::printf("stages: %s; render mode %s\n",
-              stages_summary.at("backends").get<std::string>().c_str(), o.render_mode.c_str());
+  std::printf("stages: %s; render mode %s; instruments %s\n",
+              stages_summary.at("backends").get<std::string>().c_str(), o.render_mode.c_str(),
+              o.instruments ? "on" : "off");
 
   if (!o.json_path.empty()) {
     const auto q = [](const Quantiles& x) {
@@ -442,6 +503,7 @@ int run(const Options& o) {
                              {"gpu", props.name},
                              {"spin_window_s", o.spin_window_s},
                              {"render_mode", o.render_mode},
+                             {"instruments", o.instruments},
                              {"latency",
                               {{"period_us", o.period_us},
                                {"groups", rendered.size()},
@@ -450,7 +512,8 @@ int run(const Options& o) {
                                {"processed_ms", q(qp)},
                                {"filtered_ms", q(qf)},
                                {"segmented_ms", q(qs)},
-                               {"rendered_ms", q(qr)}}},
+                               {"rendered_ms", q(qr)},
+                               {"detected_ms", qd ? q(*qd) : nlohmann::json()}}},
                              {"throughput",
                               {{"ascans_per_s", ascans_per_s},
                                {"groups", staged},
@@ -466,6 +529,7 @@ int run(const Options& o) {
                                {"render_ms", k.render},
                                {"render_update_ms", k.render_update},
                                {"render_filter_ms", k.render_filter},
+                               {"detect_ms", k.detect},
                                {"kernel_sum_ms", k.sum()}}},
                              {"stages", stages_summary}};
     std::ofstream(o.json_path) << report.dump(2) << "\n";
@@ -495,6 +559,13 @@ int main(int argc, char** argv) {
   app.add_option("--render-mode", o.render_mode,
                  "the live view's mode (ioct-gpu's render.mode); layer-aware, la-mip and "
                  "axial-colorization add the renderer's per-B-scan median");
+  CLI::Option* instruments =
+      app.add_flag("--instruments", o.instruments,
+                   "a tool in the simulated scene and the instrument detection on every pass");
+  app.add_option("--sim-instrument", o.sim_instruments,
+                 "with --instruments: a tool of the scene, as ioct-rt's --sim-instrument (default "
+                 "the appliance's forceps; repeat for more)")
+      ->needs(instruments);
   app.add_option("--json", o.json_path, "also write the figures as JSON");
   CLI11_PARSE(app, argc, argv);
   try {

@@ -27,7 +27,8 @@ void describe_group(shm::SlotHeader& header, const shm::RingGeometry& geometry,
 }
 
 SimulatedGroupRing::SimulatedGroupRing(const std::string& tag, const shm::RingGeometry& geometry,
-                                       std::uint32_t slots)
+                                       std::uint32_t slots,
+                                       const std::vector<sim::InstrumentConfig>& instruments)
     : geometry_(geometry) {
   for (std::uint32_t count = slots;; --count) {
     try {
@@ -46,6 +47,7 @@ SimulatedGroupRing::SimulatedGroupRing(const std::string& tag, const shm::RingGe
   sim::SimulationConfig simulation;
   simulation.scan.ascans_per_bscan = geometry.ascans_per_bscan;
   simulation.scan.bscans_per_volume = geometry.bscans_per_volume;
+  simulation.instruments = instruments;
   sim::SimulatedDigitizer digitizer(simulation);
   digitizer.prepare(acquisition);
   digitizer.start();

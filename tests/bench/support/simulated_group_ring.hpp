@@ -1,15 +1,17 @@
 // A benchmark's ring of simulated groups: every slot is filled once with a group of the
-// simulator's default scene, then publish() hands the slots out again and again with the headers
-// of a continuous scan (groups 0, 1, 2, ... of consecutive volumes), so a consumer sees the default
-// geometry at any rate without the simulator's cost in the figure.
+// simulator's default scene (with instruments if asked), then publish() hands the slots out again
+// and again with the headers of a continuous scan (groups 0, 1, 2, ... of consecutive volumes), so
+// a consumer sees the default geometry at any rate without the simulator's cost in the figure.
 #pragma once
 
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "bench_ring_fixture.hpp"
 #include "ioct/shm/ring_layout.hpp"
+#include "ioct/sim/simulation_config.hpp"
 
 namespace ioct::bench {
 
@@ -22,8 +24,9 @@ class SimulatedGroupRing {
  public:
   // The ring "ioct-bench-<pid>-<tag>" with `slots` slots, or fewer (down to 4, said on stderr)
   // where /dev/shm cannot hold them.
-  SimulatedGroupRing(const std::string& tag, const shm::RingGeometry& geometry,
-                     std::uint32_t slots);
+  // `instruments`: tools in the scene (none: the default retina alone).
+  SimulatedGroupRing(const std::string& tag, const shm::RingGeometry& geometry, std::uint32_t slots,
+                     const std::vector<sim::InstrumentConfig>& instruments = {});
 
   // Publishes the next group (the payload its slot holds; a new header).
   void publish();

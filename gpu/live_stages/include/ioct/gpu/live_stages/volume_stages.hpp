@@ -85,6 +85,9 @@ struct StagesPass {
   bool on_device = false;
   bool rendered = false;
   std::uint64_t taken_ns = 0, filtered_ns = 0, segmented_ns = 0, rendered_ns = 0;
+  // With instruments.enabled: when the pass's tips were found (on the device chain after the
+  // frame was rendered, before it is published; on the host before the render). Else 0.
+  std::uint64_t detected_ns = 0;
 };
 class FramePublisher;
 
