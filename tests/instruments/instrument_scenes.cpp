@@ -21,10 +21,44 @@ std::vector<InstrumentScene> instrument_scenes() {
   };
 }
 
+namespace {
+
+// `spec` (its scan and its tools set) through the CPU chain and the filters, with the sampling of
+// its raster and the truth at the first tool's tip.
+SceneVolume simulate(seg_test::SimulatedVolumeSpec spec) {
+  SceneVolume out;
+  const sim::SimulationConfig& simulation = spec.simulation;
+  const sim::InstrumentConfig& tool = simulation.instruments.at(0);
+  const std::uint32_t depth = spec.samples_per_ascan / 2;
+  const double um_per_px = simulation.source.axial_pixel_um();
+  const sim::RetinaModel retina(simulation.retina, um_per_px, depth);
+  spec.filter = false;
+  out.spec = spec;
+  out.volume = seg_test::make_simulated_volume(spec);
+  gpu::filters::make_volume_filter(gpu::Backend::cpu, {}, 1)
+      ->filter_volume(out.volume.volume, out.filtered);
+  const double field_um = 2000.0 * simulation.field_half_width_mm();
+  out.sampling.axial_um_per_px = out.volume.axial_um_per_px;
+  out.sampling.ascan_spacing_um = field_um * simulation.scan.extent_x / (spec.ascans - 1);
+  out.sampling.bscan_spacing_um = field_um * simulation.scan.extent_y / (spec.bscans - 1);
+
+  // The pose as the simulator states it (the tool does not move in these scenes).
+  const sim::InstrumentModel model(tool, simulation.field_half_width_mm(), um_per_px, depth);
+  const sim::ToolState tip = model.tip_state(tool.pose);
+  out.tip = sim::tip_voxel(tip, simulation.scan);
+  const sim::ColumnTruth under_tip = retina.layers({tip.tip_x, tip.tip_y});
+  out.ilm_px = under_tip.ilm_px;
+  out.rpe_px = under_tip.rpe_px;
+  out.to_ilm_um = (out.ilm_px - out.tip.depth_px) * um_per_px;
+  out.to_rpe_um = (out.rpe_px - out.tip.depth_px) * um_per_px;
+  return out;
+}
+
+}  // namespace
+
 SceneVolume make_scene_volume(const InstrumentScene& scene, std::uint32_t ascans,
                               std::uint32_t bscans) {
-  SceneVolume out;
-  seg_test::SimulatedVolumeSpec& spec = out.spec;
+  seg_test::SimulatedVolumeSpec spec;
   spec.ascans = ascans;
   spec.bscans = bscans;
   sim::SimulationConfig& simulation = spec.simulation;
@@ -51,26 +85,18 @@ SceneVolume make_scene_volume(const InstrumentScene& scene, std::uint32_t ascans
   tool.pose.pitch_deg = scene.pitch_deg;
   tool.pose.jaw_opening_deg = scene.jaw_opening_deg;
   simulation.instruments.push_back(tool);
+  return simulate(spec);
+}
 
-  spec.filter = false;
-  out.volume = seg_test::make_simulated_volume(spec);
-  gpu::filters::make_volume_filter(gpu::Backend::cpu, {}, 1)
-      ->filter_volume(out.volume.volume, out.filtered);
-  const double field_um = 2000.0 * simulation.field_half_width_mm();
-  out.sampling.axial_um_per_px = out.volume.axial_um_per_px;
-  out.sampling.ascan_spacing_um = field_um * simulation.scan.extent_x / (ascans - 1);
-  out.sampling.bscan_spacing_um = field_um * simulation.scan.extent_y / (bscans - 1);
-
-  // The pose as the simulator states it (the tool does not move in these scenes).
-  const sim::InstrumentModel model(tool, simulation.field_half_width_mm(), um_per_px, depth);
-  const sim::ToolState tip = model.tip_state(tool.pose);
-  out.tip = sim::tip_voxel(tip, simulation.scan);
-  const sim::ColumnTruth under_tip = retina.layers({tip.tip_x, tip.tip_y});
-  out.ilm_px = under_tip.ilm_px;
-  out.rpe_px = under_tip.rpe_px;
-  out.to_ilm_um = (out.ilm_px - out.tip.depth_px) * um_per_px;
-  out.to_rpe_um = (out.rpe_px - out.tip.depth_px) * um_per_px;
-  return out;
+SceneVolume make_field_volume(const std::vector<sim::InstrumentConfig>& tools, std::uint32_t ascans,
+                              std::uint32_t bscans) {
+  seg_test::SimulatedVolumeSpec spec;
+  spec.ascans = ascans;
+  spec.bscans = bscans;
+  spec.simulation.scan.ascans_per_bscan = ascans;
+  spec.simulation.scan.bscans_per_volume = bscans;
+  spec.simulation.instruments = tools;
+  return simulate(spec);
 }
 
 }  // namespace ioct::instruments_test

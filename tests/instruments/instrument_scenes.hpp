@@ -44,4 +44,9 @@ std::vector<InstrumentScene> instrument_scenes();
 SceneVolume make_scene_volume(const InstrumentScene& scene, std::uint32_t ascans = 128,
                               std::uint32_t bscans = 32);
 
+// The whole scan field (the simulator's default scan, `ascans` x `bscans`) with `tools` as posed,
+// e.g. by ioct-rt's --sim-instrument; the truth is the first tool's.
+SceneVolume make_field_volume(const std::vector<sim::InstrumentConfig>& tools, std::uint32_t ascans,
+                              std::uint32_t bscans);
+
 }  // namespace ioct::instruments_test

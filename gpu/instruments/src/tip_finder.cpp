@@ -1404,6 +1404,28 @@ InstrumentTip tip_of(const Tool& tool, const InstrumentFindings& f, const Instru
   return finish_tip(fp, end, axis, sampling);
 }
 
+// A footprint this many times smaller than a tool's, lying along that tool's shaft behind its end,
+// is a part of the same tool (part_of_shaft).
+constexpr std::size_t kShaftPartRatio = 8;
+
+// Whether `small` is a piece of `large`'s shaft that the classification cut off from it (where a
+// pitched shaft rises out of the top of the image, its shadow's edges stay classified, its middle
+// does not, and a stretch of an edge comes apart): much smaller, its centre behind `large`'s end
+// along `large`'s axis, and no further from that axis than `large`'s own A-scans reach across it
+// (plus `margin_um`). A small tool's tip under another tool's shaft would be taken for a piece of
+// it; beside the shaft or near its end it stays a tool.
+bool part_of_shaft(const Tool& small, const Tool& large, double margin_um) {
+  if (small.fp->ascans.size() * kShaftPartRatio > large.fp->ascans.size()) return false;
+  const Axis& axis = large.principal;
+  const double dx = small.principal.mx - axis.mx, dy = small.principal.my - axis.my;
+  const double along = dx * axis.ux + dy * axis.uy;
+  const double across = -dx * axis.uy + dy * axis.ux;
+  if (along >= large.whole.s_max - 2.0 * kMaxRadiusUm) return false;  // by the end: maybe a tool
+  double reach = 0.0;
+  for (const Place& p : large.fp->ascans) reach = std::max(reach, std::abs(axis.across(p)));
+  return std::abs(across) <= reach + margin_um;
+}
+
 // Into `open` (all clear): the A-scans classified as masked with at least kMinMaskedNeighbours
 // of their 8 neighbours so too. Only the classified ones are looked at (most of a mask is clear).
 void clean_mask(const InstrumentFindings& f, ColumnKind* open) {
@@ -1456,9 +1478,6 @@ void TipFinder::find(InstrumentFindings& findings, const Surfaces& surfaces,
   for (const Footprint* fp : found) {
     for (const Place& p : fp->ascans) findings.mask[p.k] = findings.columns[p.k];
   }
-  if (found.size() > InstrumentFindings::kMaxInstruments) {
-    found.resize(InstrumentFindings::kMaxInstruments);
-  }
   std::vector<Tool>& tools = w.tools;
   tools.resize(found.size());
   for (std::size_t i = 0; i < found.size(); ++i) {
@@ -1472,7 +1491,22 @@ void TipFinder::find(InstrumentFindings& findings, const Surfaces& surfaces,
       join_paddle_parts(fp, w.loose, findings, surfaces, tool.principal, w.tip.scratch);
     }
   }
-  for (const Tool& tool : tools) {
+  // Pieces of a larger tool's shaft are no tools of their own (they stay in the mask: the tool's
+  // shadow). Then the largest kMaxInstruments.
+  const double shaft_margin_um = 2.0 * std::max(sx, sy);
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < tools.size(); ++i) {
+    bool piece = false;
+    for (std::size_t j = 0; j < kept && !piece; ++j) {
+      piece = part_of_shaft(tools[i], tools[j], shaft_margin_um);
+    }
+    if (piece) continue;
+    if (kept != i) std::swap(tools[kept], tools[i]);  // their buffers swapped, none allocated
+    ++kept;
+  }
+  const std::size_t tool_count = std::min(kept, InstrumentFindings::kMaxInstruments);
+  for (std::size_t i = 0; i < tool_count; ++i) {
+    const Tool& tool = tools[i];
     InstrumentTip tip = tip_of(tool, findings, config, sampling, w.tip);
     const SurfaceAt at = surfaces_at(findings, surfaces, tip.bscan, tip.ascan, sampling);
     tip.source = at.source;

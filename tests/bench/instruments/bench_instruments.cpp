@@ -6,6 +6,10 @@
 // 0 B-scans).
 //
 //   ioct-bench-instruments [--ascans 512] [--bscans 128] [--reps 30] [--backend both|cpu|cuda]
+//                          [--sim-instrument SPEC]
+//
+// The scene: the forceps approaching at the centre of the field, or with --sim-instrument the tool
+// of ioct-rt's option of that name over the whole field (e.g. the appliance's forceps scene).
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -17,6 +21,7 @@
 #include "instrument_scenes.hpp"
 #include "ioct/gpu/instruments/instrument_detector.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"
+#include "ioct/sim/instrument_spec.hpp"
 
 #if IOCT_INSTRUMENTS_HAVE_CUDA
 #include <cuda_runtime.h>
@@ -106,22 +111,38 @@ int main(int argc, char** argv) {
   std::uint32_t ascans = 512, bscans = 128;
   int reps = 30;
   std::string backend = "both";
+  std::string tool_spec;
   app.add_option("--ascans", ascans, "A-scans per B-scan")->check(CLI::Range(16u, 4096u));
   app.add_option("--bscans", bscans, "B-scans (a multiple of 16)")->check(CLI::Range(16u, 1024u));
   app.add_option("--reps", reps, "timed repetitions (median)")->check(CLI::Range(1, 10000));
   app.add_option("--backend", backend, "both, cpu or cuda")
       ->check(CLI::IsMember({"both", "cpu", "cuda"}));
+  app.add_option("--sim-instrument", tool_spec,
+                 "the tool over the whole field instead, as ioct-rt's --sim-instrument");
   CLI11_PARSE(app, argc, argv);
   if (bscans % 16 != 0) {
     std::fprintf(stderr, "--bscans %u: must be a multiple of 16\n", bscans);
     return 2;
   }
-  std::printf("simulating the forceps scene at %u x %u A-scans...\n", ascans, bscans);
-  // The forceps approaching, at the centre of the field (the raster spans all of it).
-  instruments_test::InstrumentScene scene = instruments_test::instrument_scenes()[0];
-  scene.tip_x = 0.0f;
-  scene.tip_y = 0.0f;
-  const auto s = instruments_test::make_scene_volume(scene, ascans, bscans);
+  instruments_test::SceneVolume s;
+  if (!tool_spec.empty()) {
+    std::printf("simulating %s over the field at %u x %u A-scans...\n", tool_spec.c_str(), ascans,
+                bscans);
+    try {
+      s = instruments_test::make_field_volume(
+          {sim::parse_instrument_spec(tool_spec, "--sim-instrument")}, ascans, bscans);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "ioct-bench-instruments: %s\n", e.what());
+      return 2;
+    }
+  } else {
+    std::printf("simulating the forceps scene at %u x %u A-scans...\n", ascans, bscans);
+    // The forceps approaching, at the centre of the field (the raster spans all of it).
+    instruments_test::InstrumentScene scene = instruments_test::instrument_scenes()[0];
+    scene.tip_x = 0.0f;
+    scene.tip_y = 0.0f;
+    s = instruments_test::make_scene_volume(scene, ascans, bscans);
+  }
   if (backend != "cuda") bench(gpu::Backend::cpu, s, reps);
   if (backend != "cpu") bench(gpu::Backend::cuda, s, reps);
   return 0;
