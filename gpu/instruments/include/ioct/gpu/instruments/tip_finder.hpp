@@ -4,8 +4,9 @@
 // 1. The shadow mask: A-scans classified as shadowed with at least 3 of their 8 neighbours so
 //    too (speckle leaves lone ones); footprints: its 8-connected regions, those with fewer than
 //    min_ascans A-scans, or fewer than min_ascans fully shadowed ones (every tool has metal: a
-//    partly shadowing region alone is a lifted membrane), dropped; the largest kMaxInstruments
-//    kept.
+//    partly shadowing region alone is a lifted membrane), dropped; a footprint much smaller than
+//    a tool's, behind its end and within its shaft's width, is a piece of that tool's shaft (in
+//    the mask, no tip); of the rest the largest kMaxInstruments kept.
 // 2. Axis: the principal direction of a footprint's A-scans in um. The shaft leaves the field,
 //    so the tip is the end away from the footprint's A-scans on the volume's border (without
 //    any, the end where the reflex lies deeper: the shaft rises towards the viewer). A wider
