@@ -126,13 +126,12 @@ double tip_error_vox(const gpu::instruments::InstrumentTip& tip, const SceneVolu
 // The appliance's forceps scene (tools/ioct-demo --forceps): the pitched shaft rises out of the
 // top of the image towards the field's edge, where only its shadow's edges stay classified and a
 // stretch of one came apart from the rest (12 A-scans, once reported as a second instrument). One
-// tool. Its tip and distances are asserted at what is reached, which is short of the issue's
-// aims on this scene (2 vox, 15 um): the tip 2.9 px (16 um) too deep, where the small rasters of
-// the same pose are within 0.5 vox, and the ILM under it 3 px too shallow, interpolated across
-// the shaft's wide shadow on the fovea's slope (README.md).
-constexpr double kApplianceTipVox = 3.2;
-constexpr double kApplianceIlmDistanceUm = 36.0;
-constexpr double kApplianceRpeDistanceUm = 20.0;
+// tool, its tip within the 2 voxels (0.38 reached; 2.92 while a partly shadowed A-scan of
+// the retina ahead of the tip counted as the end's rim) and its distance to the RPE within 15 um
+// (3.1 um). The distance to the ILM is short of the 15 um aim (19.9 um): the ILM under the tip,
+// inferred across the shaft's wide shadow on the fovea's slope, is 3.2 px too shallow, 1-1.5 px
+// of it the segmentation's own bias beside the shadow (README.md); asserted at what is reached.
+constexpr double kApplianceIlmDistanceUm = 22.0;
 
 TEST(InstrumentAccuracy, TheAppliancesForcepsIsOneToolThePiecesOfItsShaftIncluded) {
   SceneVolume s;
@@ -146,9 +145,9 @@ TEST(InstrumentAccuracy, TheAppliancesForcepsIsOneToolThePiecesOfItsShaftInclude
       "(%.1f %.1f %.1f) vox: error %.2f; ILM %+.1f (truth %+.1f) RPE %+.1f (truth %+.1f) um\n",
       tip.bscan, tip.ascan, tip.depth_px, s.tip.bscan, s.tip.ascan, s.tip.depth_px, error,
       tip.to_ilm_um, s.to_ilm_um, tip.to_rpe_um, s.to_rpe_um);
-  EXPECT_LE(error, kApplianceTipVox);
+  EXPECT_LE(error, kTipP95Vox);
   EXPECT_LE(std::abs(tip.to_ilm_um - s.to_ilm_um), kApplianceIlmDistanceUm);
-  EXPECT_LE(std::abs(tip.to_rpe_um - s.to_rpe_um), kApplianceRpeDistanceUm);
+  EXPECT_LE(std::abs(tip.to_rpe_um - s.to_rpe_um), kIlmDistanceP95Um);
 }
 
 // Two tools, the needle's tip beside the forceps' shaft but not under it: both are tools.

@@ -484,6 +484,16 @@ void end_of(const std::vector<Place>& cells, const InstrumentFindings& f, const 
   }
   end.mid_across = mid_across / static_cast<double>(mid_count);
   end.translucent = partial > shadow;
+  if (!end.translucent) {
+    // A metal end's rim is its metal's extreme: a partly shadowed A-scan ahead of it is the
+    // retina beside the tip classified on its own (its "reflex" the retina's surface), not the
+    // tool, and would put the rim, and with it the sphere's centre, a sample or more too far.
+    double metal_max = -1e300;
+    for (std::size_t i = 0; i < end_n; ++i) {
+      if (f.mask[end_cell[i].k] == ColumnKind::shadow) metal_max = std::max(metal_max, end_s[i]);
+    }
+    if (metal_max > -1e300) end.s_max = metal_max;
+  }
 }
 
 // A shadowed A-scan of the end: along and across (from the rim) the axis in um, its reflex in px.
