@@ -7,6 +7,7 @@
 #include <cstring>
 #include <deque>
 #include <limits>
+#include <optional>
 #include <vector>
 
 namespace ioct::gpu::instruments {
@@ -35,6 +36,11 @@ constexpr std::int64_t kSurfaceMarginAscans = 2;
 // B-scans), within this many of the nearest.
 constexpr double kSideSamples = 8.0;
 constexpr std::int64_t kSideReach = 16;
+// Under a tool the surfaces are a quadratic surface fitted to the usable A-scans within this
+// distance of the tip (every second A-scan of each B-scan), when they surround it (some in each
+// quadrant about it) and number at least kMinSurfaceFitSamples.
+constexpr double kSurfaceFitRadiusUm = 300.0;
+constexpr std::size_t kMinSurfaceFitSamples = 24;
 
 // The first of kinds[from, n) that is not clear (n if none). Most of a mask is clear: 64, then
 // eight A-scans are skipped at a time.
@@ -233,6 +239,62 @@ struct SurfaceAt {
   DistanceSource source = DistanceSource::none;
 };
 
+// The ILM and RPE at (bscan, ascan) from z = c0 + c1 x + c2 y + c3 x^2 + c4 xy + c5 y^2 fitted by
+// least squares to the `usable` A-scans within kSurfaceFitRadiusUm (x, y in units of that radius
+// from the point, so the normal equations stay well scaled); nothing where they do not surround
+// the point or are too few. A surface under a tool's shadow curves (the fovea's pit, the disc):
+// a quadratic follows it where lines between the shadow's far sides cut the curve's chord (the
+// appliance's forceps on the fovea's slope: the ILM 3.2 px too shallow by lines, 1.4 by this).
+template <class Usable>
+std::optional<SurfaceAt> fitted_surfaces_at(const InstrumentFindings& f, const Surfaces& s,
+                                            double bscan, double ascan,
+                                            const VolumeSampling& sampling, const Usable& usable) {
+  const double radius = kSurfaceFitRadiusUm;
+  const std::int64_t reach_a = static_cast<std::int64_t>(radius / sampling.ascan_spacing_um) + 1;
+  const std::int64_t reach_b = static_cast<std::int64_t>(radius / sampling.bscan_spacing_um) + 1;
+  const std::int64_t b_mid = std::lround(bscan), a_mid = std::lround(ascan);
+  // [normal equations | ILM, RPE right-hand sides]
+  double m[6][8] = {};
+  std::size_t samples = 0;
+  unsigned quadrants = 0;
+  for (std::int64_t b = std::max<std::int64_t>(0, b_mid - reach_b);
+       b <= std::min<std::int64_t>(f.bscans - 1, b_mid + reach_b); ++b) {
+    const double y = (static_cast<double>(b) - bscan) * sampling.bscan_spacing_um / radius;
+    for (std::int64_t a = std::max<std::int64_t>(0, a_mid - reach_a);
+         a <= std::min<std::int64_t>(f.ascans - 1, a_mid + reach_a); a += 2) {
+      const double x = (static_cast<double>(a) - ascan) * sampling.ascan_spacing_um / radius;
+      if (x * x + y * y > 1.0 || !usable(b, a)) continue;
+      const std::size_t k = f.index(static_cast<std::uint32_t>(b), static_cast<std::uint32_t>(a));
+      const double t[6] = {1.0, x, y, x * x, x * y, y * y};
+      for (int i = 0; i < 6; ++i) {
+        for (int j = 0; j < 6; ++j) m[i][j] += t[i] * t[j];
+        m[i][6] += t[i] * s.ilm[k];
+        m[i][7] += t[i] * s.rpe[k];
+      }
+      quadrants |= 1u << ((x >= 0.0 ? 1 : 0) + (y >= 0.0 ? 2 : 0));
+      ++samples;
+    }
+  }
+  if (samples < kMinSurfaceFitSamples || quadrants != 15u) return std::nullopt;
+  // Gauss-Jordan elimination with partial pivoting; a nearly singular system (the samples on a
+  // line or two) gives nothing.
+  for (int c = 0; c < 6; ++c) {
+    int pivot = c;
+    for (int r = c + 1; r < 6; ++r) {
+      if (std::abs(m[r][c]) > std::abs(m[pivot][c])) pivot = r;
+    }
+    if (!(std::abs(m[pivot][c]) > 1e-9 * static_cast<double>(samples))) return std::nullopt;
+    for (int j = 0; j < 8; ++j) std::swap(m[c][j], m[pivot][j]);
+    for (int r = 0; r < 6; ++r) {
+      if (r == c) continue;
+      const double q = m[r][c] / m[c][c];
+      for (int j = c; j < 8; ++j) m[r][j] -= q * m[c][j];
+    }
+  }
+  // At the point itself x = y = 0: the constant term.
+  return SurfaceAt{m[0][6] / m[0][0], m[0][7] / m[0][0], DistanceSource::inferred};
+}
+
 SurfaceAt surfaces_at(const InstrumentFindings& f, const Surfaces& s, double bscan, double ascan,
                       const VolumeSampling& sampling) {
   SurfaceAt out;
@@ -266,8 +328,13 @@ SurfaceAt surfaces_at(const InstrumentFindings& f, const Surfaces& s, double bsc
     out.source = DistanceSource::measured;
     return out;
   }
-  // Along each axis through the tip: the nearest usable A-scan on either side, interpolated
-  // linearly where both exist; each axis weighted by the inverse of its span in um.
+  if (const std::optional<SurfaceAt> fitted =
+          fitted_surfaces_at(f, s, bscan, ascan, sampling, usable)) {
+    return *fitted;
+  }
+  // Else (a tip near the volume's border, a shadow too wide for the fit's reach): along each axis
+  // through the tip the nearest usable A-scan on either side, interpolated linearly where both
+  // exist; each axis weighted by the inverse of its span in um.
   double weight_sum = 0.0, ilm_sum = 0.0, rpe_sum = 0.0;
   const auto along = [&](bool across_bscans) {
     const std::int64_t n = across_bscans ? f.bscans : f.ascans;

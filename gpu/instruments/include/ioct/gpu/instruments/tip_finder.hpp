@@ -26,8 +26,9 @@
 //    grown into the A-scans whose segmented ILM lies on its front surface, and joined to its
 //    leading face where that was classified apart from it.
 // 4. Distances: the ILM and RPE at the tip's lateral position. The tip's own A-scan is under the
-//    tool; the surfaces come from the nearest measured A-scans at least 2 A-scans and 1 B-scan
-//    away from the mask (the filtered volume smears the shadow's edge), along the B-scan and
+//    tool; the surfaces come from measured A-scans at least 2 A-scans and 1 B-scan away from the
+//    mask (the filtered volume smears the shadow's edge): a quadratic surface fitted to those
+//    within 300 um of the tip where they surround it; else the nearest along the B-scan and
 //    across B-scans, interpolated linearly where both sides exist (with one side only, a line
 //    through its 8 nearest usable A-scans), each axis weighted by the inverse of its span
 //    (inferred); or from the A-scan itself when it is clear of the mask and measured (measured).
