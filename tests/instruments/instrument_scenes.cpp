@@ -1,5 +1,7 @@
 #include "instrument_scenes.hpp"
 
+#include <stdexcept>
+
 #include "ioct/gpu/filters/volume_filter.hpp"
 #include "ioct/sim/retina_model.hpp"
 
@@ -42,10 +44,14 @@ SceneVolume simulate(seg_test::SimulatedVolumeSpec spec) {
   out.sampling.ascan_spacing_um = field_um * simulation.scan.extent_x / (spec.ascans - 1);
   out.sampling.bscan_spacing_um = field_um * simulation.scan.extent_y / (spec.bscans - 1);
 
-  // The pose as the simulator states it (the tool does not move in these scenes).
+  // The poses as the simulator states them (the tools do not move in these scenes).
+  for (const sim::InstrumentConfig& each : simulation.instruments) {
+    const sim::InstrumentModel model(each, simulation.field_half_width_mm(), um_per_px, depth);
+    out.tool_tips.push_back(sim::tip_voxel(model.tip_state(each.pose), simulation.scan));
+  }
   const sim::InstrumentModel model(tool, simulation.field_half_width_mm(), um_per_px, depth);
   const sim::ToolState tip = model.tip_state(tool.pose);
-  out.tip = sim::tip_voxel(tip, simulation.scan);
+  out.tip = out.tool_tips.front();
   const sim::ColumnTruth under_tip = retina.layers({tip.tip_x, tip.tip_y});
   out.ilm_px = under_tip.ilm_px;
   out.rpe_px = under_tip.rpe_px;
@@ -90,6 +96,14 @@ SceneVolume make_scene_volume(const InstrumentScene& scene, std::uint32_t ascans
 
 SceneVolume make_field_volume(const std::vector<sim::InstrumentConfig>& tools, std::uint32_t ascans,
                               std::uint32_t bscans) {
+  for (const sim::InstrumentConfig& tool : tools) {
+    const sim::ToolMotion& m = tool.motion;
+    if (m.velocity_x != 0.0f || m.velocity_y != 0.0f || m.velocity_depth != 0.0f ||
+        m.tremor_x != 0.0f || m.tremor_y != 0.0f || m.tremor_depth != 0.0f ||
+        m.jaw_cycle_deg != 0.0f) {
+      throw std::invalid_argument("a scene's tools stand still: no velocity, tremor or jaw cycle");
+    }
+  }
   seg_test::SimulatedVolumeSpec spec;
   spec.ascans = ascans;
   spec.bscans = bscans;

@@ -30,8 +30,9 @@ struct SceneVolume {
   seg_test::SimulatedVolume volume;  // as processed (what the detection reads), with the truth
   gpu::Volume filtered;              // median + Gaussian (what the segmentation reads)
   gpu::segmentation::VolumeSampling sampling;
-  sim::VoxelPoint tip;  // truth (InstrumentModel::tip_state)
-  double ilm_px = 0.0;  // the truth surfaces under the tip (continuous)
+  sim::VoxelPoint tip;                     // truth (InstrumentModel::tip_state) of the first tool
+  std::vector<sim::VoxelPoint> tool_tips;  // of every tool, in the spec's order
+  double ilm_px = 0.0;                     // the truth surfaces under the tip (continuous)
   double rpe_px = 0.0;
   double to_ilm_um = 0.0;  // truth distances, signed as the detection's
   double to_rpe_um = 0.0;
@@ -45,7 +46,8 @@ SceneVolume make_scene_volume(const InstrumentScene& scene, std::uint32_t ascans
                               std::uint32_t bscans = 32);
 
 // The whole scan field (the simulator's default scan, `ascans` x `bscans`) with `tools` as posed,
-// e.g. by ioct-rt's --sim-instrument; the truth is the first tool's.
+// e.g. by ioct-rt's --sim-instrument; the truth is the first tool's at time 0, so the tools must
+// stand still (no velocity, tremor or jaw cycle: std::invalid_argument).
 SceneVolume make_field_volume(const std::vector<sim::InstrumentConfig>& tools, std::uint32_t ascans,
                               std::uint32_t bscans);
 

@@ -264,8 +264,10 @@ TEST_F(CudaVsCpu, BscansNotSegmentedYetHoldNoSurfacesOnTheDevice) {
   const auto check = [&](const Volume& volume, std::uint32_t segmented, const char* what) {
     SCOPED_TRACE(what);
     cuda::DeviceArray<std::uint8_t> on_device(volume.pixels().size());
-    IOCT_CUDA_CHECK(cudaMemcpy(on_device.data(), volume.pixels().data(), volume.pixels().size(),
-                               cudaMemcpyHostToDevice));
+    // On the segmenter's stream: a pageable copy on the legacy stream may return before the
+    // device has the bytes, and the segmenter's stream does not wait for that one.
+    IOCT_CUDA_CHECK(cudaMemcpyAsync(on_device.data(), volume.pixels().data(),
+                                    volume.pixels().size(), cudaMemcpyHostToDevice, cuda.stream()));
     cuda.prepare(volume.bscans(), volume.ascans(), volume.depth());
     Surfaces cpu_surfaces;
     for (std::uint32_t first = 0; first < segmented; first += 8) {

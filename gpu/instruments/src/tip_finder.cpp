@@ -1488,19 +1488,22 @@ constexpr std::size_t kShaftPartRatio = 8;
 // Whether `small` is a piece of `large`'s shaft that the classification cut off from it (where a
 // pitched shaft rises out of the top of the image, its shadow's edges stay classified, its middle
 // does not, and a stretch of an edge comes apart): much smaller, its centre behind `large`'s end
-// along `large`'s axis, and no further from that axis than `large`'s own A-scans reach across it
-// (plus `margin_um`). A small tool's tip under another tool's shaft would be taken for a piece of
-// it; beside the shaft or near its end it stays a tool.
+// along `large`'s axis, and no further from that axis than `large`'s own A-scans behind its end
+// (its shaft's) reach across it, plus `margin_um`. A small tool's tip under another tool's shaft
+// would be taken for a piece of it; beside the shaft or near its end it stays a tool.
 bool part_of_shaft(const Tool& small, const Tool& large, double margin_um) {
   if (small.fp->ascans.size() * kShaftPartRatio > large.fp->ascans.size()) return false;
   const Axis& axis = large.principal;
+  const double behind_end = large.whole.s_max - 2.0 * kMaxRadiusUm;
   const double dx = small.principal.mx - axis.mx, dy = small.principal.my - axis.my;
   const double along = dx * axis.ux + dy * axis.uy;
   const double across = -dx * axis.uy + dy * axis.ux;
-  if (along >= large.whole.s_max - 2.0 * kMaxRadiusUm) return false;  // by the end: maybe a tool
-  double reach = 0.0;
-  for (const Place& p : large.fp->ascans) reach = std::max(reach, std::abs(axis.across(p)));
-  return std::abs(across) <= reach + margin_um;
+  if (along >= behind_end) return false;  // by the end: maybe a tool of its own
+  double reach = -1.0;
+  for (const Place& p : large.fp->ascans) {
+    if (axis.along(p) < behind_end) reach = std::max(reach, std::abs(axis.across(p)));
+  }
+  return reach >= 0.0 && std::abs(across) <= reach + margin_um;
 }
 
 // Into `open` (all clear): the A-scans classified as masked with at least kMinMaskedNeighbours
@@ -1555,8 +1558,9 @@ void TipFinder::find(InstrumentFindings& findings, const Surfaces& surfaces,
   for (const Footprint* fp : found) {
     for (const Place& p : fp->ascans) findings.mask[p.k] = findings.columns[p.k];
   }
+  // Grown only: a Tool keeps its buffers from call to call.
   std::vector<Tool>& tools = w.tools;
-  tools.resize(found.size());
+  if (tools.size() < found.size()) tools.resize(found.size());
   for (std::size_t i = 0; i < found.size(); ++i) {
     Footprint& fp = *found[i];
     Tool& tool = tools[i];
@@ -1572,7 +1576,7 @@ void TipFinder::find(InstrumentFindings& findings, const Surfaces& surfaces,
   // shadow). Then the largest kMaxInstruments.
   const double shaft_margin_um = 2.0 * std::max(sx, sy);
   std::size_t kept = 0;
-  for (std::size_t i = 0; i < tools.size(); ++i) {
+  for (std::size_t i = 0; i < found.size(); ++i) {
     bool piece = false;
     for (std::size_t j = 0; j < kept && !piece; ++j) {
       piece = part_of_shaft(tools[i], tools[j], shaft_margin_um);

@@ -908,8 +908,30 @@ struct CudaSegmenter::DeviceState {
   std::map<std::tuple<const void*, std::uint32_t, std::uint32_t, cudaStream_t>, cudaGraphExec_t>
       graphs;
 
+  // Nothing segmented: every B-scan holds what one not segmented yet holds on the host
+  // (Surfaces::reset: NaN surfaces, confidence 0, state none, verdict not_segmented; the search
+  // and fit memory as VolumeMemory::reset clears it). The renderer and a download of the whole
+  // volume read B-scans before a cycle reaches them.
+  void clear_surfaces(cudaStream_t stream) {
+    const std::size_t n = static_cast<std::size_t>(bscans) * ascans;
+    for (auto* bytes : {&coarse_valid, &raw_verdict, &floors}) {
+      IOCT_CUDA_CHECK(cudaMemsetAsync(bytes->data(), 0, bscans, stream));
+    }
+    IOCT_CUDA_CHECK(cudaMemsetAsync(verdict.data(), 0, bscans * sizeof(BscanVerdict), stream));
+    IOCT_CUDA_CHECK(cudaMemsetAsync(state.data(), 0, n * sizeof(SurfaceState), stream));  // none
+    for (auto* surface : {&ilm, &rpe, &bm}) {
+      IOCT_CUDA_CHECK(cudaMemsetAsync(surface->data(), 0xFF, n * sizeof(float), stream));  // NaN
+    }
+    for (auto* zero : {&confidence, &raw_ilm, &raw_rpe, &raw_bm, &raw_confidence, &finished_bm}) {
+      IOCT_CUDA_CHECK(cudaMemsetAsync(zero->data(), 0, n * sizeof(float), stream));
+    }
+    IOCT_CUDA_CHECK(cudaMemsetAsync(coarse.data(), 0, n * sizeof(std::int32_t), stream));
+  }
+
   // No cycle so far, nothing remembered (a zero CycleClock is its initial state; the rest is
-  // cleared as the CPU's memory is, for download_memory).
+  // cleared as the CPU's memory is, for download_memory, except the finished ILM and RPE, which
+  // are the surfaces themselves here: NaN where the host's memory holds 0, read by no one while
+  // their kind is none).
   void forget_cycles(cudaStream_t stream) {
     const std::size_t n = static_cast<std::size_t>(bscans) * ascans;
     IOCT_CUDA_CHECK(cudaMemsetAsync(clock.data(), 0, sizeof(detail::CycleClock), stream));
@@ -1011,8 +1033,7 @@ void CudaSegmenter::note_resets() {
 void CudaSegmenter::forget() {
   DeviceState& d = *state_;
   if (d.bscans == 0) return;
-  IOCT_CUDA_CHECK(cudaMemsetAsync(d.coarse_valid.data(), 0, d.bscans, stream_));
-  IOCT_CUDA_CHECK(cudaMemsetAsync(d.raw_verdict.data(), 0, d.bscans, stream_));
+  d.clear_surfaces(stream_);
   d.forget_cycles(stream_);
   note_resets();
 }
@@ -1076,24 +1097,10 @@ void CudaSegmenter::prepare(std::uint32_t bscans, std::uint32_t ascans, std::uin
                                                std::max(coarse_steps, fine_steps));
   }
   d.contrasts = device_array<std::uint8_t>(3 * n);
-  IOCT_CUDA_CHECK(cudaMemsetAsync(d.coarse_valid.data(), 0, bscans, stream_));
-  IOCT_CUDA_CHECK(cudaMemsetAsync(d.raw_verdict.data(), 0, bscans, stream_));
-  IOCT_CUDA_CHECK(cudaMemsetAsync(d.verdict.data(), 0, bscans, stream_));
-  // What a B-scan not segmented yet holds, as on the host (Surfaces::reset, VolumeMemory::reset):
-  // the renderer and a download of the whole volume read it before the first cycle reaches it.
-  IOCT_CUDA_CHECK(cudaMemsetAsync(d.state.data(), 0, n, stream_));  // SurfaceState::none
-  for (auto* surface : {&d.ilm, &d.rpe, &d.bm}) {
-    IOCT_CUDA_CHECK(cudaMemsetAsync(surface->data(), 0xFF, n * sizeof(float), stream_));  // NaN
-  }
-  for (auto* zero :
-       {&d.confidence, &d.raw_ilm, &d.raw_rpe, &d.raw_bm, &d.raw_confidence, &d.finished_bm}) {
-    IOCT_CUDA_CHECK(cudaMemsetAsync(zero->data(), 0, n * sizeof(float), stream_));
-  }
-  IOCT_CUDA_CHECK(cudaMemsetAsync(d.floors.data(), 0, bscans, stream_));
-  IOCT_CUDA_CHECK(cudaMemsetAsync(d.coarse.data(), 0, n * sizeof(std::int32_t), stream_));
   d.bscans = bscans;
   d.ascans = ascans;
   d.depth = depth;
+  d.clear_surfaces(stream_);
   d.forget_cycles(stream_);
   note_resets();
 }
@@ -1126,6 +1133,13 @@ BscanSpan CudaSegmenter::enqueue_group(const std::uint8_t* device_volume, BscanS
   cudaStreamCaptureStatus capturing = cudaStreamCaptureStatusNone;
   if (stream != nullptr) {
     IOCT_CUDA_CHECK(cudaStreamIsCapturing(stream, &capturing));
+  }
+  // The resets of prepare() and forget() run on the segmenter's own stream: the caller's waits
+  // for them (a stream being captured cannot wait on an event from outside its graph: its
+  // capture must begin after them).
+  if (resets_pending_ && capturing == cudaStreamCaptureStatusNone) {
+    IOCT_CUDA_CHECK(cudaStreamWaitEvent(stream, resets_done_, 0));
+    resets_pending_ = false;
   }
   if (!use_graphs_ || stage_events_ != nullptr || stream == nullptr ||
       capturing != cudaStreamCaptureStatusNone) {
@@ -1391,10 +1405,6 @@ BscanSpan CudaSegmenter::segment_group(VolumeRef volume, BscanSpan group, Surfac
     IOCT_CUDA_CHECK(cudaStreamSynchronize(volume.stream()));
   }
   prepare(dims.bscans, dims.ascans, dims.depth);
-  if (resets_pending_) {
-    IOCT_CUDA_CHECK(cudaStreamWaitEvent(volume.stream(), resets_done_, 0));
-    resets_pending_ = false;
-  }
   return enqueue_group(volume.device(), group, volume.stream());
 }
 

@@ -286,8 +286,13 @@ int run(const Options& o) {
                                                ? std::vector<std::string>{kDefaultSimInstrument}
                                                : o.sim_instruments;
     for (std::size_t i = 0; i < specs.size(); ++i) {
-      tools.push_back(
-          sim::parse_instrument_spec(specs[i], "--sim-instrument[" + std::to_string(i) + "]"));
+      try {
+        tools.push_back(
+            sim::parse_instrument_spec(specs[i], "--sim-instrument[" + std::to_string(i) + "]"));
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "ioct-bench-live-chain: %s\n", e.what());
+        return 2;
+      }
       std::printf("instrument in the scene: %s\n", specs[i].c_str());
     }
   }
@@ -465,18 +470,20 @@ int run(const Options& o) {
       return 1;
     }
     qd = quantiles(detected);
-    std::printf("  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms\n",
-                "-> tips found (after the frame)", qd->p50, qd->p99, qd->max);
+    std::printf(
+        "  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms   (the frame is published after its "
+        "tips)\n",
+        "-> tips found (after the frame)", qd->p50, qd->p99, qd->max);
   }
   std::printf(
       "  anchor: pinned H2D copy of a group %.3f ms (%.1f GB/s); stages' own kernels "
       "per group: processing %.3f + filters %.3f + segmentation %.3f + the renderer's "
       "per-B-scan median %.3f + the renderer's update (texture, bricks, sums, layer reference) "
-      "%.3f + render %.3f + instrument detection with its tips %.3f = %.3f ms (ratio p50 / sum "
-      "%.2f)\n",
+      "%.3f + render %.3f + instrument detection with its tips %.3f = %.3f ms (ratio of the "
+      "p50 to %s / sum %.2f)\n",
       pinned, static_cast<double>(g.group_payload_bytes()) / (pinned * 1e6), k.processing, k.filter,
       k.segment, k.render_filter, k.render_update, k.render, k.detect, k.sum(),
-      (qd ? qd->p50 : qr.p50) / k.sum());
+      qd ? "tips found" : "frame rendered", (qd ? qd->p50 : qr.p50) / k.sum());
   const double anchor_rate = static_cast<double>(g.ascans_per_group()) / (k.sum() * 1e-3);
   const double pinned_rate = static_cast<double>(g.ascans_per_group()) / (pinned * 1e-3);
   std::printf(

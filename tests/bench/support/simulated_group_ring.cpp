@@ -2,6 +2,8 @@
 
 #include <cstdio>
 #include <span>
+#include <stdexcept>
+#include <string>
 
 #include "ioct/hal/digitizer.hpp"
 #include "ioct/shm/ring_error.hpp"
@@ -30,13 +32,22 @@ SimulatedGroupRing::SimulatedGroupRing(const std::string& tag, const shm::RingGe
                                        std::uint32_t slots,
                                        const std::vector<sim::InstrumentConfig>& instruments)
     : geometry_(geometry) {
-  for (std::uint32_t count = slots;; --count) {
+  // publish() labels slot g % slots as group g of its volume: with tools in the scene the slots
+  // must hold whole volumes, or a tool's B-scans would land in others' places.
+  const std::uint32_t per_volume = geometry.bscans_per_volume / geometry.bscans_per_group;
+  const std::uint32_t step = instruments.empty() ? 1 : per_volume;
+  if (slots % step != 0) {
+    throw std::invalid_argument("a scene with instruments needs ring slots in whole volumes (" +
+                                std::to_string(per_volume) + " groups), not " +
+                                std::to_string(slots));
+  }
+  for (std::uint32_t count = slots;; count -= step) {
     try {
       ring_.emplace(tag, geometry, count, SlotFill::none);
       slots_ = count;
       break;
     } catch (const shm::RingError& e) {
-      if (count <= 4) throw;
+      if (count <= 4 || count <= step) throw;
       std::fprintf(stderr, "ring of %u slots refused (%s); trying fewer\n", count, e.what());
     }
   }
