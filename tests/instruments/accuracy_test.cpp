@@ -53,22 +53,33 @@ constexpr double kIlmDistanceP95Um = 15.0;
 constexpr double kRpeDistanceP95Um = 5.0;
 constexpr double kMetalTipP95Vox = 1.0;
 
+// A scene's volume segmented and searched for instruments on the CPU, as ioct-gpu does live.
+InstrumentFindings detect(const SceneVolume& s) {
+  gpu::segmentation::Surfaces surfaces;
+  gpu::segmentation::make_segmenter(gpu::Backend::cpu, {}, s.sampling, 2)
+      ->segment_volume(s.filtered, surfaces);
+  InstrumentFindings findings;
+  gpu::instruments::make_instrument_detector(gpu::Backend::cpu, {}, s.sampling, 2)
+      ->detect_volume(s.volume.volume, surfaces, findings);
+  return findings;
+}
+
+// Euclidean, in voxels (B-scan, A-scan and depth index).
+double tip_error_vox(const gpu::instruments::InstrumentTip& tip, const sim::VoxelPoint& truth) {
+  const double db = tip.bscan - truth.bscan, da = tip.ascan - truth.ascan,
+               dz = tip.depth_px - truth.depth_px;
+  return std::sqrt(db * db + da * da + dz * dz);
+}
+
 TEST(InstrumentAccuracy, TipAndDistancesAgainstTheSimulatorsPose) {
   Errors all, metal;
   for (const InstrumentScene& scene : instrument_scenes()) {
     const SceneVolume s = make_scene_volume(scene);
-    gpu::segmentation::Surfaces surfaces;
-    gpu::segmentation::make_segmenter(gpu::Backend::cpu, {}, s.sampling, 2)
-        ->segment_volume(s.filtered, surfaces);
-    InstrumentFindings findings;
-    gpu::instruments::make_instrument_detector(gpu::Backend::cpu, {}, s.sampling, 2)
-        ->detect_volume(s.volume.volume, surfaces, findings);
+    const InstrumentFindings findings = detect(s);
     ASSERT_NE(findings.nearest_tip(), nullptr) << scene.name << ": no instrument found";
     EXPECT_EQ(findings.tips.size(), 1u) << scene.name;
     const auto& tip = *findings.nearest_tip();
-    const double db = tip.bscan - s.tip.bscan, da = tip.ascan - s.tip.ascan,
-                 dz = tip.depth_px - s.tip.depth_px;
-    const double error = std::sqrt(db * db + da * da + dz * dz);
+    const double error = tip_error_vox(tip, s.tip);
     const double ilm_error = std::abs(tip.to_ilm_um - s.to_ilm_um);
     const double rpe_error = std::abs(tip.to_rpe_um - s.to_rpe_um);
     for (Errors* e : {&all, &metal}) {
@@ -108,19 +119,7 @@ InstrumentFindings find_in_field(const std::vector<const char*>& specs, SceneVol
   std::vector<sim::InstrumentConfig> tools;
   for (const char* spec : specs) tools.push_back(sim::parse_instrument_spec(spec, "test"));
   s = make_field_volume(tools, 512, 128);
-  gpu::segmentation::Surfaces surfaces;
-  gpu::segmentation::make_segmenter(gpu::Backend::cpu, {}, s.sampling, 2)
-      ->segment_volume(s.filtered, surfaces);
-  InstrumentFindings findings;
-  gpu::instruments::make_instrument_detector(gpu::Backend::cpu, {}, s.sampling, 2)
-      ->detect_volume(s.volume.volume, surfaces, findings);
-  return findings;
-}
-
-double tip_error_vox(const gpu::instruments::InstrumentTip& tip, const SceneVolume& s) {
-  const double db = tip.bscan - s.tip.bscan, da = tip.ascan - s.tip.ascan,
-               dz = tip.depth_px - s.tip.depth_px;
-  return std::sqrt(db * db + da * da + dz * dz);
+  return detect(s);
 }
 
 // The appliance's forceps scene (tools/ioct-demo --forceps): the pitched shaft rises out of the
@@ -140,8 +139,8 @@ TEST(InstrumentAccuracy, TheAppliancesForcepsIsOneToolThePiecesOfItsShaftInclude
     SceneVolume s;
     const InstrumentFindings findings = find_in_field({spec}, s);
     ASSERT_EQ(findings.tips.size(), 1u) << describe(findings);
-    const double error = tip_error_vox(findings.tips[0], s);
     const auto& tip = findings.tips[0];
+    const double error = tip_error_vox(tip, s.tip);
     std::printf(
         "[ figures  ] the appliance's forceps, %s: tip (%.1f %.1f %.1f) truth (%.1f %.1f %.1f) "
         "vox: error %.2f; ILM %+.1f (truth %+.1f) RPE %+.1f (truth %+.1f) um\n",
@@ -168,10 +167,7 @@ TEST(InstrumentAccuracy, ASmallToolBesideAnotherToolsShaftStaysATool) {
   EXPECT_LT(findings.tips[1].footprint_ascans * 8, findings.tips[0].footprint_ascans);
   for (std::size_t i = 0; i < 2; ++i) {
     const auto& tip = findings.tips[i];
-    const sim::VoxelPoint& truth = s.tool_tips[i];
-    const double db = tip.bscan - truth.bscan, da = tip.ascan - truth.ascan,
-                 dz = tip.depth_px - truth.depth_px;
-    const double error = std::sqrt(db * db + da * da + dz * dz);
+    const double error = tip_error_vox(tip, s.tool_tips[i]);
     std::printf("[ figures  ] tool %zu (%u A-scans): tip error %.2f vox\n", i, tip.footprint_ascans,
                 error);
     EXPECT_LE(error, kTipP95Vox) << "tool " << i;

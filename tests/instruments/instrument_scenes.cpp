@@ -30,7 +30,6 @@ namespace {
 SceneVolume simulate(seg_test::SimulatedVolumeSpec spec) {
   SceneVolume out;
   const sim::SimulationConfig& simulation = spec.simulation;
-  const sim::InstrumentConfig& tool = simulation.instruments.at(0);
   const std::uint32_t depth = spec.samples_per_ascan / 2;
   const double um_per_px = simulation.source.axial_pixel_um();
   const sim::RetinaModel retina(simulation.retina, um_per_px, depth);
@@ -44,14 +43,16 @@ SceneVolume simulate(seg_test::SimulatedVolumeSpec spec) {
   out.sampling.ascan_spacing_um = field_um * simulation.scan.extent_x / (spec.ascans - 1);
   out.sampling.bscan_spacing_um = field_um * simulation.scan.extent_y / (spec.bscans - 1);
 
-  // The poses as the simulator states them (the tools do not move in these scenes).
-  for (const sim::InstrumentConfig& each : simulation.instruments) {
-    const sim::InstrumentModel model(each, simulation.field_half_width_mm(), um_per_px, depth);
-    out.tool_tips.push_back(sim::tip_voxel(model.tip_state(each.pose), simulation.scan));
+  // The poses as the simulator states them (the tools do not move in these scenes); the first
+  // tool's tip with the surfaces under it.
+  sim::ToolState tip{};
+  for (const sim::InstrumentConfig& tool : simulation.instruments) {
+    const sim::InstrumentModel model(tool, simulation.field_half_width_mm(), um_per_px, depth);
+    const sim::ToolState state = model.tip_state(tool.pose);
+    if (out.tool_tips.empty()) tip = state;
+    out.tool_tips.push_back(sim::tip_voxel(state, simulation.scan));
   }
-  const sim::InstrumentModel model(tool, simulation.field_half_width_mm(), um_per_px, depth);
-  const sim::ToolState tip = model.tip_state(tool.pose);
-  out.tip = out.tool_tips.front();
+  out.tip = out.tool_tips.at(0);
   const sim::ColumnTruth under_tip = retina.layers({tip.tip_x, tip.tip_y});
   out.ilm_px = under_tip.ilm_px;
   out.rpe_px = under_tip.rpe_px;
