@@ -117,38 +117,54 @@ TEST(ColumnClassification, TheFloorRaisesEveryLevel) {
 // A flat retina (ILM 200 px, RPE 300 px) and a needle along +x whose end is a sphere of 20 A-scans'
 // radius centred at A-scan 40, B-scan 20: its reflexes on the sphere in front of the centre, a
 // straight top behind it; everything beneath it black.
-TEST(Tips, AToolDrawnIntoAFlatRetinaIsFoundWhereItWasDrawn) {
+struct DrawnNeedle {
+  static constexpr double kRadiusUm = 100.0, kCenterPx = 150.0;
   VolumeSampling sampling;
-  sampling.axial_um_per_px = 5.0;
-  sampling.ascan_spacing_um = 10.0;
-  sampling.bscan_spacing_um = 10.0;
   InstrumentConfig config;
-  config.medium_group_index = 1.0;
-  const std::uint32_t bscans = 41, ascans = 120;
-  Volume volume(bscans, ascans, kDepth);
+  Volume volume;
   segmentation::Surfaces surfaces;
-  surfaces.reset(bscans, ascans, kDepth);
-  const double radius_um = 100.0, center_px = 150.0;
+};
+
+DrawnNeedle drawn_needle() {
+  DrawnNeedle n;
+  n.sampling.axial_um_per_px = 5.0;
+  n.sampling.ascan_spacing_um = 10.0;
+  n.sampling.bscan_spacing_um = 10.0;
+  n.config.medium_group_index = 1.0;
+  const std::uint32_t bscans = 41, ascans = 120;
+  n.volume = Volume(bscans, ascans, kDepth);
+  n.surfaces.reset(bscans, ascans, kDepth);
+  const double radius_um = DrawnNeedle::kRadiusUm;
   for (std::uint32_t b = 0; b < bscans; ++b) {
     for (std::uint32_t a = 0; a < ascans; ++a) {
-      auto column = volume.bscan(b).subspan(std::size_t{a} * kDepth, kDepth);
+      auto column = n.volume.bscan(b).subspan(std::size_t{a} * kDepth, kDepth);
       std::fill(column.begin(), column.end(), std::uint8_t{0});
-      const std::size_t k = surfaces.index(b, a);
-      surfaces.state[k] = segmentation::SurfaceState::measured;
-      surfaces.ilm[k] = 200.0f;
-      surfaces.rpe[k] = 300.0f;
+      const std::size_t k = n.surfaces.index(b, a);
+      n.surfaces.state[k] = segmentation::SurfaceState::measured;
+      n.surfaces.ilm[k] = 200.0f;
+      n.surfaces.rpe[k] = 300.0f;
       const double dx = (static_cast<double>(a) - 40.0) * 10.0;
       const double dy = (static_cast<double>(b) - 20.0) * 10.0;
       const double across2 = dy * dy;
       const double d2 = dx <= 0.0 ? dx * dx + across2 : across2;  // the shaft runs to +x
       if (d2 < radius_um * radius_um) {
-        const double top = center_px - std::sqrt(radius_um * radius_um - d2) / 5.0;
+        const double top = DrawnNeedle::kCenterPx - std::sqrt(radius_um * radius_um - d2) / 5.0;
         column[static_cast<std::size_t>(std::lround(top))] = 250;
       } else {
         for (std::uint32_t z = 200; z < 320; ++z) column[z] = 120;
       }
     }
   }
+  return n;
+}
+
+TEST(Tips, AToolDrawnIntoAFlatRetinaIsFoundWhereItWasDrawn) {
+  DrawnNeedle n = drawn_needle();
+  const Volume& volume = n.volume;
+  const segmentation::Surfaces& surfaces = n.surfaces;
+  const VolumeSampling& sampling = n.sampling;
+  InstrumentConfig& config = n.config;
+  const double center_px = DrawnNeedle::kCenterPx;
   InstrumentFindings findings;
   make_instrument_detector(Backend::cpu, config, sampling, 1)
       ->detect_volume(volume, surfaces, findings);
@@ -190,6 +206,38 @@ TEST(Tips, GroupsOutsideTheVolumeAreRefused) {
   InstrumentFindings findings;
   const auto detector = make_instrument_detector(Backend::cpu, {}, {}, 1);
   EXPECT_THROW(detector->detect_group(volume, {6, 4}, {}, findings), std::out_of_range);
+}
+
+// detect_group in two halves (the live stages render between them): begun group by group and
+// ended once, or a group begun while another is pending (which ends that one first, without
+// tips), the findings are detect_volume's to the bit. Ending none, or other findings, is refused.
+TEST(Tips, AGroupBegunAndEndedLaterIsDetectGroupInTwoHalves) {
+  const DrawnNeedle n = drawn_needle();
+  const auto detector = make_instrument_detector(Backend::cpu, n.config, n.sampling, 2);
+  InstrumentFindings whole;
+  detector->detect_volume(n.volume, n.surfaces, whole);
+  ASSERT_EQ(whole.tips.size(), 1u);
+
+  InstrumentFindings halves;
+  for (std::uint32_t first = 0; first < n.volume.bscans(); first += 8) {
+    const std::uint32_t count = std::min(8u, n.volume.bscans() - first);
+    detector->begin_group(VolumeRef::on_host(n.volume), {first, count}, halves);
+  }
+  detector->end_group(n.surfaces, halves);
+  EXPECT_EQ(halves.columns, whole.columns);
+  EXPECT_EQ(halves.mask, whole.mask);
+  ASSERT_EQ(halves.tips.size(), 1u);
+  EXPECT_EQ(halves.tips[0].ascan, whole.tips[0].ascan);
+  EXPECT_EQ(halves.tips[0].bscan, whole.tips[0].bscan);
+  EXPECT_EQ(halves.tips[0].depth_px, whole.tips[0].depth_px);
+  EXPECT_EQ(halves.tips[0].to_rpe_um, whole.tips[0].to_rpe_um);
+
+  EXPECT_THROW(detector->end_group(n.surfaces, halves), std::logic_error);  // none pending
+  InstrumentFindings other;
+  detector->begin_group(VolumeRef::on_host(n.volume), {0, 8}, halves);
+  EXPECT_THROW(detector->end_group(n.surfaces, other), std::logic_error);
+  detector->end_group(n.surfaces, halves);  // still pending after the refusal
+  EXPECT_EQ(halves.tips.size(), 1u);
 }
 
 // A tool whose rounded end's centre lies beyond the volume's first A-scan: its fitted sphere's

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <optional>
 #include <random>
 #include <string>
@@ -102,6 +103,22 @@ class DeviceCopy {
   gpu::cuda::Stream stream_;
   gpu::VolumeDims dims_;
 };
+
+// A scene's volume with its CPU segmentation, both detections and the volume's device copy.
+struct SceneOnBoth {
+  explicit SceneOnBoth(const InstrumentScene& scene)
+      : s(make_scene_volume(scene)),
+        cpu(gpu::instruments::make_instrument_detector(gpu::Backend::cpu, {}, s.sampling, 2)),
+        cuda(gpu::instruments::make_instrument_detector(gpu::Backend::cuda, {}, s.sampling, 1)),
+        device(s.volume.volume) {
+    gpu::segmentation::make_segmenter(gpu::Backend::cpu, {}, s.sampling, 2)
+        ->segment_volume(s.filtered, surfaces);
+  }
+  SceneVolume s;
+  gpu::segmentation::Surfaces surfaces;
+  std::unique_ptr<gpu::instruments::InstrumentDetector> cpu, cuda;
+  DeviceCopy device;
+};
 #endif
 
 TEST(InstrumentsCudaVsCpu, ADeviceVolumeReadInPlaceGivesTheCpusFindings) {
@@ -110,15 +127,12 @@ TEST(InstrumentsCudaVsCpu, ADeviceVolumeReadInPlaceGivesTheCpusFindings) {
     GTEST_SKIP() << "CUDA instrument detection not tested: " << *why;
   }
   for (const InstrumentScene& scene : instrument_scenes()) {
-    const SceneVolume s = make_scene_volume(scene);
-    gpu::segmentation::Surfaces surfaces;
-    gpu::segmentation::make_segmenter(gpu::Backend::cpu, {}, s.sampling, 2)
-        ->segment_volume(s.filtered, surfaces);
-    const auto cpu =
-        gpu::instruments::make_instrument_detector(gpu::Backend::cpu, {}, s.sampling, 2);
-    const auto cuda =
-        gpu::instruments::make_instrument_detector(gpu::Backend::cuda, {}, s.sampling, 1);
-    const DeviceCopy device(s.volume.volume);
+    const SceneOnBoth both(scene);
+    const SceneVolume& s = both.s;
+    const gpu::segmentation::Surfaces& surfaces = both.surfaces;
+    const auto& cpu = both.cpu;
+    const auto& cuda = both.cuda;
+    const DeviceCopy& device = both.device;
     const gpu::cuda::BusTraffic before = gpu::cuda::bus_traffic();
     InstrumentFindings a, b;
     for (std::uint32_t first = 0; first < s.volume.volume.bscans(); first += 16) {
@@ -130,6 +144,34 @@ TEST(InstrumentsCudaVsCpu, ADeviceVolumeReadInPlaceGivesTheCpusFindings) {
     expect_same_findings(a, b, scene.name + " (device volume)");
     // The CPU detection refuses a device volume, naming why.
     EXPECT_THROW(cpu->detect_group(device.ref(), {0, 16}, surfaces, a), std::invalid_argument);
+  }
+#else
+  GTEST_SKIP() << "this build has no CUDA instrument detection";
+#endif
+}
+
+// As the live stages run it: each group's classification begun on the device volume, the host
+// busy meanwhile (here the CPU's detection of the same group), then ended; and the groups of a
+// volume begun one after another with only the last ended (each begin ends the pending one).
+// The same findings as the CPU's, to the bit.
+TEST(InstrumentsCudaVsCpu, AGroupBegunOnTheDeviceAndEndedLaterGivesTheCpusFindings) {
+#if IOCT_INSTRUMENTS_HAVE_CUDA
+  if (const auto why = cuda_detection_unavailable()) GTEST_SKIP() << *why;
+  for (const InstrumentScene& scene : instrument_scenes()) {
+    const SceneOnBoth both(scene);
+    const gpu::Volume& volume = both.s.volume.volume;
+    InstrumentFindings cpu, begun, all_begun;
+    for (std::uint32_t first = 0; first < volume.bscans(); first += 16) {
+      both.cuda->begin_group(both.device.ref(), {first, 16}, begun);
+      both.cpu->detect_group(volume, {first, 16}, both.surfaces, cpu);
+      both.cuda->end_group(both.surfaces, begun);
+      expect_same_findings(cpu, begun, scene.name + " (begun, ended after the CPU's)");
+    }
+    for (std::uint32_t first = 0; first < volume.bscans(); first += 16) {
+      both.cuda->begin_group(both.device.ref(), {first, 16}, all_begun);
+    }
+    both.cuda->end_group(both.surfaces, all_begun);
+    expect_same_findings(cpu, all_begun, scene.name + " (every group begun, the last ended)");
   }
 #else
   GTEST_SKIP() << "this build has no CUDA instrument detection";

@@ -9,6 +9,7 @@
 #include <span>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "ioct/gpu/instruments/column_classification.hpp"
 
@@ -245,7 +246,7 @@ CudaInstrumentDetector::CudaInstrumentDetector(const InstrumentConfig& config,
     : InstrumentDetector((require_device(), config), sampling) {}
 
 void CudaInstrumentDetector::classify(VolumeRef volume, BscanSpan group, const ColumnParams& params,
-                                      InstrumentFindings& findings) {
+                                      InstrumentFindings&) {
   const VolumeDims& dims = volume.dims();
   const std::size_t ascans = dims.ascans;
   const std::size_t columns = std::size_t{group.count} * ascans;
@@ -293,8 +294,16 @@ void CudaInstrumentDetector::classify(VolumeRef volume, BscanSpan group, const C
       group_pixels, static_cast<std::uint32_t>(ascans), params, floors, kinds, reflexes, fronts);
   cuda::check_launch("instruments: classify_columns");
   download_.add(results_.data(), (2 * columns) * sizeof(float) + columns + group.count);
-  download_.fetch(stream, cuda::Payload::other,
-                  "instruments: the A-scans' kinds, reflexes, fronts and floors to the host");
+  download_.enqueue(stream, cuda::Payload::other,
+                    "instruments: the A-scans' kinds, reflexes, fronts and floors to the host");
+  in_flight_ = {group, ascans};
+}
+
+void CudaInstrumentDetector::collect(InstrumentFindings& findings) {
+  if (!in_flight_) return;
+  const auto [group, ascans] = *std::exchange(in_flight_, std::nullopt);
+  download_.wait(stream_.get());
+  const std::size_t columns = std::size_t{group.count} * ascans;
   const std::byte* block = download_.piece(0).data();
   const std::size_t offset = std::size_t{group.first} * ascans;
   static_assert(sizeof(ColumnKind) == 1, "the kernel writes one byte per A-scan's kind");

@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "ioct/gpu/instruments/cpu_instrument_detector.hpp"
 #if IOCT_INSTRUMENTS_HAVE_CUDA
@@ -20,6 +21,13 @@ InstrumentDetector::InstrumentDetector(const InstrumentConfig& config,
 void InstrumentDetector::detect_group(VolumeRef volume, BscanSpan group,
                                       const segmentation::Surfaces& surfaces,
                                       InstrumentFindings& findings) {
+  begin_group(volume, group, findings);
+  end_group(surfaces, findings);
+}
+
+void InstrumentDetector::begin_group(VolumeRef volume, BscanSpan group,
+                                     InstrumentFindings& findings) {
+  if (pending_ != nullptr) collect(*std::exchange(pending_, nullptr));
   const VolumeDims& dims = volume.dims();
   if (group.end() > dims.bscans || group.end() < group.first) {
     throw std::out_of_range("instruments: B-scans [" + std::to_string(group.first) + ", " +
@@ -35,6 +43,17 @@ void InstrumentDetector::detect_group(VolumeRef volume, BscanSpan group,
   if (group.count > 0) {
     classify(volume, group, make_column_params(config_, sampling_, dims.depth), findings);
   }
+  pending_ = &findings;
+}
+
+void InstrumentDetector::end_group(const segmentation::Surfaces& surfaces,
+                                   InstrumentFindings& findings) {
+  if (pending_ == nullptr) throw std::logic_error("instruments: end_group() with no group begun");
+  if (pending_ != &findings) {
+    throw std::logic_error("instruments: end_group() for other findings than begin_group()'s");
+  }
+  pending_ = nullptr;
+  collect(findings);
   tip_finder_.find(findings, surfaces, config_, sampling_);
 }
 

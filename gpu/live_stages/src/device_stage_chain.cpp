@@ -50,7 +50,7 @@ struct DeviceStageChain::Impl {
   cuda::Event pending_ready;
   cuda::Event input_taken;
   bool input_taken_recorded = false;
-  cuda::TimingEvent started, filtered_done, segmented_done, rendered_done;
+  cuda::TimingEvent started, filtered_done, segmented_done, rendered_done, pass_done;
 
   VolumeDims pending_dims, input_dims;
   cuda::DeviceArray<std::uint8_t> pending, input, filtered;
@@ -233,9 +233,9 @@ DeviceStageChain::Taken DeviceStageChain::take_host(const Volume& pending, std::
   return {first, count};
 }
 
-DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t first, std::uint32_t count,
-                                                       const render::RenderConfig& view,
-                                                       render::RgbaImage* frame) {
+DeviceStageChain::PassTimes DeviceStageChain::run_pass(
+    std::uint32_t first, std::uint32_t count, const render::RenderConfig& view,
+    render::RgbaImage* frame, const std::function<void()>& while_rendering) {
   Impl& m = *impl_;
   cudaStream_t stream = m.stream.get();
   const VolumeDims dims = m.input_dims;
@@ -258,13 +258,13 @@ DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t first, std:
   m.segmented_done.record(stream);
   IOCT_CUDA_CHECK(cudaStreamWaitEvent(m.render_stream.get(), m.segmented_done.get(), 0));
   m.renderer.update_layers(m.segmenter.device_surfaces());
-  if (frame != nullptr) {
-    m.renderer.render(view, *frame);
-  } else {
-    m.renderer.render_on_device(view);
-  }
+  m.renderer.render_on_device(view);
   m.rendered_done.record(m.render_stream.get());
-  IOCT_CUDA_CHECK(cudaEventSynchronize(m.rendered_done.get()));
+  if (while_rendering) while_rendering();
+  // The frame's copy to pageable memory returns only once it is done: after the host's work.
+  if (frame != nullptr) m.renderer.download_frame(*frame);
+  m.pass_done.record(m.render_stream.get());
+  IOCT_CUDA_CHECK(cudaEventSynchronize(m.pass_done.get()));
   const std::uint64_t now = ioct::monotonic_ns();
 
   PassTimes t;
@@ -272,8 +272,10 @@ DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t first, std:
   t.segment_ms = m.segmented_done.ms_since(m.filtered_done);
   t.render_ms = m.rendered_done.ms_since(m.segmented_done);
   t.rendered_ns = now;
-  t.segmented_ns = ns_before(now, static_cast<float>(t.render_ms));
-  t.filtered_ns = ns_before(now, static_cast<float>(t.render_ms + t.segment_ms));
+  // Back from the pass's end (`now`, within microseconds of it) by the device's own times.
+  const double after_render_ms = m.pass_done.ms_since(m.rendered_done);
+  t.segmented_ns = ns_before(now, static_cast<float>(after_render_ms + t.render_ms));
+  t.filtered_ns = ns_before(now, static_cast<float>(after_render_ms + t.render_ms + t.segment_ms));
   t.changed_first = affected.first;  // the segmentation's reach covers the filter's outputs
   t.changed_count = affected.count;
   return t;
@@ -365,7 +367,8 @@ DeviceStageChain::Taken DeviceStageChain::take_host(const Volume&, std::uint32_t
 }
 DeviceStageChain::PassTimes DeviceStageChain::run_pass(std::uint32_t, std::uint32_t,
                                                        const render::RenderConfig&,
-                                                       render::RgbaImage*) {
+                                                       render::RgbaImage*,
+                                                       const std::function<void()>&) {
   throw std::logic_error("live stages: built without CUDA");
 }
 void DeviceStageChain::use_render_volume(render::RenderMode) {

@@ -25,6 +25,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 
 #include "ioct/gpu/ingest/live_stage.hpp"
@@ -52,9 +53,10 @@ namespace ioct::gpu::live {
 
 class DeviceStageChain {
  public:
-  // Device time of each stage of a pass, ms, and when the frame was done (CLOCK_MONOTONIC). The
-  // render's is from the segmentation's end: the renderer's volume update overlaps the
-  // segmentation and is not in it.
+  // Device time of each stage of a pass, ms, and when the pass was done (CLOCK_MONOTONIC: the
+  // frame on the host when one was asked for, and the work while rendering). The render's is
+  // from the segmentation's end to the frame in device memory: the renderer's volume update
+  // overlaps the segmentation and is not in it, the frame's copy to the host follows it.
   struct PassTimes {
     double filter_ms = 0.0, segment_ms = 0.0, render_ms = 0.0;
     std::uint64_t filtered_ns = 0, segmented_ns = 0, rendered_ns = 0;
@@ -96,9 +98,12 @@ class DeviceStageChain {
 
   // Stages' thread: filter -> segment -> render the input's B-scans [first, first + count) (as
   // take() returned them), the renderer's volume the one view.mode renders from; the frame comes
-  // back into `frame` only when one is given.
+  // back into `frame` only when one is given. `while_rendering` (when given) runs on the host once
+  // the render is enqueued, before the pass waits for it: host work on the pass's results (the
+  // instrument's tips) done while the device renders. It may call download_surfaces(). The
+  // frame's copy follows it, so rendered_ns is then when both the frame and that work were done.
   PassTimes run_pass(std::uint32_t first, std::uint32_t count, const render::RenderConfig& view,
-                     render::RgbaImage* frame);
+                     render::RgbaImage* frame, const std::function<void()>& while_rendering = {});
 
   // Stages' thread, before a render in `mode` between passes: when `mode` renders from another
   // volume than the renderer holds, the whole input is filtered for it (or the filtered volume

@@ -524,13 +524,24 @@ void VolumeStages::use_render_volume(render::RenderMode mode) {
 
 std::uint64_t VolumeStages::detect_instruments(VolumeRef input, std::uint32_t first,
                                                std::uint32_t count) {
+  begin_instruments(input, first, count);
+  return end_instruments();
+}
+
+void VolumeStages::begin_instruments(VolumeRef input, std::uint32_t first, std::uint32_t count) {
   const std::uint64_t t0 = ioct::monotonic_ns();
   // On the processed B-scans: the median filter erases a tool's thin, tilted reflex.
-  detector_->detect_group(input, {first, count}, surfaces_, findings_);
+  detector_->begin_group(input, {first, count}, findings_);
+  instruments_begin_ns_ = ioct::monotonic_ns() - t0;
+}
+
+std::uint64_t VolumeStages::end_instruments() {
+  const std::uint64_t t0 = ioct::monotonic_ns();
+  detector_->end_group(surfaces_, findings_);
   tip_bscans_stale_ = true;
   const std::uint64_t t1 = ioct::monotonic_ns();
   std::lock_guard lock(mutex_);
-  figures_.instruments.record(t1 - t0);
+  figures_.instruments.record(instruments_begin_ns_ + (t1 - t0));
   return t1;
 }
 
@@ -605,16 +616,21 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
   const DueRender shared = take_shared_render(waiters);
   const bool frame_wanted =
       publisher_ != nullptr || !waiters.empty() || live_image_due(ioct::monotonic_ns());
-  const DeviceStageChain::PassTimes t =
-      device_->run_pass(first, count, shared.config, frame_wanted ? &image_ : nullptr);
   std::uint64_t detected_ns = 0;
+  std::function<void()> while_rendering;
   if (detector_ != nullptr) {
-    // After the frame, before it is published: the frame carries the instrument of the volume
-    // state it shows. The classes come from the input in place; the surfaces come to the host
-    // for the tips' distances (a few hundred kB).
-    device_->download_surfaces(surfaces_);
-    detected_ns = detect_instruments(device_->input(), first, count);
+    // The A-scans' classes from the input in place, on the detector's stream beside the filter
+    // and the segmentation; the surfaces come to the host (a few hundred kB) and the tips are
+    // found there while the device renders. The frame, published after both, carries the
+    // instrument of the volume state it shows.
+    begin_instruments(device_->input(), first, count);
+    while_rendering = [this, &detected_ns] {
+      device_->download_surfaces(surfaces_);
+      detected_ns = end_instruments();
+    };
   }
+  const DeviceStageChain::PassTimes t = device_->run_pass(
+      first, count, shared.config, frame_wanted ? &image_ : nullptr, while_rendering);
   last_render_ns_ = t.rendered_ns;
   note_bscans_changed(t.changed_first, t.changed_count);
   const auto ns = [](double ms) { return static_cast<std::uint64_t>(ms * 1e6); };

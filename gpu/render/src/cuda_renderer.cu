@@ -717,13 +717,18 @@ void CudaRenderer::render_on_device(const RenderConfig& config) {
   IOCT_CUDA_CHECK(cudaGetLastError());
 }
 
-void CudaRenderer::render(const RenderConfig& config, RgbaImage& image) {
-  render_on_device(config);
+void CudaRenderer::download_frame(RgbaImage& image) {
+  if (state_->width == 0) throw std::logic_error("download_frame() before render_on_device()");
   image.resize(state_->width, state_->height);
   cuda::copy_async(image.rgba.data(), state_->image.data(), image.rgba.size(),
                    cudaMemcpyDeviceToHost, state_->stream, cuda::Payload::other,
                    "copy of the frame to the host");
   IOCT_CUDA_CHECK(cudaStreamSynchronize(state_->stream));
+}
+
+void CudaRenderer::render(const RenderConfig& config, RgbaImage& image) {
+  render_on_device(config);
+  download_frame(image);
 }
 
 LayerReference CudaRenderer::layer_reference() const {

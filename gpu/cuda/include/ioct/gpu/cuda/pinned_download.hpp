@@ -2,9 +2,10 @@
 // synchronous and several times slower (a 128 x 512 volume's surfaces: 0.61 ms pageable, 0.19 ms
 // pinned, H100 host), and every live pass with instruments brings several back.
 //
-// Usage: add() the device ranges, fetch() on the stream that wrote them (one synchronisation),
-// then read piece(i) or take() it into a host vector. The block is kept and grows, never shrinks,
-// so a steady stream of equal downloads allocates nothing after the first.
+// Usage: add() the device ranges, fetch() on the stream that wrote them (one synchronisation;
+// or enqueue() now and wait() later), then read piece(i) or take() it into a host vector. The block
+// is kept and grows, never shrinks, so a steady stream of equal downloads allocates nothing after
+// the first.
 #pragma once
 
 #include <array>
@@ -30,6 +31,7 @@ class PinnedDownload {
   // first add() after a fetch() begins the next download: the last one's pieces are gone.
   std::size_t add(const void* device, std::size_t bytes) {
     fetched_ = 0;
+    if (in_flight_ != 0) throw std::logic_error("PinnedDownload: a download is in flight");
     if (count_ == kMaxPieces) throw std::logic_error("PinnedDownload: more than 8 pieces");
     const std::size_t offset = count_ == 0 ? 0 : aligned(end_of(count_ - 1));
     pieces_[count_] = {device, offset, bytes};
@@ -40,7 +42,17 @@ class PinnedDownload {
   // emptied whatever happens (a failed download leaves nothing behind for the next one); the
   // pieces stay readable until the next add().
   void fetch(cudaStream_t stream, Payload payload, const char* what) {
+    enqueue(stream, payload, what);
+    wait(stream);
+  }
+
+  // fetch() in two halves, for a host with work to do while the copies run: enqueue() queues
+  // them on `stream` (the queue emptied whatever happens), wait() waits for that stream and makes
+  // the pieces readable. Nothing is readable in between, and the block is not to be touched:
+  // another add() before wait() throws.
+  void enqueue(cudaStream_t stream, Payload payload, const char* what) {
     fetched_ = 0;
+    if (in_flight_ != 0) throw std::logic_error("PinnedDownload: a download is in flight");
     const std::size_t count = std::exchange(count_, 0);
     const std::size_t total = count == 0 ? 0 : end_of(count - 1);
     if (block_.size() < total) block_.resize(total);
@@ -49,6 +61,10 @@ class PinnedDownload {
       copy_async(block_.data() + pieces_[i].offset, pieces_[i].device, pieces_[i].bytes,
                  cudaMemcpyDeviceToHost, stream, payload, what);
     }
+    in_flight_ = count;
+  }
+  void wait(cudaStream_t stream) {
+    const std::size_t count = std::exchange(in_flight_, 0);
     IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
     fetched_ = count;
   }
@@ -84,6 +100,7 @@ class PinnedDownload {
   std::array<Piece, kMaxPieces> pieces_{};
   std::size_t count_ = 0;
   std::size_t fetched_ = 0;
+  std::size_t in_flight_ = 0;  // pieces enqueued and not waited for
 };
 
 }  // namespace ioct::gpu::cuda

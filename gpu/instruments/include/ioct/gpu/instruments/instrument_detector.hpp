@@ -41,6 +41,16 @@ class InstrumentDetector {
     detect_group(VolumeRef::on_host(volume), group, surfaces, findings);
   }
 
+  // detect_group in two halves, for a caller with work of its own meanwhile (the live stages
+  // render while the classes come): begin_group checks the group and starts its classification
+  // (the CUDA detection enqueues it on its own stream, after the work the volume's stream has so
+  // far, and returns; the CPU one classifies before it returns), end_group takes the classes into
+  // the same `findings` and finds the tips. In between, `findings` is not to be read nor the
+  // group's B-scans written. A begin_group while one is pending ends that one first (no tips);
+  // end_group with none pending, or for other findings, throws std::logic_error.
+  void begin_group(VolumeRef volume, BscanSpan group, InstrumentFindings& findings);
+  void end_group(const segmentation::Surfaces& surfaces, InstrumentFindings& findings);
+
   // Every B-scan of `volume`.
   void detect_volume(const Volume& volume, const segmentation::Surfaces& surfaces,
                      InstrumentFindings& findings);
@@ -52,13 +62,17 @@ class InstrumentDetector {
  protected:
   InstrumentDetector(const InstrumentConfig& config, const VolumeSampling& sampling);
   // The classification of B-scans `group` into findings.mask, reflex_px and floor (sized).
+  // The CUDA detection may return with the classification enqueued; collect() then waits for it
+  // and writes it into the same findings (the CPU one has nothing to collect).
   virtual void classify(VolumeRef volume, BscanSpan group, const ColumnParams& params,
                         InstrumentFindings& findings) = 0;
+  virtual void collect(InstrumentFindings& findings) { (void)findings; }
 
  private:
   InstrumentConfig config_;
   VolumeSampling sampling_;
-  TipFinder tip_finder_;  // its buffers serve every group
+  TipFinder tip_finder_;                   // its buffers serve every group
+  InstrumentFindings* pending_ = nullptr;  // begun, not ended
 };
 
 // Validates both. Backend::automatic takes CUDA where the build and the machine have it;

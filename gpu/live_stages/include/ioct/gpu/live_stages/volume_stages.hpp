@@ -85,8 +85,9 @@ struct StagesPass {
   bool on_device = false;
   bool rendered = false;
   std::uint64_t taken_ns = 0, filtered_ns = 0, segmented_ns = 0, rendered_ns = 0;
-  // With instruments.enabled: when the pass's tips were found (on the device chain after the
-  // frame was rendered, before it is published; on the host before the render). Else 0.
+  // With instruments.enabled: when the pass's tips were found (on the device chain while the
+  // device renders, the classification having run beside the filter and the segmentation; on the
+  // host before the render). Else 0. The frame is published after both.
   std::uint64_t detected_ns = 0;
 };
 class FramePublisher;
@@ -210,6 +211,10 @@ class VolumeStages final : public LiveStage, public ViewControl {
   // The instrument detection of the pass's new B-scans [first, first + count) of `input` (the
   // unfiltered volume, host or device) with surfaces_; its time. Returns when it ended.
   std::uint64_t detect_instruments(VolumeRef input, std::uint32_t first, std::uint32_t count);
+  // The same in two halves (the device chain: begun with the pass, ended while it renders); the
+  // time recorded is the stages' thread's in both.
+  void begin_instruments(VolumeRef input, std::uint32_t first, std::uint32_t count);
+  std::uint64_t end_instruments();
   // The findings' line and JSON for the status and the summary, once the pass's frame is out.
   void note_instrument_findings();
   // Host path: the pass's new input B-scans [first, first + count) to the renderer, from the
@@ -275,8 +280,9 @@ class VolumeStages final : public LiveStage, public ViewControl {
   std::unique_ptr<segmentation::Segmenter> segmenter_;
   std::unique_ptr<instruments::InstrumentDetector> detector_;  // null unless enabled
   instruments::InstrumentFindings findings_;
-  instruments::TipBscans tip_bscans_;  // through the nearest tip, cut when frames need them
-  bool tip_bscans_stale_ = false;      // new findings since the publisher encoded the pair
+  instruments::TipBscans tip_bscans_;       // through the nearest tip, cut when frames need them
+  std::uint64_t instruments_begin_ns_ = 0;  // begin_instruments()'s share of the pass's time
+  bool tip_bscans_stale_ = false;           // new findings since the publisher encoded the pair
   std::unique_ptr<render::Renderer> renderer_;
   // The renderer's own filter (Weiss's per-B-scan median), null unless render_filter_by_mode; on
   // the host path its volume render_filtered_, kept only while the renderer holds it.

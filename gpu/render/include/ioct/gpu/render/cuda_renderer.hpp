@@ -46,6 +46,10 @@ class CudaRenderer final : public Renderer {
 
   // Renders into device memory only and returns at once (stream-ordered): for timing.
   void render_on_device(const RenderConfig& config);
+  // The last render_on_device()'s frame into `image` (after the work on the renderer's stream;
+  // returns once it is there). render() is the two in a row; a caller with host work of its own
+  // does it between them, while the device renders.
+  void download_frame(RgbaImage& image);
   void synchronize();
   // The layer reference of the last update, brought to the host (tests: the CPU reference's
   // make_layer_reference() on the same surfaces gives the same).
