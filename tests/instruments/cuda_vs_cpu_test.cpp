@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -14,6 +15,7 @@
 #include <optional>
 #include <random>
 #include <string>
+#include <thread>
 
 #include "instrument_scenes.hpp"
 #include "ioct/gpu/instruments/instrument_detector.hpp"
@@ -173,6 +175,60 @@ TEST(InstrumentsCudaVsCpu, AGroupBegunOnTheDeviceAndEndedLaterGivesTheCpusFindin
     both.cuda->end_group(both.surfaces, all_begun);
     expect_same_findings(cpu, all_begun, scene.name + " (every group begun, the last ended)");
   }
+#else
+  GTEST_SKIP() << "this build has no CUDA instrument detection";
+#endif
+}
+
+#if IOCT_INSTRUMENTS_HAVE_CUDA
+void CUDART_CB hold_the_stream(void* milliseconds) {
+  std::this_thread::sleep_for(std::chrono::milliseconds(*static_cast<int*>(milliseconds)));
+}
+#endif
+
+// begin_group returns without waiting for the volume's stream, and its classification still
+// comes after what that stream had queued: here the stream is held on the host for 200 ms, then
+// fills the device volume (zeros before). While held, begin_group has returned; the findings
+// ended after it are those of the filled volume. A group of no B-scans begun and ended changes
+// nothing but the tips' search; a detect_volume while a group is pending settles that group first.
+TEST(InstrumentsCudaVsCpu, BeginGroupReturnsAtOnceAndClassifiesAfterTheVolumesStream) {
+#if IOCT_INSTRUMENTS_HAVE_CUDA
+  if (const auto why = cuda_detection_unavailable()) GTEST_SKIP() << *why;
+  const InstrumentScene& scene = instrument_scenes().front();
+  const SceneOnBoth both(scene);
+  const gpu::Volume& volume = both.s.volume.volume;
+  InstrumentFindings cpu;
+  both.cpu->detect_volume(volume, both.surfaces, cpu);
+  ASSERT_FALSE(cpu.tips.empty()) << scene.name;
+
+  gpu::cuda::PinnedArray<std::uint8_t> pinned(volume.pixels().size());
+  std::memcpy(pinned.data(), volume.pixels().data(), volume.pixels().size());
+  gpu::cuda::DeviceArray<std::uint8_t> pixels(volume.pixels().size());
+  gpu::cuda::Stream writer;
+  ASSERT_EQ(cudaMemsetAsync(pixels.data(), 0, pixels.bytes(), writer.get()), cudaSuccess);
+  int hold_ms = 200;
+  ASSERT_EQ(cudaLaunchHostFunc(writer.get(), hold_the_stream, &hold_ms), cudaSuccess);
+  ASSERT_EQ(cudaMemcpyAsync(pixels.data(), pinned.data(), pixels.bytes(), cudaMemcpyHostToDevice,
+                            writer.get()),
+            cudaSuccess);
+  const gpu::VolumeRef ref =
+      gpu::VolumeRef::on_device(pixels.data(), gpu::VolumeDims::of(volume), writer.get());
+  InstrumentFindings begun;
+  both.cuda->begin_group(ref, {0, volume.bscans()}, begun);
+  EXPECT_EQ(cudaStreamQuery(writer.get()), cudaErrorNotReady)
+      << "begin_group waited for the volume's stream";
+  both.cuda->end_group(both.surfaces, begun);
+  expect_same_findings(cpu, begun, scene.name + " (the volume filled after begin_group)");
+
+  both.cuda->begin_group(ref, {8, 0}, begun);
+  both.cuda->end_group(both.surfaces, begun);
+  expect_same_findings(cpu, begun, scene.name + " (a group of no B-scans)");
+
+  InstrumentFindings pending, whole;
+  both.cuda->begin_group(ref, {0, 16}, pending);
+  both.cuda->detect_volume(volume, both.surfaces, whole);
+  expect_same_findings(cpu, whole, scene.name + " (detect_volume with a group pending)");
+  EXPECT_THROW(both.cuda->end_group(both.surfaces, pending), std::logic_error) << "settled";
 #else
   GTEST_SKIP() << "this build has no CUDA instrument detection";
 #endif

@@ -302,8 +302,12 @@ void CudaInstrumentDetector::classify(VolumeRef volume, BscanSpan group, const C
 void CudaInstrumentDetector::collect(InstrumentFindings& findings) {
   if (!in_flight_) return;
   const auto [group, ascans] = *std::exchange(in_flight_, std::nullopt);
-  download_.wait(stream_.get());
+  download_.wait();
   const std::size_t columns = std::size_t{group.count} * ascans;
+  if (findings.ascans != ascans || group.end() > findings.bscans) {
+    // Findings reset for other dimensions since the group began: its classes have no place there.
+    throw std::logic_error("instruments: the findings changed dimensions while a group was begun");
+  }
   const std::byte* block = download_.piece(0).data();
   const std::size_t offset = std::size_t{group.first} * ascans;
   static_assert(sizeof(ColumnKind) == 1, "the kernel writes one byte per A-scan's kind");

@@ -27,7 +27,7 @@ void InstrumentDetector::detect_group(VolumeRef volume, BscanSpan group,
 
 void InstrumentDetector::begin_group(VolumeRef volume, BscanSpan group,
                                      InstrumentFindings& findings) {
-  if (pending_ != nullptr) collect(*std::exchange(pending_, nullptr));
+  drop_group();
   const VolumeDims& dims = volume.dims();
   if (group.end() > dims.bscans || group.end() < group.first) {
     throw std::out_of_range("instruments: B-scans [" + std::to_string(group.first) + ", " +
@@ -57,8 +57,13 @@ void InstrumentDetector::end_group(const segmentation::Surfaces& surfaces,
   tip_finder_.find(findings, surfaces, config_, sampling_);
 }
 
+void InstrumentDetector::drop_group() {
+  if (pending_ != nullptr) collect(*std::exchange(pending_, nullptr));
+}
+
 void InstrumentDetector::detect_volume(const Volume& volume, const segmentation::Surfaces& surfaces,
                                        InstrumentFindings& findings) {
+  drop_group();  // before the reset: a pending group's classes go where it began
   findings.reset(volume.bscans(), volume.ascans());
   detect_group(volume, {0, volume.bscans()}, surfaces, findings);
 }

@@ -13,7 +13,8 @@
 // segmentation runs (its searches leave most of the GPU idle), the layer reference and the frame
 // once the surfaces are made. Each works on the previous one's device output, with no copy of the
 // volume to the host and no wait for the host in between (the renderer makes its layer reference
-// on the device too); the pass ends by waiting for its frame. Only what is asked for (a frame to
+// on the device too); the pass ends by waiting for its frame (and for the host's work done while
+// the device renders: with instrument detection, the tips). Only what is asked for (a frame to
 // write, the files at the end; with instrument detection the surfaces, the A-scans' classes and the
 // tip's B-scan pair) comes back.
 //
@@ -55,8 +56,8 @@ class DeviceStageChain {
  public:
   // Device time of each stage of a pass, ms, and when the pass was done (CLOCK_MONOTONIC: the
   // frame on the host when one was asked for, and the work while rendering). The render's is
-  // from the segmentation's end to the frame in device memory: the renderer's volume update
-  // overlaps the segmentation and is not in it, the frame's copy to the host follows it.
+  // from the segmentation's end to the frame in device memory, or on the host when one was asked
+  // for: the renderer's volume update overlaps the segmentation and is not in it.
   struct PassTimes {
     double filter_ms = 0.0, segment_ms = 0.0, render_ms = 0.0;
     std::uint64_t filtered_ns = 0, segmented_ns = 0, rendered_ns = 0;
@@ -100,8 +101,8 @@ class DeviceStageChain {
   // take() returned them), the renderer's volume the one view.mode renders from; the frame comes
   // back into `frame` only when one is given. `while_rendering` (when given) runs on the host once
   // the render is enqueued, before the pass waits for it: host work on the pass's results (the
-  // instrument's tips) done while the device renders. It may call download_surfaces(). The
-  // frame's copy follows it, so rendered_ns is then when both the frame and that work were done.
+  // instrument's tips) done while the device renders and the frame comes back. It may call
+  // download_surfaces(). rendered_ns is then when both the frame and that work were done.
   PassTimes run_pass(std::uint32_t first, std::uint32_t count, const render::RenderConfig& view,
                      render::RgbaImage* frame, const std::function<void()>& while_rendering = {});
 
@@ -117,10 +118,10 @@ class DeviceStageChain {
   // last pass's surfaces drawn over it (segmentation::make_overlay's picture), drawn on the
   // device, so that only the picture comes to the host. Returns once it is in `image`.
   void bscan_overlay(std::uint32_t bscan, segmentation::RgbImage& image);
-  // The surfaces alone, to the host (the instrument's distances after a pass). Called with the
-  // same host copy pass after pass, it brings back only the B-scans the passes changed since the
-  // last call (a group's B-scans and those its results reach, not the volume's); any other copy,
-  // or one of other dimensions, gets every B-scan.
+  // The surfaces alone, to the host (the instrument's distances, while the pass renders). Called
+  // with the same host copy pass after pass, it brings back only the B-scans the passes changed
+  // since the last call (a group's B-scans and those its results reach, not the volume's); any
+  // other copy, or one of other dimensions, gets every B-scan.
   void download_surfaces(segmentation::Surfaces& surfaces);
   // The passes' input (the unfiltered B-scans) as a device ref on the chain's stream: what the
   // instrument detection and the tip's B-scan pair read. Valid until the next take().

@@ -629,8 +629,15 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
       detected_ns = end_instruments();
     };
   }
-  const DeviceStageChain::PassTimes t = device_->run_pass(
-      first, count, shared.config, frame_wanted ? &image_ : nullptr, while_rendering);
+  DeviceStageChain::PassTimes t;
+  try {
+    t = device_->run_pass(first, count, shared.config, frame_wanted ? &image_ : nullptr,
+                          while_rendering);
+  } catch (...) {
+    // The input is not written again before the detector is done reading it.
+    if (detector_ != nullptr) detector_->drop_group();
+    throw;
+  }
   last_render_ns_ = t.rendered_ns;
   note_bscans_changed(t.changed_first, t.changed_count);
   const auto ns = [](double ms) { return static_cast<std::uint64_t>(ms * 1e6); };

@@ -5,12 +5,14 @@
 
 #include <algorithm>
 #include <cstring>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "cuda_layer_reference.cuh"
 #include "ioct/gpu/cuda/cuda_support.hpp"
+#include "ioct/gpu/cuda/pinned_download.hpp"
 #include "ioct/gpu/render/cuda_renderer.hpp"
 #include "ioct/gpu/render/frame_setup.hpp"
 #include "ioct/gpu/render/la_mip.hpp"
@@ -370,6 +372,10 @@ struct CudaRenderer::State {
   bool table_colorize = true;
   cuda::DeviceArray<uchar4> image;
   std::uint32_t width = 0, height = 0;
+  // The frame's way to the host: a pinned block (a copy to pageable memory is synchronous and
+  // several times slower: it cannot overlap the host's work), and the size it was started for.
+  cuda::PinnedDownload frame_download;
+  std::uint32_t download_width = 0, download_height = 0;
   // The LA-MIP composite's projections (la_mip.hpp's buffer), kept between renders: made again
   // only for the B-scans whose voxels changed since (the host knows which: [first, end)) or whose
   // RPE changed (found on the device against the reference they were made with).
@@ -691,6 +697,9 @@ void CudaRenderer::update_bscans(const Volume& volume, std::uint32_t first, std:
 void CudaRenderer::render_on_device(const RenderConfig& config) {
   State& s = *state_;
   if (!s.has_volume) throw std::logic_error("render() before set_volume()");
+  // A frame's copy started and never taken (its caller threw) is the last frame's: dropped, so
+  // that download_frame() never hands it out as this one.
+  if (s.frame_download.in_flight()) s.frame_download.wait();
   RenderParams p = bake_params(config, s.dims, 0.0f);
   s.prepare_tables(config);
   p.transfer_lut = s.transfer_lut.data();
@@ -717,13 +726,24 @@ void CudaRenderer::render_on_device(const RenderConfig& config) {
   IOCT_CUDA_CHECK(cudaGetLastError());
 }
 
+void CudaRenderer::start_frame_download() {
+  State& s = *state_;
+  if (s.width == 0) throw std::logic_error("start_frame_download() before render_on_device()");
+  s.frame_download.add(s.image.data(), std::size_t{s.width} * s.height * sizeof(uchar4));
+  s.frame_download.enqueue(s.stream, cuda::Payload::other, "copy of the frame to the host");
+  s.download_width = s.width;
+  s.download_height = s.height;
+}
+
 void CudaRenderer::download_frame(RgbaImage& image) {
-  if (state_->width == 0) throw std::logic_error("download_frame() before render_on_device()");
-  image.resize(state_->width, state_->height);
-  cuda::copy_async(image.rgba.data(), state_->image.data(), image.rgba.size(),
-                   cudaMemcpyDeviceToHost, state_->stream, cuda::Payload::other,
-                   "copy of the frame to the host");
-  IOCT_CUDA_CHECK(cudaStreamSynchronize(state_->stream));
+  State& s = *state_;
+  if (!s.frame_download.in_flight()) start_frame_download();
+  s.frame_download.wait();
+  const std::span<const std::byte> frame = s.frame_download.piece(0);
+  image.width = s.download_width;
+  image.height = s.download_height;
+  image.rgba.resize(frame.size());  // no fill: every byte is copied over
+  std::memcpy(image.rgba.data(), frame.data(), frame.size());
 }
 
 void CudaRenderer::render(const RenderConfig& config, RgbaImage& image) {

@@ -27,11 +27,11 @@ class PinnedDownload {
   // is read aligned.
   static constexpr std::size_t kAlignment = 16;
 
-  // Queues `bytes` from `device` (not copied until fetch()); returns the piece's index. The
-  // first add() after a fetch() begins the next download: the last one's pieces are gone.
+  // Queues `bytes` from `device` (not copied until fetch() or enqueue()); returns the piece's
+  // index. The first add() after a download begins the next one: the last one's pieces are gone.
   std::size_t add(const void* device, std::size_t bytes) {
     fetched_ = 0;
-    if (in_flight_ != 0) throw std::logic_error("PinnedDownload: a download is in flight");
+    if (enqueued_) throw std::logic_error("PinnedDownload: a download is in flight");
     if (count_ == kMaxPieces) throw std::logic_error("PinnedDownload: more than 8 pieces");
     const std::size_t offset = count_ == 0 ? 0 : aligned(end_of(count_ - 1));
     pieces_[count_] = {device, offset, bytes};
@@ -43,16 +43,16 @@ class PinnedDownload {
   // pieces stay readable until the next add().
   void fetch(cudaStream_t stream, Payload payload, const char* what) {
     enqueue(stream, payload, what);
-    wait(stream);
+    wait();
   }
 
   // fetch() in two halves, for a host with work to do while the copies run: enqueue() queues
   // them on `stream` (the queue emptied whatever happens), wait() waits for that stream and makes
   // the pieces readable. Nothing is readable in between, and the block is not to be touched:
-  // another add() before wait() throws.
+  // another add() or enqueue() before wait() throws, as does a wait() with nothing enqueued.
   void enqueue(cudaStream_t stream, Payload payload, const char* what) {
     fetched_ = 0;
-    if (in_flight_ != 0) throw std::logic_error("PinnedDownload: a download is in flight");
+    if (enqueued_) throw std::logic_error("PinnedDownload: a download is in flight");
     const std::size_t count = std::exchange(count_, 0);
     const std::size_t total = count == 0 ? 0 : end_of(count - 1);
     if (block_.size() < total) block_.resize(total);
@@ -62,14 +62,20 @@ class PinnedDownload {
                  cudaMemcpyDeviceToHost, stream, payload, what);
     }
     in_flight_ = count;
+    stream_ = stream;
+    enqueued_ = true;
   }
-  void wait(cudaStream_t stream) {
+  void wait() {
+    if (!enqueued_) throw std::logic_error("PinnedDownload: wait() with nothing enqueued");
+    enqueued_ = false;
     const std::size_t count = std::exchange(in_flight_, 0);
-    IOCT_CUDA_CHECK(cudaStreamSynchronize(stream));
+    IOCT_CUDA_CHECK(cudaStreamSynchronize(stream_));
     fetched_ = count;
   }
+  // Whether an enqueue() waits for its wait().
+  bool in_flight() const noexcept { return enqueued_; }
 
-  // The bytes of piece `i` of the last fetch().
+  // The bytes of piece `i` of the last download (fetch(), or enqueue() and wait()).
   std::span<const std::byte> piece(std::size_t i) const {
     if (i >= fetched_) throw std::logic_error("PinnedDownload: no such piece fetched");
     return {block_.data() + pieces_[i].offset, pieces_[i].bytes};
@@ -100,7 +106,9 @@ class PinnedDownload {
   std::array<Piece, kMaxPieces> pieces_{};
   std::size_t count_ = 0;
   std::size_t fetched_ = 0;
-  std::size_t in_flight_ = 0;  // pieces enqueued and not waited for
+  std::size_t in_flight_ = 0;      // pieces enqueued and not waited for
+  cudaStream_t stream_ = nullptr;  // theirs
+  bool enqueued_ = false;
 };
 
 }  // namespace ioct::gpu::cuda

@@ -46,10 +46,13 @@ class InstrumentDetector {
   // (the CUDA detection enqueues it on its own stream, after the work the volume's stream has so
   // far, and returns; the CPU one classifies before it returns), end_group takes the classes into
   // the same `findings` and finds the tips. In between, `findings` is not to be read nor the
-  // group's B-scans written. A begin_group while one is pending ends that one first (no tips);
-  // end_group with none pending, or for other findings, throws std::logic_error.
+  // group's B-scans written, and `findings` must outlive the group. A begin_group while one is
+  // pending ends that one first (no tips); end_group with none pending, or for other findings,
+  // throws std::logic_error. drop_group() ends a pending group without tips (its classes in its
+  // findings), waiting for the device to be done with the volume: for a caller unwinding.
   void begin_group(VolumeRef volume, BscanSpan group, InstrumentFindings& findings);
   void end_group(const segmentation::Surfaces& surfaces, InstrumentFindings& findings);
+  void drop_group();
 
   // Every B-scan of `volume`.
   void detect_volume(const Volume& volume, const segmentation::Surfaces& surfaces,

@@ -106,7 +106,8 @@ struct VolumeStagesConfig {
   segmentation::VolumeSampling sampling;  // also the renderer's voxel spacing
   // Instrument detection after the segmentation of every pass (instruments.enabled), on the
   // processed (unfiltered) B-scans of the pass. With CUDA stages the CUDA detection reads them
-  // in place in the device chain, after the pass's frame and before it is published.
+  // in place in the device chain: classified beside the filter and the segmentation, the tips
+  // found on the host while the device renders; the frame is published after both.
   instruments::InstrumentConfig instruments;
   render::RenderConfig render;  // the shared view at the start; auto_rotate turns its azimuth
   // Modes rendered once more at the end, each to render-<mode>.png, at the live view.

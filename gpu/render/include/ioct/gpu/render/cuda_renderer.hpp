@@ -46,9 +46,12 @@ class CudaRenderer final : public Renderer {
 
   // Renders into device memory only and returns at once (stream-ordered): for timing.
   void render_on_device(const RenderConfig& config);
-  // The last render_on_device()'s frame into `image` (after the work on the renderer's stream;
-  // returns once it is there). render() is the two in a row; a caller with host work of its own
-  // does it between them, while the device renders.
+  // The last render_on_device()'s frame to the host: start_frame_download() enqueues its copy
+  // (into a pinned block, so it runs while the host works), download_frame() waits for it
+  // (starting it first if it was not) and puts it into `image`; a render in between drops it.
+  // render() is render_on_device() and download_frame() in a row; a caller with host work of its
+  // own does it in between.
+  void start_frame_download();
   void download_frame(RgbaImage& image);
   void synchronize();
   // The layer reference of the last update, brought to the host (tests: the CPU reference's
