@@ -194,7 +194,7 @@ void CUDART_CB hold_the_stream(void* milliseconds) {
 TEST(InstrumentsCudaVsCpu, BeginGroupReturnsAtOnceAndClassifiesAfterTheVolumesStream) {
 #if IOCT_INSTRUMENTS_HAVE_CUDA
   if (const auto why = cuda_detection_unavailable()) GTEST_SKIP() << *why;
-  const InstrumentScene& scene = instrument_scenes().front();
+  const InstrumentScene scene = instrument_scenes().front();  // a copy: the list is a temporary
   const SceneOnBoth both(scene);
   const gpu::Volume& volume = both.s.volume.volume;
   InstrumentFindings cpu;
