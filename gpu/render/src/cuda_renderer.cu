@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <cstring>
-#include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -373,9 +372,9 @@ struct CudaRenderer::State {
   cuda::DeviceArray<uchar4> image;
   std::uint32_t width = 0, height = 0;
   // The frame's way to the host: a pinned block (a copy to pageable memory is synchronous and
-  // several times slower: it cannot overlap the host's work), and the size it was started for.
+  // several times slower: it cannot overlap the host's work). One in flight is always of the
+  // last render: a render drops an untaken one.
   cuda::PinnedDownload frame_download;
-  std::uint32_t download_width = 0, download_height = 0;
   // The LA-MIP composite's projections (la_mip.hpp's buffer), kept between renders: made again
   // only for the B-scans whose voxels changed since (the host knows which: [first, end)) or whose
   // RPE changed (found on the device against the reference they were made with).
@@ -731,19 +730,15 @@ void CudaRenderer::start_frame_download() {
   if (s.width == 0) throw std::logic_error("start_frame_download() before render_on_device()");
   s.frame_download.add(s.image.data(), std::size_t{s.width} * s.height * sizeof(uchar4));
   s.frame_download.enqueue(s.stream, cuda::Payload::other, "copy of the frame to the host");
-  s.download_width = s.width;
-  s.download_height = s.height;
 }
 
 void CudaRenderer::download_frame(RgbaImage& image) {
   State& s = *state_;
   if (!s.frame_download.in_flight()) start_frame_download();
   s.frame_download.wait();
-  const std::span<const std::byte> frame = s.frame_download.piece(0);
-  image.width = s.download_width;
-  image.height = s.download_height;
-  image.rgba.resize(frame.size());  // no fill: every byte is copied over
-  std::memcpy(image.rgba.data(), frame.data(), frame.size());
+  image.width = s.width;
+  image.height = s.height;
+  s.frame_download.take(0, image.rgba);  // no fill: a frame of the same size keeps its storage
 }
 
 void CudaRenderer::render(const RenderConfig& config, RgbaImage& image) {

@@ -11,6 +11,7 @@
 #include <array>
 #include <cstddef>
 #include <cstring>
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <utility>
@@ -31,7 +32,7 @@ class PinnedDownload {
   // index. The first add() after a download begins the next one: the last one's pieces are gone.
   std::size_t add(const void* device, std::size_t bytes) {
     fetched_ = 0;
-    if (enqueued_) throw std::logic_error("PinnedDownload: a download is in flight");
+    if (in_flight_) throw std::logic_error("PinnedDownload: a download is in flight");
     if (count_ == kMaxPieces) throw std::logic_error("PinnedDownload: more than 8 pieces");
     const std::size_t offset = count_ == 0 ? 0 : aligned(end_of(count_ - 1));
     pieces_[count_] = {device, offset, bytes};
@@ -52,7 +53,7 @@ class PinnedDownload {
   // another add() or enqueue() before wait() throws, as does a wait() with nothing enqueued.
   void enqueue(cudaStream_t stream, Payload payload, const char* what) {
     fetched_ = 0;
-    if (enqueued_) throw std::logic_error("PinnedDownload: a download is in flight");
+    if (in_flight_) throw std::logic_error("PinnedDownload: a download is in flight");
     const std::size_t count = std::exchange(count_, 0);
     const std::size_t total = count == 0 ? 0 : end_of(count - 1);
     if (block_.size() < total) block_.resize(total);
@@ -63,17 +64,15 @@ class PinnedDownload {
     }
     in_flight_ = count;
     stream_ = stream;
-    enqueued_ = true;
   }
   void wait() {
-    if (!enqueued_) throw std::logic_error("PinnedDownload: wait() with nothing enqueued");
-    enqueued_ = false;
-    const std::size_t count = std::exchange(in_flight_, 0);
+    if (!in_flight_) throw std::logic_error("PinnedDownload: wait() with nothing enqueued");
+    const std::size_t count = *std::exchange(in_flight_, std::nullopt);
     IOCT_CUDA_CHECK(cudaStreamSynchronize(stream_));
     fetched_ = count;
   }
   // Whether an enqueue() waits for its wait().
-  bool in_flight() const noexcept { return enqueued_; }
+  bool in_flight() const noexcept { return in_flight_.has_value(); }
 
   // The bytes of piece `i` of the last download (fetch(), or enqueue() and wait()).
   std::span<const std::byte> piece(std::size_t i) const {
@@ -106,9 +105,8 @@ class PinnedDownload {
   std::array<Piece, kMaxPieces> pieces_{};
   std::size_t count_ = 0;
   std::size_t fetched_ = 0;
-  std::size_t in_flight_ = 0;      // pieces enqueued and not waited for
-  cudaStream_t stream_ = nullptr;  // theirs
-  bool enqueued_ = false;
+  std::optional<std::size_t> in_flight_;  // pieces enqueued and not waited for
+  cudaStream_t stream_ = nullptr;         // theirs
 };
 
 }  // namespace ioct::gpu::cuda
