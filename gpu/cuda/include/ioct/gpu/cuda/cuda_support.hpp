@@ -77,16 +77,19 @@ template <class T>
 class DeviceArray {
  public:
   DeviceArray() = default;
-  explicit DeviceArray(std::size_t count) : count_(count) {
+  explicit DeviceArray(std::size_t count) : count_(count), capacity_(count) {
     if (count > 0) IOCT_CUDA_CHECK(cudaMalloc(&data_, count * sizeof(T)));
   }
   DeviceArray(DeviceArray&& other) noexcept
-      : data_(std::exchange(other.data_, nullptr)), count_(std::exchange(other.count_, 0)) {}
+      : data_(std::exchange(other.data_, nullptr)),
+        count_(std::exchange(other.count_, 0)),
+        capacity_(std::exchange(other.capacity_, 0)) {}
   DeviceArray& operator=(DeviceArray&& other) noexcept {
     if (this != &other) {
       if (data_ != nullptr) cudaFree(data_);
       data_ = std::exchange(other.data_, nullptr);
       count_ = std::exchange(other.count_, 0);
+      capacity_ = std::exchange(other.capacity_, 0);
     }
     return *this;
   }
@@ -98,32 +101,42 @@ class DeviceArray {
   T* data() const noexcept { return data_; }
   std::size_t size() const noexcept { return count_; }
   std::size_t bytes() const noexcept { return count_ * sizeof(T); }
-  // `count` elements, reallocated (contents lost) only when the count changes.
+  // `count` elements (contents lost when it changes). The allocation only grows: cudaFree
+  // waits for the whole device, so a buffer that alternates between sizes (a volume's pass, then
+  // a group's) must not free on every change.
   void resize(std::size_t count) {
     if (count == count_) return;
-    *this = DeviceArray();
-    *this = DeviceArray(count);
+    if (count > capacity_) {
+      *this = DeviceArray();
+      *this = DeviceArray(count);
+    }
+    count_ = count;
   }
+  std::size_t capacity() const noexcept { return capacity_; }
 
  private:
   T* data_ = nullptr;
   std::size_t count_ = 0;
+  std::size_t capacity_ = 0;
 };
 
 template <class T>
 class PinnedArray {
  public:
   PinnedArray() = default;
-  explicit PinnedArray(std::size_t count) : count_(count) {
+  explicit PinnedArray(std::size_t count) : count_(count), capacity_(count) {
     if (count > 0) IOCT_CUDA_CHECK(cudaMallocHost(&data_, count * sizeof(T)));
   }
   PinnedArray(PinnedArray&& other) noexcept
-      : data_(std::exchange(other.data_, nullptr)), count_(std::exchange(other.count_, 0)) {}
+      : data_(std::exchange(other.data_, nullptr)),
+        count_(std::exchange(other.count_, 0)),
+        capacity_(std::exchange(other.capacity_, 0)) {}
   PinnedArray& operator=(PinnedArray&& other) noexcept {
     if (this != &other) {
       if (data_ != nullptr) cudaFreeHost(data_);
       data_ = std::exchange(other.data_, nullptr);
       count_ = std::exchange(other.count_, 0);
+      capacity_ = std::exchange(other.capacity_, 0);
     }
     return *this;
   }
@@ -134,16 +147,23 @@ class PinnedArray {
   }
   T* data() const noexcept { return data_; }
   std::size_t size() const noexcept { return count_; }
-  // `count` elements, reallocated (contents lost) only when the count changes.
+  // `count` elements (contents lost when it changes). The allocation only grows: cudaFreeHost
+  // waits for the whole device, so a buffer that alternates between sizes (a volume's pass, then
+  // a group's) must not free on every change.
   void resize(std::size_t count) {
     if (count == count_) return;
-    *this = PinnedArray();
-    *this = PinnedArray(count);
+    if (count > capacity_) {
+      *this = PinnedArray();
+      *this = PinnedArray(count);
+    }
+    count_ = count;
   }
+  std::size_t capacity() const noexcept { return capacity_; }
 
  private:
   T* data_ = nullptr;
   std::size_t count_ = 0;
+  std::size_t capacity_ = 0;
 };
 
 class Stream {
