@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 #include <vector>
 
 #include "instrument_scenes.hpp"
@@ -111,6 +112,78 @@ TEST(InstrumentAccuracy, TipAndDistancesAgainstTheSimulatorsPose) {
   EXPECT_LE(p95(all.ilm), kIlmDistanceP95Um);
   EXPECT_LE(p95(all.rpe), kRpeDistanceP95Um);
   EXPECT_LE(p95(metal.tip), kMetalTipP95Vox);
+}
+
+// The tips located from the mask before the surfaces are at hand, then placed with them (the live
+// stages locate while the device segments): every scene's findings are detect_volume's to the
+// bit. Between the two the tips have no distances; a scraper's paddle (it grows onto the ILM)
+// waits for the surfaces. Misuse is refused; a group dropped after locating has no tips.
+TEST(InstrumentAccuracy, TipsLocatedBeforeTheSurfacesArePlacedAsDetectVolumeFindsThem) {
+  std::size_t located_early = 0, paddles_waiting = 0;
+  for (const InstrumentScene& scene : instrument_scenes()) {
+    const SceneVolume s = make_scene_volume(scene);
+    gpu::segmentation::Surfaces surfaces;
+    gpu::segmentation::make_segmenter(gpu::Backend::cpu, {}, s.sampling, 2)
+        ->segment_volume(s.filtered, surfaces);
+    const auto detector =
+        gpu::instruments::make_instrument_detector(gpu::Backend::cpu, {}, s.sampling, 2);
+    InstrumentFindings whole;
+    detector->detect_volume(s.volume.volume, surfaces, whole);
+    ASSERT_FALSE(whole.tips.empty()) << scene.name;
+
+    InstrumentFindings steps;
+    const gpu::VolumeRef ref = gpu::VolumeRef::on_host(s.volume.volume);
+    detector->begin_group(ref, {0, s.volume.volume.bscans()}, steps);
+    detector->locate_tips(steps);
+    EXPECT_EQ(steps.nearest, -1) << scene.name;
+    for (const auto& tip : steps.tips) {
+      EXPECT_EQ(tip.source, DistanceSource::none) << scene.name;
+      EXPECT_TRUE(std::isnan(tip.to_rpe_um)) << scene.name;
+    }
+    if (steps.tips.size() == whole.tips.size()) {
+      ++located_early;
+      EXPECT_EQ(steps.mask, whole.mask) << scene.name;
+      for (std::size_t i = 0; i < steps.tips.size(); ++i) {
+        EXPECT_EQ(steps.tips[i].bscan, whole.tips[i].bscan) << scene.name;
+        EXPECT_EQ(steps.tips[i].ascan, whole.tips[i].ascan) << scene.name;
+        EXPECT_EQ(steps.tips[i].depth_px, whole.tips[i].depth_px) << scene.name;
+      }
+    } else {
+      EXPECT_TRUE(steps.tips.empty()) << scene.name << ": a paddle waits with every tip";
+      EXPECT_EQ(scene.kind, sim::InstrumentKind::scraper) << scene.name;
+      ++paddles_waiting;
+    }
+    detector->end_group(surfaces, steps);
+    EXPECT_EQ(steps.columns, whole.columns) << scene.name;
+    EXPECT_EQ(steps.mask, whole.mask) << scene.name;
+    EXPECT_EQ(steps.nearest, whole.nearest) << scene.name;
+    EXPECT_EQ(steps.warning, whole.warning) << scene.name;
+    ASSERT_EQ(steps.tips.size(), whole.tips.size()) << scene.name;
+    for (std::size_t i = 0; i < steps.tips.size(); ++i) {
+      const auto &a = steps.tips[i], &b = whole.tips[i];
+      EXPECT_EQ(a.bscan, b.bscan) << scene.name;
+      EXPECT_EQ(a.ascan, b.ascan) << scene.name;
+      EXPECT_EQ(a.depth_px, b.depth_px) << scene.name;
+      EXPECT_EQ(a.source, b.source) << scene.name;
+      EXPECT_EQ(a.to_ilm_um, b.to_ilm_um) << scene.name;
+      EXPECT_EQ(a.to_rpe_um, b.to_rpe_um) << scene.name;
+    }
+
+    // Misuse: nothing begun, twice, other findings. A group dropped once located has no tips.
+    EXPECT_THROW(detector->locate_tips(steps), std::logic_error) << scene.name;
+    detector->begin_group(ref, {0, 16}, steps);
+    InstrumentFindings other;
+    EXPECT_THROW(detector->locate_tips(other), std::logic_error) << scene.name;
+    detector->locate_tips(steps);
+    EXPECT_THROW(detector->locate_tips(steps), std::logic_error) << scene.name;
+    detector->drop_group();
+    EXPECT_TRUE(steps.tips.empty()) << scene.name;
+    EXPECT_EQ(steps.nearest, -1) << scene.name;
+    EXPECT_THROW(detector->end_group(surfaces, steps), std::logic_error) << scene.name;
+  }
+  // Both ways through the two halves were taken.
+  EXPECT_GT(located_early, 0u);
+  EXPECT_GT(paddles_waiting, 0u);
 }
 
 // The whole field of the default raster (512 x 128), tools as ioct-rt's --sim-instrument poses

@@ -154,8 +154,8 @@ TEST(InstrumentsCudaVsCpu, ADeviceVolumeReadInPlaceGivesTheCpusFindings) {
 
 // As the live stages run it: each group's classification begun on the device volume, the host
 // busy meanwhile (here the CPU's detection of the same group), then ended; and the groups of a
-// volume begun one after another with only the last ended (each begin ends the pending one).
-// The same findings as the CPU's, to the bit.
+// volume begun one after another with only the last ended (each begin ends the pending one);
+// and a volume's tips located before its distances. The same findings as the CPU's, to the bit.
 TEST(InstrumentsCudaVsCpu, AGroupBegunOnTheDeviceAndEndedLaterGivesTheCpusFindings) {
 #if IOCT_INSTRUMENTS_HAVE_CUDA
   if (const auto why = cuda_detection_unavailable()) GTEST_SKIP() << *why;
@@ -174,6 +174,12 @@ TEST(InstrumentsCudaVsCpu, AGroupBegunOnTheDeviceAndEndedLaterGivesTheCpusFindin
     }
     both.cuda->end_group(both.surfaces, all_begun);
     expect_same_findings(cpu, all_begun, scene.name + " (every group begun, the last ended)");
+    // The tips located before the surfaces are at hand, as the device chain does.
+    InstrumentFindings located;
+    both.cuda->begin_group(both.device.ref(), {0, volume.bscans()}, located);
+    both.cuda->locate_tips(located);
+    both.cuda->end_group(both.surfaces, located);
+    expect_same_findings(cpu, located, scene.name + " (located, then ended)");
   }
 #else
   GTEST_SKIP() << "this build has no CUDA instrument detection";

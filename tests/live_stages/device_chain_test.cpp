@@ -25,6 +25,7 @@
 #include "ioct/gpu/live_stages/volume_stages.hpp"
 #include "ioct/gpu/processing/oct_processor.hpp"
 #include "ioct/shm/frame_ring.hpp"
+#include "ioct/test_support/eventually.hpp"
 #include "layered_volume.hpp"
 
 #include "live_volumes.hpp"
@@ -106,6 +107,12 @@ StagesRun run_stages(Backend backend, bool device_source, const std::filesystem:
   running = &stages;
   std::optional<shm::FrameRingReader> frames;
   if (!frame_ring.empty()) frames.emplace(shm::FrameRingReader::attach(frame_ring));
+
+  // The device chain exists before the first hand-over: B-scans that come earlier wait on the
+  // host and are uploaded (a slow start, e.g. under a sanitizer, would count them as volume bytes).
+  EXPECT_TRUE(test_support::eventually([&] { return !stages.backends().empty(); },
+                                       std::chrono::seconds(60)))
+      << "the stages made no backends: " << stages.status();
 
   FakeLiveVolume live(device_source);
   std::uint64_t handed = 0;

@@ -46,19 +46,46 @@ void InstrumentDetector::begin_group(VolumeRef volume, BscanSpan group,
   pending_ = &findings;
 }
 
+void InstrumentDetector::check_pending(const InstrumentFindings& findings, const char* call) const {
+  if (pending_ == nullptr) {
+    throw std::logic_error(std::string("instruments: ") + call + " with no group begun");
+  }
+  if (pending_ != &findings) {
+    throw std::logic_error(std::string("instruments: ") + call +
+                           " for other findings than begin_group()'s");
+  }
+}
+
+void InstrumentDetector::locate_tips(InstrumentFindings& findings) {
+  check_pending(findings, "locate_tips()");
+  if (located_) throw std::logic_error("instruments: locate_tips() twice for one group");
+  collect(findings);
+  located_ = true;  // collected: nothing to wait for any more, whatever locate() does
+  tip_finder_.locate(findings, config_, sampling_);
+}
+
 void InstrumentDetector::end_group(const segmentation::Surfaces& surfaces,
                                    InstrumentFindings& findings) {
-  if (pending_ == nullptr) throw std::logic_error("instruments: end_group() with no group begun");
-  if (pending_ != &findings) {
-    throw std::logic_error("instruments: end_group() for other findings than begin_group()'s");
-  }
+  check_pending(findings, "end_group()");
   pending_ = nullptr;
-  collect(findings);
-  tip_finder_.find(findings, surfaces, config_, sampling_);
+  if (!std::exchange(located_, false)) {
+    collect(findings);
+    tip_finder_.locate(findings, config_, sampling_);
+  }
+  tip_finder_.place(findings, surfaces, config_, sampling_);
 }
 
 void InstrumentDetector::drop_group() {
-  if (pending_ != nullptr) collect(*std::exchange(pending_, nullptr));
+  InstrumentFindings* const pending = std::exchange(pending_, nullptr);
+  if (pending == nullptr) return;
+  if (!std::exchange(located_, false)) {
+    collect(*pending);
+    return;
+  }
+  // Located, never placed: no tips rather than tips without distances.
+  pending->tips.clear();
+  pending->nearest = -1;
+  pending->warning = false;
 }
 
 void InstrumentDetector::detect_volume(const Volume& volume, const segmentation::Surfaces& surfaces,

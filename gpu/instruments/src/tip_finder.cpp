@@ -8,6 +8,7 @@
 #include <deque>
 #include <limits>
 #include <optional>
+#include <stdexcept>
 #include <vector>
 
 namespace ioct::gpu::instruments {
@@ -1534,6 +1535,10 @@ struct TipFinder::Buffers {
   std::vector<Tool> tools;
   std::vector<Place> pending;
   TipBuffers tip;
+  // Between locate() and place(): the tool whose shape is next (or, where paddle_waiting, whose
+  // axis and end are known and whose paddle waits for the ILM).
+  std::size_t next_tool = 0;
+  bool paddle_waiting = false;
 };
 
 TipFinder::TipFinder() : buffers_(std::make_unique<Buffers>()) {}
@@ -1543,7 +1548,14 @@ TipFinder& TipFinder::operator=(TipFinder&&) noexcept = default;
 
 void TipFinder::find(InstrumentFindings& findings, const Surfaces& surfaces,
                      const InstrumentConfig& config, const VolumeSampling& sampling) {
+  locate(findings, config, sampling);
+  place(findings, surfaces, config, sampling);
+}
+
+void TipFinder::locate(InstrumentFindings& findings, const InstrumentConfig& config,
+                       const VolumeSampling& sampling) {
   Buffers& w = *buffers_;
+  located_ = nullptr;
   findings.tips.clear();
   findings.nearest = -1;
   findings.warning = false;
@@ -1559,36 +1571,25 @@ void TipFinder::find(InstrumentFindings& findings, const Surfaces& surfaces,
     for (const Place& p : fp->ascans) findings.mask[p.k] = findings.columns[p.k];
   }
   // Grown only: a Tool keeps its buffers from call to call.
-  std::vector<Tool>& tools = w.tools;
-  if (tools.size() < found.size()) tools.resize(found.size());
-  for (std::size_t i = 0; i < found.size(); ++i) {
-    Footprint& fp = *found[i];
-    Tool& tool = tools[i];
-    tool.fp = &fp;
-    tool.principal = axis_of(fp.ascans, findings, sx, sy);
-    end_of(fp.ascans, findings, tool.principal, std::min(sx, sy), tool.whole);
-    if (tool.whole.translucent) {
-      extend_paddle(fp, findings, surfaces, tool.principal, w.pending, w.tip.scratch);
-      join_paddle_parts(fp, w.loose, findings, surfaces, tool.principal, w.tip.scratch);
-    }
+  if (w.tools.size() < found.size()) w.tools.resize(found.size());
+  w.next_tool = 0;
+  w.paddle_waiting = false;
+  if (shape_tools(findings, nullptr, sx, sy)) tips_of_tools(findings, config, sampling);
+  located_ = &findings;
+}
+
+void TipFinder::place(InstrumentFindings& findings, const Surfaces& surfaces,
+                      const InstrumentConfig& config, const VolumeSampling& sampling) {
+  if (located_ != &findings) {
+    throw std::logic_error("instruments: the tips placed without being located in these findings");
   }
-  // Pieces of a larger tool's shaft are no tools of their own (they stay in the mask: the tool's
-  // shadow). Then the largest kMaxInstruments.
-  const double shaft_margin_um = 2.0 * std::max(sx, sy);
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < found.size(); ++i) {
-    bool piece = false;
-    for (std::size_t j = 0; j < kept && !piece; ++j) {
-      piece = part_of_shaft(tools[i], tools[j], shaft_margin_um);
-    }
-    if (piece) continue;
-    if (kept != i) std::swap(tools[kept], tools[i]);  // their buffers swapped, none allocated
-    ++kept;
+  located_ = nullptr;
+  Buffers& w = *buffers_;
+  if (w.paddle_waiting) {
+    shape_tools(findings, &surfaces, sampling.ascan_spacing_um, sampling.bscan_spacing_um);
+    tips_of_tools(findings, config, sampling);
   }
-  const std::size_t tool_count = std::min(kept, InstrumentFindings::kMaxInstruments);
-  for (std::size_t i = 0; i < tool_count; ++i) {
-    const Tool& tool = tools[i];
-    InstrumentTip tip = tip_of(tool, findings, config, sampling, w.tip);
+  for (InstrumentTip& tip : findings.tips) {
     const SurfaceAt at = surfaces_at(findings, surfaces, tip.bscan, tip.ascan, sampling);
     tip.source = at.source;
     tip.ilm_px = at.ilm;
@@ -1597,7 +1598,6 @@ void TipFinder::find(InstrumentFindings& findings, const Surfaces& surfaces,
       tip.to_ilm_um = (at.ilm - tip.depth_px) * sampling.axial_um_per_px;
       tip.to_rpe_um = (at.rpe - tip.depth_px) * sampling.axial_um_per_px;
     }
-    findings.tips.push_back(tip);
   }
   for (std::size_t i = 0; i < findings.tips.size(); ++i) {
     const InstrumentTip* best = findings.nearest_tip();
@@ -1610,6 +1610,51 @@ void TipFinder::find(InstrumentFindings& findings, const Surfaces& surfaces,
   const InstrumentTip* nearest = findings.nearest_tip();
   findings.warning = nearest != nullptr && std::isfinite(nearest->to_rpe_um) &&
                      nearest->to_rpe_um <= config.warn_rpe_um;
+}
+
+bool TipFinder::shape_tools(InstrumentFindings& findings, const Surfaces* surfaces, double sx,
+                            double sy) {
+  Buffers& w = *buffers_;
+  for (; w.next_tool < w.found.size(); ++w.next_tool) {
+    Footprint& fp = *w.found[w.next_tool];
+    Tool& tool = w.tools[w.next_tool];
+    if (!w.paddle_waiting) {
+      tool.fp = &fp;
+      tool.principal = axis_of(fp.ascans, findings, sx, sy);
+      end_of(fp.ascans, findings, tool.principal, std::min(sx, sy), tool.whole);
+    }
+    if (!tool.whole.translucent) continue;
+    // A paddle grows onto the retina's ILM (and the later tools see the mask it grew).
+    w.paddle_waiting = surfaces == nullptr;
+    if (w.paddle_waiting) return false;
+    extend_paddle(fp, findings, *surfaces, tool.principal, w.pending, w.tip.scratch);
+    join_paddle_parts(fp, w.loose, findings, *surfaces, tool.principal, w.tip.scratch);
+  }
+  return true;
+}
+
+void TipFinder::tips_of_tools(InstrumentFindings& findings, const InstrumentConfig& config,
+                              const VolumeSampling& sampling) {
+  Buffers& w = *buffers_;
+  std::vector<Tool>& tools = w.tools;
+  // Pieces of a larger tool's shaft are no tools of their own (they stay in the mask: the tool's
+  // shadow). Then the largest kMaxInstruments.
+  const double shaft_margin_um =
+      2.0 * std::max(sampling.ascan_spacing_um, sampling.bscan_spacing_um);
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < w.found.size(); ++i) {
+    bool piece = false;
+    for (std::size_t j = 0; j < kept && !piece; ++j) {
+      piece = part_of_shaft(tools[i], tools[j], shaft_margin_um);
+    }
+    if (piece) continue;
+    if (kept != i) std::swap(tools[kept], tools[i]);  // their buffers swapped, none allocated
+    ++kept;
+  }
+  const std::size_t tool_count = std::min(kept, InstrumentFindings::kMaxInstruments);
+  for (std::size_t i = 0; i < tool_count; ++i) {
+    findings.tips.push_back(tip_of(tools[i], findings, config, sampling, w.tip));
+  }
 }
 
 void find_tips(InstrumentFindings& findings, const Surfaces& surfaces,

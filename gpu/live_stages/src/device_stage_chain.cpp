@@ -235,7 +235,7 @@ DeviceStageChain::Taken DeviceStageChain::take_host(const Volume& pending, std::
 
 DeviceStageChain::PassTimes DeviceStageChain::run_pass(
     std::uint32_t first, std::uint32_t count, const render::RenderConfig& view,
-    render::RgbaImage* frame, const std::function<void()>& while_rendering) {
+    render::RgbaImage* frame, const std::function<void()>& while_the_pass_runs) {
   Impl& m = *impl_;
   cudaStream_t stream = m.stream.get();
   const VolumeDims dims = m.input_dims;
@@ -264,7 +264,7 @@ DeviceStageChain::PassTimes DeviceStageChain::run_pass(
     m.renderer.start_frame_download();  // pinned: it runs during the host's work
     m.frame_copied.record(m.render_stream.get());
   }
-  if (while_rendering) while_rendering();
+  if (while_the_pass_runs) while_the_pass_runs();
   if (frame != nullptr) m.renderer.download_frame(*frame);
   m.pass_done.record(m.render_stream.get());
   IOCT_CUDA_CHECK(cudaEventSynchronize(m.pass_done.get()));

@@ -99,12 +99,14 @@ class DeviceStageChain {
 
   // Stages' thread: filter -> segment -> render the input's B-scans [first, first + count) (as
   // take() returned them), the renderer's volume the one view.mode renders from; the frame comes
-  // back into `frame` only when one is given. `while_rendering` (when given) runs on the host once
-  // the render is enqueued, before the pass waits for it: host work on the pass's results (the
-  // instrument's tips) done while the device renders and the frame comes back. It may call
-  // download_surfaces(). rendered_ns is then when both the frame and that work were done.
+  // back into `frame` only when one is given. `while_the_pass_runs` (when given) runs on the host
+  // once the whole pass is enqueued (filter, segmentation, render), before the pass waits for it:
+  // host work beside the device's (the instrument's tips) done while it filters, segments, renders
+  // and the frame comes back. It may call download_surfaces(), which waits for the segmentation.
+  // rendered_ns is then when both the frame and that work were done.
   PassTimes run_pass(std::uint32_t first, std::uint32_t count, const render::RenderConfig& view,
-                     render::RgbaImage* frame, const std::function<void()>& while_rendering = {});
+                     render::RgbaImage* frame,
+                     const std::function<void()>& while_the_pass_runs = {});
 
   // Stages' thread, before a render in `mode` between passes: when `mode` renders from another
   // volume than the renderer holds, the whole input is filtered for it (or the filtered volume

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <optional>
+#include <utility>
 
 #include "ioct/common/atomic_file.hpp"
 #include "ioct/common/config_error.hpp"
@@ -532,7 +533,13 @@ void VolumeStages::begin_instruments(VolumeRef input, std::uint32_t first, std::
   const std::uint64_t t0 = ioct::monotonic_ns();
   // On the processed B-scans: the median filter erases a tool's thin, tilted reflex.
   detector_->begin_group(input, {first, count}, findings_);
-  instruments_begin_ns_ = ioct::monotonic_ns() - t0;
+  instruments_so_far_ns_ = ioct::monotonic_ns() - t0;
+}
+
+void VolumeStages::locate_instruments() {
+  const std::uint64_t t0 = ioct::monotonic_ns();
+  detector_->locate_tips(findings_);
+  instruments_so_far_ns_ += ioct::monotonic_ns() - t0;
 }
 
 std::uint64_t VolumeStages::end_instruments() {
@@ -541,7 +548,7 @@ std::uint64_t VolumeStages::end_instruments() {
   tip_bscans_stale_ = true;
   const std::uint64_t t1 = ioct::monotonic_ns();
   std::lock_guard lock(mutex_);
-  figures_.instruments.record(instruments_begin_ns_ + (t1 - t0));
+  figures_.instruments.record(std::exchange(instruments_so_far_ns_, 0) + (t1 - t0));
   return t1;
 }
 
@@ -617,14 +624,16 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
   const bool frame_wanted =
       publisher_ != nullptr || !waiters.empty() || live_image_due(ioct::monotonic_ns());
   std::uint64_t detected_ns = 0;
-  std::function<void()> while_rendering;
+  std::function<void()> while_the_pass_runs;
   if (detector_ != nullptr) {
     // The A-scans' classes from the input in place, on the detector's stream beside the filter
-    // and the segmentation; the surfaces come to the host (a few hundred kB) and the tips are
-    // found there while the device renders. The frame, published after both, carries the
-    // instrument of the volume state it shows.
+    // and the segmentation. Once the pass is enqueued the host locates the tips from the classes
+    // while the device still filters and segments; then the surfaces come to the host (a few
+    // hundred kB) and the distances are found while it renders. The frame, published after
+    // both, carries the instrument of the volume state it shows.
     begin_instruments(device_->input(), first, count);
-    while_rendering = [this, &detected_ns] {
+    while_the_pass_runs = [this, &detected_ns] {
+      locate_instruments();
       device_->download_surfaces(surfaces_);
       detected_ns = end_instruments();
     };
@@ -632,7 +641,7 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
   DeviceStageChain::PassTimes t;
   try {
     t = device_->run_pass(first, count, shared.config, frame_wanted ? &image_ : nullptr,
-                          while_rendering);
+                          while_the_pass_runs);
   } catch (...) {
     // The input is not written again before the detector is done reading it.
     if (detector_ != nullptr) detector_->drop_group();
@@ -729,6 +738,11 @@ std::string VolumeStages::status() const {
            (f.instruments_line.empty() ? std::string("not run yet") : f.instruments_line);
   }
   return text;
+}
+
+std::string VolumeStages::backends() const {
+  std::lock_guard lock(mutex_);
+  return backends_;
 }
 
 nlohmann::json VolumeStages::instruments() const {

@@ -50,7 +50,13 @@ class InstrumentDetector {
   // pending ends that one first (no tips); end_group with none pending, or for other findings,
   // throws std::logic_error. drop_group() ends a pending group without tips (its classes in its
   // findings), waiting for the device to be done with the volume: for a caller unwinding.
+  //
+  // locate_tips() may come in between: it takes the classes and finds the tips from the mask
+  // alone (TipFinder::locate), so that end_group() is left with the distances, which need the
+  // surfaces (the live stages locate while the device segments). Without it end_group() does
+  // both; after it, `findings` hold the tips without distances until end_group().
   void begin_group(VolumeRef volume, BscanSpan group, InstrumentFindings& findings);
+  void locate_tips(InstrumentFindings& findings);
   void end_group(const segmentation::Surfaces& surfaces, InstrumentFindings& findings);
   void drop_group();
 
@@ -74,8 +80,12 @@ class InstrumentDetector {
  private:
   InstrumentConfig config_;
   VolumeSampling sampling_;
+  // The group under way: begun (classes pending), or its tips located (ended but for them).
+  void check_pending(const InstrumentFindings& findings, const char* call) const;
+
   TipFinder tip_finder_;                   // its buffers serve every group
   InstrumentFindings* pending_ = nullptr;  // begun, not ended
+  bool located_ = false;                   // pending_'s tips located
 };
 
 // Validates both. Backend::automatic takes CUDA where the build and the machine have it;

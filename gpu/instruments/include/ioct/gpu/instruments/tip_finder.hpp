@@ -57,9 +57,28 @@ class TipFinder {
   void find(InstrumentFindings& findings, const segmentation::Surfaces& surfaces,
             const InstrumentConfig& config, const VolumeSampling& sampling);
 
+  // find() in two halves, for a caller whose surfaces come later (the live stages segment on the
+  // device meanwhile): locate() does steps 1-3 from the mask alone (a scraper's paddle, which
+  // grows onto the segmented ILM, and the tools after it wait), place() the rest and step 4 with
+  // the surfaces. Between them the findings hold the tips without distances. The same config and
+  // sampling for both; place() for findings not located last throws std::logic_error.
+  void locate(InstrumentFindings& findings, const InstrumentConfig& config,
+              const VolumeSampling& sampling);
+  void place(InstrumentFindings& findings, const segmentation::Surfaces& surfaces,
+             const InstrumentConfig& config, const VolumeSampling& sampling);
+
  private:
   struct Buffers;
+  // The tools' axes and ends from the next one on, a paddle grown where `surfaces` are given;
+  // false where a paddle waits for them.
+  bool shape_tools(InstrumentFindings& findings, const segmentation::Surfaces* surfaces, double sx,
+                   double sy);
+  // The shaped tools' tips (no distances yet) into findings.tips.
+  void tips_of_tools(InstrumentFindings& findings, const InstrumentConfig& config,
+                     const VolumeSampling& sampling);
+
   std::unique_ptr<Buffers> buffers_;
+  const InstrumentFindings* located_ = nullptr;  // by locate(), not yet placed
 };
 
 // TipFinder::find with buffers of its own (one call).

@@ -107,7 +107,8 @@ struct VolumeStagesConfig {
   // Instrument detection after the segmentation of every pass (instruments.enabled), on the
   // processed (unfiltered) B-scans of the pass. With CUDA stages the CUDA detection reads them
   // in place in the device chain: classified beside the filter and the segmentation, the tips
-  // found on the host while the device renders; the frame is published after both.
+  // located on the host from the classes meanwhile, their distances once the surfaces are down,
+  // while the device renders; the frame is published after both.
   instruments::InstrumentConfig instruments;
   render::RenderConfig render;  // the shared view at the start; auto_rotate turns its azimuth
   // Modes rendered once more at the end, each to render-<mode>.png, at the live view.
@@ -170,6 +171,11 @@ class VolumeStages final : public LiveStage, public ViewControl {
   ViewSnapshot snapshot(std::chrono::milliseconds timeout) override;
   nlohmann::json instruments() const override;
 
+  // The backends the stages' thread made ("filter ... cuda, segmentation cuda, ..."); empty until
+  // it has made them (B-scans handed over before then wait on the host and are uploaded by the
+  // first pass).
+  std::string backends() const;
+
   // The state after finish() (tests).
   const Volume& filtered() const noexcept { return filtered_; }
   const segmentation::Surfaces& surfaces() const noexcept { return surfaces_; }
@@ -212,9 +218,11 @@ class VolumeStages final : public LiveStage, public ViewControl {
   // The instrument detection of the pass's new B-scans [first, first + count) of `input` (the
   // unfiltered volume, host or device) with surfaces_; its time. Returns when it ended.
   std::uint64_t detect_instruments(VolumeRef input, std::uint32_t first, std::uint32_t count);
-  // The same in two halves (the device chain: begun with the pass, ended while it renders); the
-  // time recorded is the stages' thread's in both.
+  // The same in three steps (the device chain: begun with the pass, the tips located from the
+  // classes while the device filters and segments, ended with the distances once the surfaces
+  // are down, while it renders); the time recorded is the stages' thread's in all three.
   void begin_instruments(VolumeRef input, std::uint32_t first, std::uint32_t count);
+  void locate_instruments();
   std::uint64_t end_instruments();
   // The findings' line and JSON for the status and the summary, once the pass's frame is out.
   void note_instrument_findings();
@@ -281,9 +289,9 @@ class VolumeStages final : public LiveStage, public ViewControl {
   std::unique_ptr<segmentation::Segmenter> segmenter_;
   std::unique_ptr<instruments::InstrumentDetector> detector_;  // null unless enabled
   instruments::InstrumentFindings findings_;
-  instruments::TipBscans tip_bscans_;       // through the nearest tip, cut when frames need them
-  std::uint64_t instruments_begin_ns_ = 0;  // begin_instruments()'s share of the pass's time
-  bool tip_bscans_stale_ = false;           // new findings since the publisher encoded the pair
+  instruments::TipBscans tip_bscans_;        // through the nearest tip, cut when frames need them
+  std::uint64_t instruments_so_far_ns_ = 0;  // the steps before end_instruments(), this pass
+  bool tip_bscans_stale_ = false;            // new findings since the publisher encoded the pair
   std::unique_ptr<render::Renderer> renderer_;
   // The renderer's own filter (Weiss's per-B-scan median), null unless render_filter_by_mode; on
   // the host path its volume render_filtered_, kept only while the renderer holds it.
