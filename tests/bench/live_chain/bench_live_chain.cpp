@@ -474,8 +474,8 @@ int run(const Options& o) {
     }
     qd = quantiles(detected);
     std::printf(
-        "  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms   (found while the device renders; the "
-        "frame is published after both)\n",
+        "  %-36s p50 %7.3f ms  p99 %7.3f ms  max %7.3f ms   (found while the device works on the "
+        "pass; the frame is published after both)\n",
         "-> tips found", qd->p50, qd->p99, qd->max);
   }
   std::printf(
