@@ -1,17 +1,24 @@
 // The detection in ioct-gpu's live stages: a forceps scene handed over group by group to
 // VolumeStages with instruments enabled; the status line, the view socket's "instruments" answer
-// and summary.json carry the tip where the simulator put it and its distances. CPU stages, and
+// and summary.json carry the tip where the simulator put it and its distances, and the frames
+// the tip and its B-scan pair. CPU stages, and
 // CUDA stages on a GPU machine (skipped without one) handed a host volume or, as the CUDA live
 // pipeline does, a device one that the detection reads in place.
 #include <gtest/gtest.h>
 
 #include <unistd.h>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <string>
 
+#include "decoded_jpeg.hpp"
 #include "instrument_scenes.hpp"
+#include "ioct/gpu/instruments/tip_bscans.hpp"
 #include "ioct/gpu/live_stages/volume_stages.hpp"
 #include "ioct/gpu/processing/oct_processor.hpp"
+#include "ioct/shm/frame_ring.hpp"
 #include "live_volumes.hpp"
 
 #if IOCT_GPU_WITH_CUDA
@@ -41,6 +48,11 @@ class LiveInstruments : public ::testing::TestWithParam<LivePlace> {
        (GetParam().device_volume ? "-device-" : "-") + std::to_string(::getpid()));
 };
 
+std::string place_name(const LivePlace& place) {
+  if (place.backend == gpu::Backend::cpu) return "cpu";
+  return place.device_volume ? "cuda_device_volume" : "cuda";
+}
+
 TEST_P(LiveInstruments, TheStatusTheViewSocketAndTheSummaryCarryTheTip) {
   std::filesystem::create_directories(dir_);
   const SceneVolume scene = make_scene_volume(instrument_scenes()[0]);  // forceps approaching
@@ -52,8 +64,12 @@ TEST_P(LiveInstruments, TheStatusTheViewSocketAndTheSummaryCarryTheTip) {
   config.sampling = scene.sampling;
   config.instruments.enabled = true;
   config.instruments.warn_rpe_um = 600.0;  // the tip is ~530 um above the RPE
+  config.cpu_render_interval_s = 0.0;      // a frame for every pass on the CPU too
+  config.frame_ring =
+      "ioct-test-instruments-live-" + place_name(GetParam()) + "-" + std::to_string(::getpid());
   gpu::live::VolumeStages stages(config);
   EXPECT_EQ(stages.instruments().at("enabled"), true);
+  shm::FrameRingReader frames = shm::FrameRingReader::attach(config.frame_ring);
 
 #if IOCT_GPU_WITH_CUDA
   const gpu::cuda::BusTraffic before = gpu::cuda::bus_traffic();
@@ -84,6 +100,39 @@ TEST_P(LiveInstruments, TheStatusTheViewSocketAndTheSummaryCarryTheTip) {
   const std::string status = stages.status();
   EXPECT_NE(status.find("instruments: tip"), std::string::npos) << status;
   EXPECT_NE(status.find("WARNING"), std::string::npos) << status;
+
+  // The last frame carries the nearest tip of the findings and the B-scan pair through it, as
+  // cut from the volume the detection read (on the device chain it is cut while the device
+  // renders, on the CPU path as the frame is published).
+  shm::Frame frame, last;
+  while (frames.read_next(frame)) {
+    if (frame.meta.tip_bscans_bytes > 0) last = frame;
+  }
+  const gpu::instruments::InstrumentTip* nearest = stages.findings().nearest_tip();
+  ASSERT_NE(nearest, nullptr);
+  ASSERT_GT(last.meta.tip_bscans_bytes, 0u) << "no frame carried the tip's B-scan pair";
+  EXPECT_EQ(last.meta.instrument.state,
+            static_cast<std::uint32_t>(shm::FrameInstrumentState::found));
+  EXPECT_FLOAT_EQ(last.meta.instrument.tip_voxel[0], static_cast<float>(nearest->bscan));
+  EXPECT_FLOAT_EQ(last.meta.instrument.tip_voxel[1], static_cast<float>(nearest->ascan));
+  gpu::instruments::TipBscans expected;
+  gpu::instruments::cut_tip_bscans(scene.volume.volume, *nearest, scene.sampling, expected);
+  EXPECT_EQ(last.meta.tip_bscan_width, expected.width);
+  EXPECT_EQ(last.meta.tip_bscan_height, expected.height);
+  const gpu::live::DecodedJpeg pair = gpu::live::decode_jpeg(last.tip_bscans());
+  ASSERT_EQ(pair.pixels.size(), expected.pixels.size());
+  double difference = 0.0;
+  std::size_t tissue = 0;  // px of the cut brighter than the vitreous's speckle
+  for (std::size_t i = 0; i < pair.pixels.size(); ++i) {
+    difference += std::abs(int{pair.pixels[i]} - int{expected.pixels[i]});
+    tissue += expected.pixels[i] > 60 ? 1 : 0;
+  }
+  const auto n = static_cast<double>(pair.pixels.size());
+  EXPECT_GT(tissue, pair.pixels.size() / 50) << "the pair cut here shows no tissue to compare";
+  EXPECT_LT(difference / n, 1.5) << "mean |JPEG - cut| per px of the pair";
+  std::printf("[ figures  ] the frame's tip pair: %u x %u px each, mean |JPEG - cut| %.3f\n",
+              expected.width, expected.height, difference / n);
+
 #if IOCT_GPU_WITH_CUDA
   if (GetParam().device_volume) {
     // The detection read the device volume in place: no B-scan crossed during the passes (the
@@ -102,16 +151,13 @@ TEST(LiveInstrumentsOff, NothingIsReportedWhenDisabled) {
   EXPECT_EQ(stages.status().find("instruments"), std::string::npos);
 }
 
-std::string place_name(const ::testing::TestParamInfo<LivePlace>& param) {
-  if (param.param.backend == gpu::Backend::cpu) return "cpu";
-  return param.param.device_volume ? "cuda_device_volume" : "cuda";
-}
-
 INSTANTIATE_TEST_SUITE_P(Backends, LiveInstruments,
                          ::testing::Values(LivePlace{gpu::Backend::cpu, false},
                                            LivePlace{gpu::Backend::cuda, false},
                                            LivePlace{gpu::Backend::cuda, true}),
-                         place_name);
+                         [](const ::testing::TestParamInfo<LivePlace>& param) {
+                           return place_name(param.param);
+                         });
 
 }  // namespace
 }  // namespace ioct::instruments_test

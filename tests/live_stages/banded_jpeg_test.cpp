@@ -3,42 +3,16 @@
 // a cut the size of the live renders; bands that cannot be joined are refused by name.
 #include <gtest/gtest.h>
 
-#include <turbojpeg.h>
-
 #include <cstdint>
 #include <random>
 #include <stdexcept>
 #include <vector>
 
+#include "decoded_jpeg.hpp"
 #include "ioct/gpu/live_stages/banded_jpeg_encoder.hpp"
 
 namespace ioct::gpu::live {
 namespace {
-
-struct Decoded {
-  int width = 0, height = 0;
-  std::vector<unsigned char> pixels;  // RGB, or grey for a grey JPEG
-};
-
-Decoded decode(std::span<const std::byte> jpeg) {
-  Decoded out;
-  tjhandle handle = tjInitDecompress();
-  int subsampling = 0, colorspace = 0;
-  const auto* data = reinterpret_cast<const unsigned char*>(jpeg.data());
-  const unsigned long size = jpeg.size();
-  if (tjDecompressHeader3(handle, data, size, &out.width, &out.height, &subsampling, &colorspace) ==
-      0) {
-    const int format = colorspace == TJCS_GRAY ? TJPF_GRAY : TJPF_RGB;
-    out.pixels.resize(static_cast<std::size_t>(out.width) * out.height * tjPixelSize[format]);
-    if (tjDecompress2(handle, data, size, out.pixels.data(), out.width, 0, out.height, format, 0) !=
-        0) {
-      ADD_FAILURE() << "decoding failed: " << tjGetErrorStr2(handle);
-      out = {};
-    }
-  }
-  tjDestroy(handle);
-  return out;
-}
 
 // A picture with smooth gradients, edges and noise, so every band codes something different.
 std::vector<std::uint8_t> picture(std::uint32_t width, std::uint32_t height, unsigned channels,
@@ -81,11 +55,11 @@ TEST(BandedJpeg, DecodesToTheSamePixelsAsOneEncodedWhole) {
     const std::vector<std::uint8_t> p = picture(c.width, c.height, c.channels, seed++);
     JpegEncoder whole(85);
     const std::span<const std::byte> reference = whole.encode(p, c.width, c.height, c.layout);
-    const Decoded expected = decode(reference);
+    const DecodedJpeg expected = decode_jpeg(reference);
     WorkerPool pool(2);
     BandedJpegEncoder banded(85, c.bands, pool);
     const std::span<const std::byte> joined = banded.encode(p, c.width, c.height, c.layout);
-    const Decoded got = decode(joined);
+    const DecodedJpeg got = decode_jpeg(joined);
     ASSERT_EQ(got.width, static_cast<int>(c.width));
     ASSERT_EQ(got.height, static_cast<int>(c.height));
     ASSERT_FALSE(got.pixels.empty());
@@ -113,8 +87,8 @@ TEST(BandedJpeg, TwoImagesBandsSharingOneRunDecodeAsEachAlone) {
   const std::vector<std::uint8_t> render = picture(1024, 768, 4, 11);
   const std::vector<std::uint8_t> bscan = picture(512, 688, 3, 12);
   JpegEncoder whole(85);
-  const Decoded render_alone = decode(whole.encode(render, 1024, 768, PixelLayout::rgba));
-  const Decoded bscan_alone = decode(whole.encode(bscan, 512, 688, PixelLayout::rgb));
+  const DecodedJpeg render_alone = decode_jpeg(whole.encode(render, 1024, 768, PixelLayout::rgba));
+  const DecodedJpeg bscan_alone = decode_jpeg(whole.encode(bscan, 512, 688, PixelLayout::rgb));
   WorkerPool pool(3);
   BandedJpegEncoder render_encoder(85, 4, pool), bscan_encoder(85, 4, pool);
   for (int round = 0; round < 2; ++round) {  // the second with the encoders' buffers reused
@@ -127,8 +101,8 @@ TEST(BandedJpeg, TwoImagesBandsSharingOneRunDecodeAsEachAlone) {
       const std::uint32_t band = 3 - k / 2;
       (k % 2 == 0 ? bscan_encoder : render_encoder).encode_band(band);
     });
-    const Decoded render_got = decode(render_encoder.joined());
-    const Decoded bscan_got = decode(bscan_encoder.joined());
+    const DecodedJpeg render_got = decode_jpeg(render_encoder.joined());
+    const DecodedJpeg bscan_got = decode_jpeg(bscan_encoder.joined());
     ASSERT_FALSE(render_got.pixels.empty());
     ASSERT_FALSE(bscan_got.pixels.empty());
     EXPECT_TRUE(render_got.pixels == render_alone.pixels) << "round " << round;

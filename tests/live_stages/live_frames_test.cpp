@@ -3,7 +3,6 @@
 // bring new frames without a new group; the status and the heartbeat are kept current.
 #include <gtest/gtest.h>
 
-#include <turbojpeg.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -13,6 +12,7 @@
 #include <thread>
 #include <vector>
 
+#include "decoded_jpeg.hpp"
 #include "ioct/concurrency/monotonic_clock.hpp"
 #include "ioct/gpu/live_stages/volume_stages.hpp"
 #include "ioct/shm/frame_ring.hpp"
@@ -22,34 +22,13 @@
 namespace ioct::gpu::live {
 namespace {
 
-struct Decoded {
-  int width = 0, height = 0;
-  std::vector<unsigned char> rgb;
-};
-
-Decoded decode(std::span<const std::byte> jpeg) {
-  Decoded out;
-  tjhandle handle = tjInitDecompress();
-  int subsampling = 0, colorspace = 0;
-  auto* data = reinterpret_cast<const unsigned char*>(jpeg.data());
-  if (tjDecompressHeader3(handle, data, jpeg.size(), &out.width, &out.height, &subsampling,
-                          &colorspace) == 0) {
-    out.rgb.resize(static_cast<std::size_t>(out.width) * out.height * 3);
-    if (tjDecompress2(handle, data, jpeg.size(), out.rgb.data(), out.width, 0, out.height, TJPF_RGB,
-                      0) != 0) {
-      out = {};
-    }
-  }
-  tjDestroy(handle);
-  return out;
-}
-
 // Mean absolute difference per channel of two pictures of one size.
-double difference(const Decoded& a, const Decoded& b) {
-  if (a.rgb.size() != b.rgb.size() || a.rgb.empty()) return -1.0;
+double difference(const DecodedJpeg& a, const DecodedJpeg& b) {
+  if (a.pixels.size() != b.pixels.size() || a.pixels.empty()) return -1.0;
   double sum = 0.0;
-  for (std::size_t i = 0; i < a.rgb.size(); ++i) sum += std::abs(int(a.rgb[i]) - int(b.rgb[i]));
-  return sum / static_cast<double>(a.rgb.size());
+  for (std::size_t i = 0; i < a.pixels.size(); ++i)
+    sum += std::abs(int(a.pixels[i]) - int(b.pixels[i]));
+  return sum / static_cast<double>(a.pixels.size());
 }
 
 class LiveFramesTest : public ::testing::Test {
@@ -123,10 +102,10 @@ TEST_F(LiveFramesTest, FramesCarryTheirGroupAndAThresholdChangesTheNextFrame) {
   EXPECT_EQ(m.bscan_index, 16u);  // slice.bscan -1: the centre
   EXPECT_EQ(m.bscan_width, 96u);
   EXPECT_EQ(m.bscan_height, 256u);
-  const Decoded before = decode(frame.render());
+  const DecodedJpeg before = decode_jpeg(frame.render());
   ASSERT_EQ(before.width, 96);
   ASSERT_EQ(before.height, 72);
-  const Decoded bscan = decode(frame.bscan());
+  const DecodedJpeg bscan = decode_jpeg(frame.bscan());
   EXPECT_EQ(bscan.width, 96);
   EXPECT_EQ(bscan.height, 256);
 
@@ -159,7 +138,7 @@ TEST_F(LiveFramesTest, FramesCarryTheirGroupAndAThresholdChangesTheNextFrame) {
     return f.meta.params_generation >= generation && f.meta.width == 96;
   }));
   EXPECT_EQ(frame.meta.group_index, 5u);
-  const Decoded after = decode(frame.render());
+  const DecodedJpeg after = decode_jpeg(frame.render());
   EXPECT_GT(difference(before, after), 1.0) << "the threshold changed nothing visible";
 
   // A slice position moves the B-scan.
@@ -184,12 +163,12 @@ TEST_F(LiveFramesTest, AutoRotationBringsNewFramesWithoutNewGroups) {
   ASSERT_TRUE(
       wait_for_frame(reader, frame, [](const shm::Frame& f) { return f.meta.group_index == 8; }));
   // On the CPU a moving view renders at half size.
-  std::vector<Decoded> pictures;
+  std::vector<DecodedJpeg> pictures;
   for (int i = 0; i < 4; ++i) {
     ASSERT_TRUE(wait_for_frame(reader, frame, [](const shm::Frame&) { return true; }));
     EXPECT_EQ(frame.meta.group_index, 8u);
     EXPECT_EQ(frame.meta.width, 48u);
-    pictures.push_back(decode(frame.render()));
+    pictures.push_back(decode_jpeg(frame.render()));
   }
   EXPECT_GT(difference(pictures.front(), pictures.back()), 0.5) << "the view did not turn";
 
@@ -208,12 +187,12 @@ TEST_F(LiveFramesTest, APrivateViewGetsFramesOfItsOwnCamera) {
   ASSERT_TRUE(wait_for_frame(reader, frame, [](const shm::Frame& f) {
     return f.meta.view_id == 0 && f.meta.group_index == 1;
   }));
-  const Decoded shared = decode(frame.render());
+  const DecodedJpeg shared = decode_jpeg(frame.render());
   stages.open_view(7, {{"view", {{"azimuth_deg", 150}}}});
   ASSERT_TRUE(wait_for_frame(reader, frame, [](const shm::Frame& f) {
     return f.meta.view_id == 7 && f.meta.width == 96;  // full size once it stood still
   }));
-  EXPECT_GT(difference(shared, decode(frame.render())), 1.0) << "the same camera as view 0";
+  EXPECT_GT(difference(shared, decode_jpeg(frame.render())), 1.0) << "the same camera as view 0";
   // A new group: both views get a frame of it.
   stages.on_bscans(live_, 0, 8, stamp(2));
   bool seen_shared = false, seen_private = false;

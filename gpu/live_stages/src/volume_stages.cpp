@@ -339,6 +339,16 @@ render::RenderConfig VolumeStages::live_view() const {
   return views_.shared(ioct::monotonic_ns());
 }
 
+void VolumeStages::cut_tip_bscans() {
+  if (!tip_bscans_stale_ || tip_bscans_cut_) return;
+  // From the processed volume the detector read: the filters erase a tool's thin reflex.
+  if (const instruments::InstrumentTip* tip = findings_.nearest_tip()) {
+    instruments::cut_tip_bscans(device_ != nullptr ? device_->input() : VolumeRef::on_host(input_),
+                                *tip, config_.sampling, tip_bscans_);
+  }
+  tip_bscans_cut_ = true;
+}
+
 DueRender VolumeStages::take_shared_render(SnapshotWaiters& waiters) {
   std::lock_guard lock(mutex_);
   views_.volume_changed();
@@ -399,14 +409,8 @@ void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered
       bscan_shown_ = bscan;
     }
     if (tip_bscans_stale_) {
-      // From the processed volume the detector read: the filters erase a tool's thin reflex.
-      const instruments::InstrumentTip* tip = findings_.nearest_tip();
-      if (tip != nullptr) {
-        instruments::cut_tip_bscans(
-            device_ != nullptr ? device_->input() : VolumeRef::on_host(input_), *tip,
-            config_.sampling, tip_bscans_);
-      }
-      publisher_->set_tip_bscans(tip != nullptr ? &tip_bscans_ : nullptr);
+      cut_tip_bscans();
+      publisher_->set_tip_bscans(findings_.nearest_tip() != nullptr ? &tip_bscans_ : nullptr);
       tip_bscans_stale_ = false;
     }
     shm::FrameMeta meta{};
@@ -546,6 +550,7 @@ std::uint64_t VolumeStages::end_instruments() {
   const std::uint64_t t0 = ioct::monotonic_ns();
   detector_->end_group(surfaces_, findings_);
   tip_bscans_stale_ = true;
+  tip_bscans_cut_ = false;
   const std::uint64_t t1 = ioct::monotonic_ns();
   std::lock_guard lock(mutex_);
   figures_.instruments.record(std::exchange(instruments_so_far_ns_, 0) + (t1 - t0));
@@ -629,13 +634,22 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
     // The A-scans' classes from the input in place, on the detector's stream beside the filter
     // and the segmentation. Once the pass is enqueued the host locates the tips from the classes
     // while the device still filters and segments; then the surfaces come to the host (a few
-    // hundred kB) and the distances are found while it renders. The frame, published after
-    // both, carries the instrument of the volume state it shows.
+    // hundred kB) and the distances are found while it renders, and so is the tip's B-scan pair
+    // a frame will carry (cut from the input on the chain's stream, beside the render). The
+    // frame, published after both, carries the instrument of the volume state it shows.
     begin_instruments(device_->input(), first, count);
     while_the_pass_runs = [this, &detected_ns] {
       locate_instruments();
       device_->download_surfaces(surfaces_);
       detected_ns = end_instruments();
+      if (publisher_ != nullptr) {
+        try {
+          cut_tip_bscans();
+        } catch (const std::exception&) {
+          // Not cut: the frame's publication cuts it again, and a failure there costs the
+          // viewers that frame (publish_frame), never the pipeline.
+        }
+      }
     };
   }
   DeviceStageChain::PassTimes t;

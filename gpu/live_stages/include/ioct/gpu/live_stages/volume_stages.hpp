@@ -246,6 +246,10 @@ class VolumeStages final : public LiveStage, public ViewControl {
   // The render in image_ to the frame ring, to the snapshots waiting for it, and its figures.
   void deliver(const DueRender& render, std::uint64_t rendered_ns, SnapshotWaiters& waiters);
   void publish_frame(const DueRender& render, std::uint64_t rendered_ns);
+  // The B-scan pair through the nearest tip of new findings into tip_bscans_, once: on the device
+  // chain while the device renders the pass's frame, else when the frame is published (which
+  // hands it to the publisher, with that frame).
+  void cut_tip_bscans();
   // The instrument a frame of `shown` carries, placed in its render.
   shm::FrameInstrument instrument_for(const render::RenderConfig& shown) const;
   // A change of the views under the lock, then the stages' thread woken; returns the generation.
@@ -292,6 +296,7 @@ class VolumeStages final : public LiveStage, public ViewControl {
   instruments::TipBscans tip_bscans_;        // through the nearest tip, cut when frames need them
   std::uint64_t instruments_so_far_ns_ = 0;  // the steps before end_instruments(), this pass
   bool tip_bscans_stale_ = false;            // new findings since the publisher encoded the pair
+  bool tip_bscans_cut_ = false;              // tip_bscans_ is the new findings' pair
   std::unique_ptr<render::Renderer> renderer_;
   // The renderer's own filter (Weiss's per-B-scan median), null unless render_filter_by_mode; on
   // the host path its volume render_filtered_, kept only while the renderer holds it.
