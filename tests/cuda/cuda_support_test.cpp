@@ -1,8 +1,8 @@
 // The CUDA support's buffers (gpu/cuda): a resize within what is allocated keeps the allocation
 // and does not wait for the device (cudaFree would: a buffer that alternates between a volume's
 // size and a group's stalled every stream at each change), a larger one allocates anew, a move
-// takes the allocation along; the pinned download reads back what was written after such
-// resizes. Skipped, saying why, where the cuda backend cannot run.
+// takes the allocation along; the pinned download reads back each of several sizes exactly.
+// Skipped, saying why, where the cuda backend cannot run.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -125,8 +125,8 @@ TEST_F(CudaSupport, PinnedArrayShrinksWithinItsAllocationWithoutWaitingForTheDev
   EXPECT_EQ(values.size(), 4097u);
 }
 
-// The download's block after downloads of shrinking and growing sizes: each reads back exactly
-// what its device range holds.
+// One download after another of other sizes, smaller and larger, through the block it keeps:
+// each reads back exactly what its device range holds, none of the last one's bytes.
 TEST_F(CudaSupport, PinnedDownloadReadsBackEachSizeAfterLargerAndSmallerOnes) {
   Stream stream;
   PinnedDownload download;

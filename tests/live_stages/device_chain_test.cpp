@@ -91,11 +91,14 @@ StagesRun run_stages(Backend backend, bool device_source, const std::filesystem:
   // On the stages' thread, after the pass (and its detection): its host copy is read there.
   config.on_pass = [&gate, &running, &after_last_pass, instruments](const StagesPass& pass) {
     if (instruments && running != nullptr) after_last_pass = running->surfaces();
-    // When the tips were found: after the segmentation (they need its surfaces); on the device
-    // chain while the device renders, so before the pass's end, which the frame waits for.
+    // When the tips were found: after the segmentation (their distances need its surfaces); on
+    // the device chain while the device works on the pass, so before the pass's end, which the
+    // frame waits for.
     if (instruments) {
       EXPECT_GE(pass.detected_ns, pass.segmented_ns);
-      if (pass.on_device) EXPECT_LE(pass.detected_ns, pass.rendered_ns);
+      if (pass.on_device) {
+        EXPECT_LE(pass.detected_ns, pass.rendered_ns);
+      }
     } else {
       EXPECT_EQ(pass.detected_ns, 0u);
     }

@@ -59,9 +59,14 @@ void InstrumentDetector::check_pending(const InstrumentFindings& findings, const
 void InstrumentDetector::locate_tips(InstrumentFindings& findings) {
   check_pending(findings, "locate_tips()");
   if (located_) throw std::logic_error("instruments: locate_tips() twice for one group");
-  collect(findings);
-  located_ = true;  // collected: nothing to wait for any more, whatever locate() does
-  tip_finder_.locate(findings, config_, sampling_);
+  try {
+    collect(findings);
+    tip_finder_.locate(findings, config_, sampling_);
+  } catch (...) {
+    drop_group();  // nothing half done is left to end: end_group() then says none is begun
+    throw;
+  }
+  located_ = true;
 }
 
 void InstrumentDetector::end_group(const segmentation::Surfaces& surfaces,
@@ -78,11 +83,9 @@ void InstrumentDetector::end_group(const segmentation::Surfaces& surfaces,
 void InstrumentDetector::drop_group() {
   InstrumentFindings* const pending = std::exchange(pending_, nullptr);
   if (pending == nullptr) return;
-  if (!std::exchange(located_, false)) {
-    collect(*pending);
-    return;
-  }
-  // Located, never placed: no tips rather than tips without distances.
+  // Its classes are collected (the device is done with the volume) unless its tips were
+  // located; tips it never ended, or an earlier group's beside its classes, are none.
+  if (!std::exchange(located_, false)) collect(*pending);
   pending->tips.clear();
   pending->nearest = -1;
   pending->warning = false;

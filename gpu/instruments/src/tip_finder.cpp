@@ -9,6 +9,7 @@
 #include <limits>
 #include <optional>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 namespace ioct::gpu::instruments {
@@ -1543,8 +1544,14 @@ struct TipFinder::Buffers {
 
 TipFinder::TipFinder() : buffers_(std::make_unique<Buffers>()) {}
 TipFinder::~TipFinder() = default;
-TipFinder::TipFinder(TipFinder&&) noexcept = default;
-TipFinder& TipFinder::operator=(TipFinder&&) noexcept = default;
+// A moved-from finder has located nothing (its buffers went with the move).
+TipFinder::TipFinder(TipFinder&& other) noexcept
+    : buffers_(std::move(other.buffers_)), located_(std::exchange(other.located_, nullptr)) {}
+TipFinder& TipFinder::operator=(TipFinder&& other) noexcept {
+  buffers_ = std::move(other.buffers_);
+  located_ = std::exchange(other.located_, nullptr);
+  return *this;
+}
 
 void TipFinder::find(InstrumentFindings& findings, const Surfaces& surfaces,
                      const InstrumentConfig& config, const VolumeSampling& sampling) {

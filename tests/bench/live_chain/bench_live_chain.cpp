@@ -10,9 +10,9 @@
 //                volume), -> filtered, -> segmented, -> frame rendered in device memory
 //                (p50 / p99 / max over --groups groups; a stage's time is when the device
 //                finished it); with --instruments also -> tips found (the classes on the
-//                device beside the filter and the segmentation, the tips and distances on the
-//                host while the device renders; the pass ends with both, so "rendered" is then
-//                the later of the frame and the tips).
+//                device beside the filter and the segmentation, the tips located on the host
+//                meanwhile and their distances added while the device renders; the pass ends
+//                with both, so "rendered" is then the later of the frame and the tips).
 //   throughput   a closed loop at the maximum rate: the writer publishes as soon as the stages
 //                are at most --ahead groups behind (and a ring slot is free), so every group gets
 //                processing, filters, segmentation and a render (and with --instruments the

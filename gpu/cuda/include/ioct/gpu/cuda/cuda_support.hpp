@@ -101,9 +101,9 @@ class DeviceArray {
   T* data() const noexcept { return data_; }
   std::size_t size() const noexcept { return count_; }
   std::size_t bytes() const noexcept { return count_ * sizeof(T); }
-  // `count` elements (contents lost when it changes). The allocation only grows: cudaFree
-  // waits for the whole device, so a buffer that alternates between sizes (a volume's pass, then
-  // a group's) must not free on every change.
+  // `count` elements; a resize past the allocation loses the contents. The allocation only
+  // grows: cudaFree waits for the whole device, so a buffer that alternates between sizes (a
+  // volume's pass, then a group's) must not free on every change.
   void resize(std::size_t count) {
     if (count == count_) return;
     if (count > capacity_) {
@@ -147,9 +147,9 @@ class PinnedArray {
   }
   T* data() const noexcept { return data_; }
   std::size_t size() const noexcept { return count_; }
-  // `count` elements (contents lost when it changes). The allocation only grows: cudaFreeHost
-  // waits for the whole device, so a buffer that alternates between sizes (a volume's pass, then
-  // a group's) must not free on every change.
+  // `count` elements; a resize past the allocation loses the contents. The allocation only
+  // grows: cudaFreeHost waits for the whole device, so a buffer that alternates between sizes
+  // must not free on every change.
   void resize(std::size_t count) {
     if (count == count_) return;
     if (count > capacity_) {

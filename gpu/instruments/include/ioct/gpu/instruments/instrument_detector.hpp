@@ -42,14 +42,16 @@ class InstrumentDetector {
   }
 
   // detect_group in two halves, for a caller with work of its own meanwhile (the live stages
-  // render while the classes come): begin_group checks the group and starts its classification
+  // filter and segment while the classes come): begin_group checks the group and starts its
+  // classification
   // (the CUDA detection enqueues it on its own stream, after the work the volume's stream has so
   // far, and returns; the CPU one classifies before it returns), end_group takes the classes into
   // the same `findings` and finds the tips. In between, `findings` is not to be read nor the
   // group's B-scans written, and `findings` must outlive the group. A begin_group while one is
   // pending ends that one first (no tips); end_group with none pending, or for other findings,
   // throws std::logic_error. drop_group() ends a pending group without tips (its classes in its
-  // findings), waiting for the device to be done with the volume: for a caller unwinding.
+  // findings, its tips and any earlier group's cleared), waiting for the device to be done with
+  // the volume: for a caller unwinding.
   //
   // locate_tips() may come in between: it takes the classes and finds the tips from the mask
   // alone (TipFinder::locate), so that end_group() is left with the distances, which need the
