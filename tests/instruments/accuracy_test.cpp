@@ -19,6 +19,7 @@
 #include "ioct/gpu/instruments/instrument_detector.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"
 #include "ioct/sim/instrument_spec.hpp"
+#include "same_tips.hpp"
 
 namespace ioct::instruments_test {
 namespace {
@@ -115,25 +116,6 @@ TEST(InstrumentAccuracy, TipAndDistancesAgainstTheSimulatorsPose) {
   EXPECT_LE(p95(all.ilm), kIlmDistanceP95Um);
   EXPECT_LE(p95(all.rpe), kRpeDistanceP95Um);
   EXPECT_LE(p95(metal.tip), kMetalTipP95Vox);
-}
-
-// Every field of two tips the same, to the bit (NaN where both have none).
-void expect_same_tip(const gpu::instruments::InstrumentTip& a,
-                     const gpu::instruments::InstrumentTip& b, const std::string& what) {
-  const auto same = [](double x, double y) {
-    return std::memcmp(&x, &y, sizeof x) == 0 || (std::isnan(x) && std::isnan(y));
-  };
-  EXPECT_EQ(a.footprint_ascans, b.footprint_ascans) << what;
-  EXPECT_EQ(a.translucent, b.translucent) << what;
-  EXPECT_EQ(a.source, b.source) << what;
-  const double fields_a[] = {a.bscan,  a.ascan,  a.depth_px, a.x_um,   a.y_um,      a.z_um,
-                             a.axis_x, a.axis_y, a.ilm_px,   a.rpe_px, a.to_ilm_um, a.to_rpe_um};
-  const double fields_b[] = {b.bscan,  b.ascan,  b.depth_px, b.x_um,   b.y_um,      b.z_um,
-                             b.axis_x, b.axis_y, b.ilm_px,   b.rpe_px, b.to_ilm_um, b.to_rpe_um};
-  for (std::size_t i = 0; i < std::size(fields_a); ++i) {
-    EXPECT_TRUE(same(fields_a[i], fields_b[i]))
-        << what << ": field " << i << " " << fields_a[i] << " against " << fields_b[i];
-  }
 }
 
 // The detection's halves as the live stages call them: the group begun, its tips located from the

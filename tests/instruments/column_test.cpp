@@ -208,9 +208,10 @@ TEST(Tips, GroupsOutsideTheVolumeAreRefused) {
   EXPECT_THROW(detector->detect_group(volume, {6, 4}, {}, findings), std::out_of_range);
 }
 
-// detect_group in two halves (the live stages render between them): begun group by group and
-// ended once, or a group begun while another is pending (which ends that one first, without
-// tips), the findings are detect_volume's to the bit. Ending none, or other findings, is refused.
+// detect_group in two halves (the live stages filter and segment between them): begun group by
+// group and ended once, or a group begun while another is pending (which ends that one first,
+// without tips), the findings are detect_volume's to the bit. Ending none, or other findings, is
+// refused.
 TEST(Tips, AGroupBegunAndEndedLaterIsDetectGroupInTwoHalves) {
   const DrawnNeedle n = drawn_needle();
   const auto detector = make_instrument_detector(Backend::cpu, n.config, n.sampling, 2);

@@ -21,6 +21,7 @@
 #include "ioct/gpu/instruments/instrument_detector.hpp"
 #include "ioct/gpu/instruments/tip_bscans.hpp"
 #include "ioct/gpu/segmentation/segmenter.hpp"
+#include "same_tips.hpp"
 
 #if IOCT_INSTRUMENTS_HAVE_CUDA
 #include "ioct/gpu/cuda/cuda_support.hpp"
@@ -53,14 +54,9 @@ void expect_same_findings(const InstrumentFindings& a, const InstrumentFindings&
   ASSERT_EQ(0, std::memcmp(a.front_px.data(), b.front_px.data(), a.front_px.size() * sizeof(float)))
       << what;
   ASSERT_EQ(a.tips.size(), b.tips.size()) << what;
-  for (std::size_t i = 0; i < a.tips.size(); ++i) {
-    EXPECT_EQ(a.tips[i].ascan, b.tips[i].ascan) << what;
-    EXPECT_EQ(a.tips[i].depth_px, b.tips[i].depth_px) << what;
-    // No retina under a tip: the distance is NaN on both.
-    EXPECT_TRUE((std::isnan(a.tips[i].to_rpe_um) && std::isnan(b.tips[i].to_rpe_um)) ||
-                a.tips[i].to_rpe_um == b.tips[i].to_rpe_um)
-        << what << ": " << a.tips[i].to_rpe_um << " against " << b.tips[i].to_rpe_um;
-  }
+  for (std::size_t i = 0; i < a.tips.size(); ++i) expect_same_tip(a.tips[i], b.tips[i], what);
+  EXPECT_EQ(a.nearest, b.nearest) << what;
+  EXPECT_EQ(a.warning, b.warning) << what;
 }
 
 TEST(InstrumentsCudaVsCpu, SameMaskReflexesAndTipsGroupByGroup) {

@@ -7,6 +7,7 @@
 #include <turbojpeg.h>
 
 #include <cstddef>
+#include <cstdlib>
 #include <span>
 #include <vector>
 
@@ -37,6 +38,16 @@ inline DecodedJpeg decode_jpeg(std::span<const std::byte> jpeg) {
   }
   tjDestroy(handle);
   return out;
+}
+
+// Mean absolute difference per byte of two pictures of one size (-1 where they differ in size
+// or are empty).
+inline double mean_abs_difference(std::span<const unsigned char> a,
+                                  std::span<const unsigned char> b) {
+  if (a.size() != b.size() || a.empty()) return -1.0;
+  double sum = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) sum += std::abs(int{a[i]} - int{b[i]});
+  return sum / static_cast<double>(a.size());
 }
 
 }  // namespace ioct::gpu::live

@@ -24,11 +24,7 @@ namespace {
 
 // Mean absolute difference per channel of two pictures of one size.
 double difference(const DecodedJpeg& a, const DecodedJpeg& b) {
-  if (a.pixels.size() != b.pixels.size() || a.pixels.empty()) return -1.0;
-  double sum = 0.0;
-  for (std::size_t i = 0; i < a.pixels.size(); ++i)
-    sum += std::abs(int(a.pixels[i]) - int(b.pixels[i]));
-  return sum / static_cast<double>(a.pixels.size());
+  return mean_abs_difference(a.pixels, b.pixels);
 }
 
 class LiveFramesTest : public ::testing::Test {

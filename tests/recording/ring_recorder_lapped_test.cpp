@@ -235,7 +235,6 @@ class PinnedThread {
 };
 
 TEST(RingRecorderLapped, LappedGroupsAreCountedNoneWrittenNoneLostAndTheRecordingGoesOn) {
-  const auto test_start = std::chrono::steady_clock::now();
   const std::optional<std::pair<int, int>> cpus = two_cpus();
   if (!cpus) GTEST_SKIP() << "needs two CPUs: a writer on one lapping the recorder on the other";
   const test_support::ScopedShmName ring("rec-lapped");
@@ -287,7 +286,7 @@ TEST(RingRecorderLapped, LappedGroupsAreCountedNoneWrittenNoneLostAndTheRecordin
   const auto caught_up = [&] {
     return test_support::eventually(
         [&] { return accounted(recorder.status().counters) >= writer.published(); },
-        std::chrono::duration_cast<std::chrono::milliseconds>(kCatchUpTimeout));
+        kCatchUpTimeout);
   };
   const auto counted_once = [&] {
     const CounterValues c = recorder.status().counters;
@@ -308,7 +307,7 @@ TEST(RingRecorderLapped, LappedGroupsAreCountedNoneWrittenNoneLostAndTheRecordin
 
   // The lap: publish as fast as the writer can, until the recorder has counted a lapped group
   // and for at least 100 ms (long enough that it also meets polls that begin_read() gives up on,
-  // lapped on every try: the `continue` of the recorder's loop).
+  // lapped on every try).
   std::optional<PinnedThread> writer_pinned;
   writer_pinned.emplace(cpus->second);
   const auto burst_start = std::chrono::steady_clock::now();
@@ -399,17 +398,15 @@ TEST(RingRecorderLapped, LappedGroupsAreCountedNoneWrittenNoneLostAndTheRecordin
     EXPECT_EQ(recorded[recorded.size() - kPacedGroups + i], burst_end + i)
         << "a group published after the lap is missing";
   }
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - test_start).count();
   std::printf(
-      "[ lapped   ] %llu groups published (%llu in the burst), %llu recorded, lost: lapped %llu, "
-      "behind %llu, queue full %llu; %.2f s\n",
+      "[ figures  ] %llu groups published (%llu in the burst), %llu recorded, lost: lapped %llu, "
+      "behind %llu, queue full %llu\n",
       static_cast<unsigned long long>(published),
       static_cast<unsigned long long>(burst_end - kPacedGroups),
       static_cast<unsigned long long>(recorded.size()),
       static_cast<unsigned long long>(at(c, Counter::dropped_lapped)),
       static_cast<unsigned long long>(at(c, Counter::dropped_behind)),
-      static_cast<unsigned long long>(at(c, Counter::dropped_queue_full)), seconds);
+      static_cast<unsigned long long>(at(c, Counter::dropped_queue_full)));
 }
 
 }  // namespace

@@ -84,7 +84,7 @@ void InstrumentDetector::drop_group() {
   InstrumentFindings* const pending = std::exchange(pending_, nullptr);
   if (pending == nullptr) return;
   // Its classes are collected (the device is done with the volume) unless its tips were
-  // located; tips it never ended, or an earlier group's beside its classes, are none.
+  // located; its tips, and any earlier group's, are cleared.
   if (!std::exchange(located_, false)) collect(*pending);
   pending->tips.clear();
   pending->nearest = -1;

@@ -1588,7 +1588,8 @@ void TipFinder::locate(InstrumentFindings& findings, const InstrumentConfig& con
 void TipFinder::place(InstrumentFindings& findings, const Surfaces& surfaces,
                       const InstrumentConfig& config, const VolumeSampling& sampling) {
   if (located_ != &findings) {
-    throw std::logic_error("instruments: the tips placed without being located in these findings");
+    throw std::logic_error(
+        "instruments: TipFinder::place() for findings that locate() did not locate last");
   }
   located_ = nullptr;
   Buffers& w = *buffers_;

@@ -55,7 +55,7 @@ namespace ioct::gpu::live {
 class DeviceStageChain {
  public:
   // Device time of each stage of a pass, ms, and when the pass was done (CLOCK_MONOTONIC: the
-  // frame on the host when one was asked for, and the work while rendering). The render's is
+  // frame on the host when one was asked for, and while_the_pass_runs' work). The render's is
   // from the segmentation's end to the frame in device memory, or on the host when one was asked
   // for: the renderer's volume update overlaps the segmentation and is not in it.
   struct PassTimes {

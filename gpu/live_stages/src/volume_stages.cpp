@@ -642,7 +642,7 @@ void VolumeStages::run_device_pass(std::uint32_t first, std::uint32_t count, std
       locate_instruments();
       device_->download_surfaces(surfaces_);
       detected_ns = end_instruments();
-      if (publisher_ != nullptr) {
+      if (publisher_ != nullptr) {  // only the publisher takes the pair
         try {
           cut_tip_bscans();
         } catch (const std::exception&) {

@@ -41,12 +41,12 @@ class InstrumentDetector {
     detect_group(VolumeRef::on_host(volume), group, surfaces, findings);
   }
 
-  // detect_group in two halves, for a caller with work of its own meanwhile (the live stages
-  // filter and segment while the classes come): begin_group checks the group and starts its
-  // classification
-  // (the CUDA detection enqueues it on its own stream, after the work the volume's stream has so
-  // far, and returns; the CPU one classifies before it returns), end_group takes the classes into
-  // the same `findings` and finds the tips. In between, `findings` is not to be read nor the
+  // detect_group in steps, for a caller with work of its own meanwhile (the live stages filter
+  // and segment while the classes come): begin_group checks the group and starts its
+  // classification (the CUDA detection enqueues it on its own stream, after the work the volume's
+  // stream has so far, and returns; the CPU one classifies before it returns), end_group takes
+  // the classes into the same `findings` and finds the tips, or after locate_tips() only their
+  // distances. In between, `findings` is not to be read nor the
   // group's B-scans written, and `findings` must outlive the group. A begin_group while one is
   // pending ends that one first (no tips); end_group with none pending, or for other findings,
   // throws std::logic_error. drop_group() ends a pending group without tips (its classes in its
@@ -82,12 +82,14 @@ class InstrumentDetector {
  private:
   InstrumentConfig config_;
   VolumeSampling sampling_;
-  // The group under way: begun (classes pending), or its tips located (ended but for them).
+  // Throws std::logic_error naming `call` unless `findings` are the pending group's.
   void check_pending(const InstrumentFindings& findings, const char* call) const;
 
-  TipFinder tip_finder_;                   // its buffers serve every group
-  InstrumentFindings* pending_ = nullptr;  // begun, not ended
-  bool located_ = false;                   // pending_'s tips located
+  TipFinder tip_finder_;  // its buffers serve every group
+  // The group under way: begun (classes pending), or its tips located (ended but for their
+  // distances).
+  InstrumentFindings* pending_ = nullptr;
+  bool located_ = false;
 };
 
 // Validates both. Backend::automatic takes CUDA where the build and the machine have it;
