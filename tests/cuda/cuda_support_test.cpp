@@ -66,22 +66,32 @@ class HeldStream {
   std::atomic<bool> released_{false}, ran_out_{false};
 };
 
+// `values` (a DeviceArray or PinnedArray) resized to `count`, within its allocation, while a
+// stream is held: the stream stays held, the block and the allocation stay, the size follows.
+template <class Array>
+void expect_shrink_keeps_the_block_and_waits_for_nothing(Array& values, std::size_t count) {
+  const auto* const block = values.data();
+  const std::size_t capacity = values.capacity();
+  ASSERT_NE(block, nullptr);
+  {
+    HeldStream held;
+    values.resize(count);
+    EXPECT_FALSE(held.ran_out()) << "the shrink waited for the held stream";
+    EXPECT_EQ(cudaStreamQuery(held.get()), cudaErrorNotReady);
+    held.release();
+  }
+  EXPECT_EQ(values.data(), block);
+  EXPECT_EQ(values.size(), count);
+  EXPECT_EQ(values.capacity(), capacity);
+}
+
 #endif
 
 TEST_F(CudaSupport, DeviceArrayShrinksWithinItsAllocationWithoutWaitingForTheDevice) {
 #if IOCT_GPU_WITH_CUDA
   DeviceArray<float> values(1000);
   float* const first = values.data();
-  ASSERT_NE(first, nullptr);
-  {
-    HeldStream held;
-    values.resize(100);
-    EXPECT_FALSE(held.ran_out()) << "the shrink waited for the held stream";
-    EXPECT_EQ(cudaStreamQuery(held.get()), cudaErrorNotReady);
-    held.release();
-  }
-  EXPECT_EQ(values.data(), first);
-  EXPECT_EQ(values.size(), 100u);
+  expect_shrink_keeps_the_block_and_waits_for_nothing(values, 100);
   EXPECT_EQ(values.bytes(), 100u * sizeof(float));
   EXPECT_EQ(values.capacity(), 1000u);
 
@@ -114,17 +124,7 @@ TEST_F(CudaSupport, DeviceArrayShrinksWithinItsAllocationWithoutWaitingForTheDev
 TEST_F(CudaSupport, PinnedArrayShrinksWithinItsAllocationWithoutWaitingForTheDevice) {
 #if IOCT_GPU_WITH_CUDA
   PinnedArray<std::uint16_t> values(4096);
-  std::uint16_t* const first = values.data();
-  ASSERT_NE(first, nullptr);
-  {
-    HeldStream held;
-    values.resize(16);
-    EXPECT_FALSE(held.ran_out()) << "the shrink waited for the held stream";
-    EXPECT_EQ(cudaStreamQuery(held.get()), cudaErrorNotReady);
-    held.release();
-  }
-  EXPECT_EQ(values.data(), first);
-  EXPECT_EQ(values.size(), 16u);
+  expect_shrink_keeps_the_block_and_waits_for_nothing(values, 16);
   EXPECT_EQ(values.capacity(), 4096u);
   values.resize(4097);
   EXPECT_EQ(values.capacity(), 4097u);

@@ -27,7 +27,7 @@ void cut_tip_bscans_on_device(const VolumeRef& volume, const TipCut& cut, TipBsc
   // synchronisation of the device, after the first cut.
   thread_local cuda::DeviceArray<std::uint8_t> pair;
   thread_local cuda::PinnedDownload download;
-  if (pair.size() < out.pixels.size()) pair.resize(out.pixels.size());
+  pair.resize(out.pixels.size());
   constexpr unsigned kThreads = 128;
   const dim3 grid((dims.depth + kThreads - 1) / kThreads, out.stride());
   cut_pair<<<grid, kThreads, 0, stream>>>(volume.device(), dims.bscans, dims.ascans, dims.depth,

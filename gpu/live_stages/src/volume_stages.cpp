@@ -340,13 +340,13 @@ render::RenderConfig VolumeStages::live_view() const {
 }
 
 void VolumeStages::cut_tip_bscans() {
-  if (!tip_bscans_stale_ || tip_bscans_cut_) return;
+  if (tip_pair_ != TipPair::findings_new) return;
   // From the processed volume the detector read: the filters erase a tool's thin reflex.
   if (const instruments::InstrumentTip* tip = findings_.nearest_tip()) {
     instruments::cut_tip_bscans(device_ != nullptr ? device_->input() : VolumeRef::on_host(input_),
                                 *tip, config_.sampling, tip_bscans_);
   }
-  tip_bscans_cut_ = true;
+  tip_pair_ = TipPair::cut;
 }
 
 DueRender VolumeStages::take_shared_render(SnapshotWaiters& waiters) {
@@ -408,10 +408,10 @@ void VolumeStages::publish_frame(const DueRender& render, std::uint64_t rendered
       bscan_stale_ = false;
       bscan_shown_ = bscan;
     }
-    if (tip_bscans_stale_) {
+    if (tip_pair_ != TipPair::handed_over) {
       cut_tip_bscans();
       publisher_->set_tip_bscans(findings_.nearest_tip() != nullptr ? &tip_bscans_ : nullptr);
-      tip_bscans_stale_ = false;
+      tip_pair_ = TipPair::handed_over;
     }
     shm::FrameMeta meta{};
     meta.view_id = render.view_id;
@@ -549,8 +549,7 @@ void VolumeStages::locate_instruments() {
 std::uint64_t VolumeStages::end_instruments() {
   const std::uint64_t t0 = ioct::monotonic_ns();
   detector_->end_group(surfaces_, findings_);
-  tip_bscans_stale_ = true;
-  tip_bscans_cut_ = false;
+  tip_pair_ = TipPair::findings_new;
   const std::uint64_t t1 = ioct::monotonic_ns();
   std::lock_guard lock(mutex_);
   figures_.instruments.record(std::exchange(instruments_so_far_ns_, 0) + (t1 - t0));

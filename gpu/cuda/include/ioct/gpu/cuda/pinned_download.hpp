@@ -56,7 +56,7 @@ class PinnedDownload {
     if (in_flight_) throw std::logic_error("PinnedDownload: a download is in flight");
     const std::size_t count = std::exchange(count_, 0);
     const std::size_t total = count == 0 ? 0 : end_of(count - 1);
-    if (block_.size() < total) block_.resize(total);
+    block_.resize(total);  // within its allocation after the largest download so far
     for (std::size_t i = 0; i < count; ++i) {
       if (pieces_[i].bytes == 0) continue;
       copy_async(block_.data() + pieces_[i].offset, pieces_[i].device, pieces_[i].bytes,

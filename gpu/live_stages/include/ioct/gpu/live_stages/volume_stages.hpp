@@ -295,8 +295,10 @@ class VolumeStages final : public LiveStage, public ViewControl {
   instruments::InstrumentFindings findings_;
   instruments::TipBscans tip_bscans_;        // through the nearest tip, cut when frames need them
   std::uint64_t instruments_so_far_ns_ = 0;  // the steps before end_instruments(), this pass
-  bool tip_bscans_stale_ = false;            // new findings since the publisher encoded the pair
-  bool tip_bscans_cut_ = false;              // tip_bscans_ is the new findings' pair
+  // Where the pair through the nearest tip stands: the publisher has the findings' pair, or the
+  // findings are new since, their pair not yet cut into tip_bscans_, or cut.
+  enum class TipPair { handed_over, findings_new, cut };
+  TipPair tip_pair_ = TipPair::handed_over;
   std::unique_ptr<render::Renderer> renderer_;
   // The renderer's own filter (Weiss's per-B-scan median), null unless render_filter_by_mode; on
   // the host path its volume render_filtered_, kept only while the renderer holds it.
